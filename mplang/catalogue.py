@@ -1,0 +1,230 @@
+"""The device knowledge: command catalogue and device profile, loaded once from `stdlib/`.
+
+Everything device-specific (codes, register layouts, limits, budgets) lives in the TOML data
+files described in `stdlib/m8194h/FORMAT.md`; this module only gives them types and indexes.
+"""
+
+from __future__ import annotations
+
+import re
+import tomllib
+from dataclasses import dataclass, field
+from functools import cache
+from importlib import resources
+from typing import Any
+
+WIRE_BY_TYPE = {"BYTE": 1, "WORD": 1, "short": 1, "DWORD": 2, "long": 2, "float": 2}
+VENDOR_PREFIXES = ("RSM_", "ETM_")
+
+
+@dataclass(frozen=True)
+class Param:
+    name: str
+    type: str
+    wire: int
+    kind: str
+    var: bool = False
+    min: int | float | None = None
+    max: int | float | None = None
+    values: tuple[int, ...] = ()
+    symbols: dict[str, int] = field(default_factory=dict)
+    encoding: str | None = None
+    doc: str = ""
+
+
+@dataclass(frozen=True)
+class Command:
+    name: str  # RS vendor name, e.g. RSM_MACRO_FIXED_MOVE
+    section: str
+    code: int | None
+    registers: int | None
+    scope: frozenset[str]
+    line_cost: int
+    returns: bool
+    targets: frozenset[str]
+    params: tuple[Param, ...]
+    summary: str = ""
+    lines: dict[str, int] = field(default_factory=dict)
+    choice: str = ""
+
+    @property
+    def is_macro(self) -> bool:
+        """Stored in a macro table (MP and/or ISR), as opposed to sent in real time."""
+        return bool(self.scope & {"mp", "isr"})
+
+    @property
+    def short_name(self) -> str:
+        """The mplang name: vendor prefix and the MACRO marker removed."""
+        return short_name(self.name)
+
+
+def short_name(vendor: str) -> str:
+    """`RSM_MACRO_FIXED_MOVE` -> `FIXED_MOVE`, `RSM_ABS_MACRO_FIXED_MOVE` -> `ABS_FIXED_MOVE`."""
+    name = vendor.upper()
+    for prefix in VENDOR_PREFIXES:
+        if name.startswith(prefix):
+            name = name[len(prefix) :]
+            break
+    if name.startswith("MACRO_"):
+        return name[len("MACRO_") :]
+    return name.replace("_MACRO_", "_", 1)
+
+
+@dataclass(frozen=True)
+class SlotRange:
+    kind: str  # "mp" or "isr"
+    first: int
+    last: int
+    lines: int
+
+
+@dataclass(frozen=True)
+class Profile:
+    """The device profile: budgets, limits and codes (stdlib/m8194h/device.toml)."""
+
+    raw: dict[str, Any]
+    slots: tuple[SlotRange, ...]
+    axes: dict[str, int]
+    calc_ops: dict[str, int]
+    cmp_ops: dict[str, int]
+    cmp_symbols: dict[str, str]
+    download_errors: dict[int, str]
+    illegal_function_causes: dict[int, str]
+
+    @property
+    def word_order_default(self) -> int:
+        return int(self.raw["device"]["word_order_default"])
+
+    @property
+    def close_counts_as_line(self) -> bool:
+        return bool(self.raw["download"]["close_counts_as_line"])
+
+    def limit(self, key: str) -> int:
+        return int(self.raw["limits"][key])
+
+    def var(self, key: str) -> int:
+        return int(self.raw["variables"][key])
+
+    def budget(self, kind: str, slot: int) -> int | None:
+        """Lines of MP/ISR slot `slot`, or None when the slot does not exist."""
+        for rng in self.slots:
+            if rng.kind == kind and rng.first <= slot <= rng.last:
+                return rng.lines
+        return None
+
+    def slot_numbers(self, kind: str) -> list[int]:
+        return [n for rng in self.slots if rng.kind == kind for n in range(rng.first, rng.last + 1)]
+
+    def axis_code(self, name: str) -> int | None:
+        """`XZ` or `AXIS_XZ` -> 0x5; `INITIAL_XZ` -> 0x15; None if not an axis name."""
+        upper = name.upper()
+        offset = 0
+        if upper.startswith("AXIS_"):
+            upper = upper[5:]
+        elif upper.startswith("INITIAL_"):
+            upper = upper[8:]
+            offset = int(self.raw["axes"]["initial_table_offset"])
+        if not upper or not re.fullmatch(r"X?Y?Z?U?", upper):
+            return None
+        return sum(self.axes[letter] for letter in upper) + offset
+
+    def axis_name(self, code: int) -> str:
+        letters = "".join(a for a, bit in self.axes.items() if code & bit)
+        return letters or "0"
+
+
+@dataclass(frozen=True)
+class Catalogue:
+    commands: tuple[Command, ...]
+    profile: Profile
+    by_vendor: dict[str, Command]
+    macro_by_short: dict[str, Command]
+    rtc_by_short: dict[str, Command]
+    by_code: dict[int, Command]
+
+    def lookup(self, name: str) -> Command | None:
+        """Find a command by mplang name or by full RS/ET vendor name (macro forms first)."""
+        upper = name.upper()
+        for prefix in VENDOR_PREFIXES:
+            if upper.startswith(prefix):
+                return self.by_vendor.get("RSM_" + upper[len(prefix) :])
+        return self.macro_by_short.get(upper) or self.rtc_by_short.get(upper)
+
+    def macro(self, short: str) -> Command:
+        """A macro command the compiler itself emits (MP_CLOSE, SET_VAR, ...)."""
+        return self.macro_by_short[short]
+
+    def all_names(self) -> list[str]:
+        return sorted(set(self.macro_by_short) | set(self.rtc_by_short))
+
+
+def _param(raw: dict[str, Any]) -> Param:
+    return Param(
+        name=raw["name"],
+        type=raw["type"],
+        wire=int(raw.get("wire", WIRE_BY_TYPE[raw["type"]])),
+        kind=raw["kind"],
+        var=bool(raw.get("var", False)),
+        min=raw.get("min"),
+        max=raw.get("max"),
+        values=tuple(raw.get("values", ())),
+        symbols={k.upper(): int(v) for k, v in raw.get("symbols", {}).items()},
+        encoding=raw.get("encoding"),
+        doc=raw.get("doc", ""),
+    )
+
+
+def _command(raw: dict[str, Any]) -> Command:
+    return Command(
+        name=raw["name"],
+        section=str(raw["section"]),
+        code=raw.get("code"),
+        registers=raw.get("registers"),
+        scope=frozenset(raw.get("scope", ())),
+        line_cost=int(raw.get("line_cost", 1)),
+        returns=bool(raw.get("returns", False)),
+        targets=frozenset(raw.get("targets", ("rs", "et"))),
+        params=tuple(_param(p) for p in raw.get("param", ())),
+        summary=raw.get("summary", ""),
+        lines=dict(raw.get("lines", {})),
+        choice=raw.get("choice", ""),
+    )
+
+
+def _int_keys(table: dict[str, str]) -> dict[int, str]:
+    return {int(k, 0): v for k, v in table.items()}
+
+
+def _profile(raw: dict[str, Any]) -> Profile:
+    axes = {k: int(v) for k, v in raw["axes"].items() if len(k) == 1}
+    ops = raw["operators"]
+    return Profile(
+        raw=raw,
+        slots=tuple(SlotRange(s["kind"], s["first"], s["last"], s["lines"]) for s in raw["slots"]),
+        axes=axes,
+        calc_ops={k: int(v) for k, v in ops["calculate"].items()},
+        cmp_ops={k: int(v) for k, v in ops["compare"].items()},
+        cmp_symbols=dict(ops["compare_symbols"]),
+        download_errors=_int_keys(raw["download_errors"]),
+        illegal_function_causes=_int_keys(raw["illegal_function"]["causes"]),
+    )
+
+
+def _read_toml(family: str, filename: str) -> dict[str, Any]:
+    text = resources.files("mplang.stdlib").joinpath(family, filename).read_text("utf-8")
+    return tomllib.loads(text)
+
+
+@cache
+def load(family: str = "m8194h") -> Catalogue:
+    """Load and index the catalogue and profile of a controller family (once per process)."""
+    commands = tuple(_command(c) for c in _read_toml(family, "commands.toml")["command"])
+    profile = _profile(_read_toml(family, "device.toml"))
+    by_vendor = {c.name.upper(): c for c in commands}
+    macro_by_short: dict[str, Command] = {}
+    rtc_by_short: dict[str, Command] = {}
+    for cmd in commands:
+        table = macro_by_short if cmd.is_macro else rtc_by_short
+        table.setdefault(cmd.short_name, cmd)
+    by_code = {c.code: c for c in commands if c.code is not None}
+    return Catalogue(commands, profile, by_vendor, macro_by_short, rtc_by_short, by_code)

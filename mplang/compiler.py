@@ -1,0 +1,147 @@
+"""The library API: sources in, image (or diagnostics) out. The CLI is a thin shell over this."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from mplang import catalogue as catalogue_module
+from mplang.catalogue import Catalogue
+from mplang.diagnostics import Diagnostic, DiagnosticSink, Span
+from mplang.encode import Encoder
+from mplang.frontend.sources import load_sources
+from mplang.frontend.structure import build_unit
+from mplang.ir import LoweredProgram, MacroLine, ProgramRef
+from mplang.link import Placement, link, resolve
+from mplang.lower import ConstError, ProgramLowerer, Scope
+
+IMAGE_FORMAT = "mplang-image/1"
+DEFAULT_TEMPS = range(500, 512)
+
+
+@dataclass(frozen=True)
+class Options:
+    word_order: int | None = None  # None: the device default
+    target: str = "et"  # "et" (ET-M8194H, TCP) or "rs" (RS-M8194H, RTU)
+    temps: range = DEFAULT_TEMPS
+    allow_outside_includes: bool = False
+
+
+@dataclass
+class LineFrames:
+    """One macro line as downloaded: where it came from and where it sits in the slot."""
+
+    line: MacroLine
+    first_slot_line: int  # 0-based, as the device's wLineNo counts
+    frame: list[int]
+
+
+@dataclass
+class ProgramImage:
+    placement: Placement
+    create: list[int]
+    lines: list[LineFrames]
+    close: list[int]
+    close_span: Span
+
+    @property
+    def program(self) -> LoweredProgram:
+        return self.placement.program
+
+    @property
+    def frames(self) -> list[list[int]]:
+        return [self.create, *(lf.frame for lf in self.lines), self.close]
+
+    def to_json(self) -> dict[str, object]:
+        program = self.program
+        return {
+            "kind": program.kind, "slot": self.placement.slot, "name": program.name,
+            "source": program.source, "lines_used": self.placement.lines_used,
+            "budget": self.placement.budget, "auto_placed": self.placement.auto,
+            "frames": self.frames,
+        }
+
+
+@dataclass
+class BuildResult:
+    diagnostics: list[Diagnostic]
+    programs: list[ProgramImage] = field(default_factory=list)
+    word_order: int = 0
+    target: str = "et"
+
+    @property
+    def ok(self) -> bool:
+        return not any(d.severity.value == "error" for d in self.diagnostics)
+
+    def build_id(self) -> str:
+        """Content hash of what would be downloaded: the same image, the same id."""
+        digest = hashlib.sha256()
+        digest.update(json.dumps([self.word_order, [p.frames for p in self.programs]]).encode())
+        return digest.hexdigest()[:16]
+
+    def image(self) -> dict[str, object]:
+        return {
+            "format": IMAGE_FORMAT,
+            "target": {"word_order": self.word_order, "family": "M8194H",
+                       "variant": self.target},
+            "build_id": self.build_id(),
+            "programs": [p.to_json() for p in self.programs],
+        }
+
+
+def compile_paths(paths: list[Path], options: Options = Options(), *,
+                  texts: dict[Path, str] | None = None) -> BuildResult:
+    """Compile files (and their includes) together into one image."""
+    catalogue = catalogue_module.load()
+    sink = DiagnosticSink()
+    sources = load_sources(paths, sink, allow_outside=options.allow_outside_includes,
+                           texts=texts)
+    unit = build_unit(sources, sink)
+    return _finish(unit, catalogue, sink, options)
+
+
+def compile_source(text: str, name: str = "<input>.mp", options: Options = Options()
+                   ) -> BuildResult:
+    """Compile one in-memory source (tests, editors)."""
+    path = Path(name)
+    return compile_paths([path], options, texts={path: text, path.resolve(): text})
+
+
+def _finish(unit: object, catalogue: Catalogue, sink: DiagnosticSink,
+            options: Options) -> BuildResult:
+    from mplang.frontend import ast
+
+    assert isinstance(unit, ast.Unit)
+    profile = catalogue.profile
+    word_order = profile.word_order_default if options.word_order is None else options.word_order
+    scope = Scope(catalogue, sink)
+    try:
+        scope.declare(unit)
+    except ConstError as err:
+        sink.add(err.code, err.span, err.message)
+    names = {p.name.upper(): p for p in unit.programs if p.name}
+    lowered = [ProgramLowerer(scope, program, options.temps, options.target, names)
+               .lower_program() for program in unit.programs]
+    placements = link(lowered, profile, sink)
+    result = BuildResult(sink.sorted(), word_order=word_order, target=options.target)
+    if not result.ok:
+        return result
+    by_name = {p.name.upper(): p for p in lowered if p.name}
+    encoder = Encoder(catalogue, word_order)
+
+    def slot_of(ref: ProgramRef) -> int | None:
+        return resolve(ref, by_name)
+
+    for placement in sorted(placements, key=lambda p: (p.program.kind != "mp", p.slot)):
+        program = placement.program
+        line_no = 0
+        lines: list[LineFrames] = []
+        for line in program.lines:
+            lines.append(LineFrames(line, line_no, encoder.frame(line, slot_of)))
+            line_no += line.command.line_cost
+        result.programs.append(ProgramImage(
+            placement, encoder.create_frame(program.kind, placement.slot), lines,
+            encoder.close_frame(program.kind), program.end_span))
+    return result

@@ -1,0 +1,222 @@
+"""Typed syntax tree of `.mp` sources. Every node keeps the span it came from."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from mplang.diagnostics import Span
+
+# ---------------------------------------------------------------- expressions
+
+
+@dataclass
+class Num:
+    value: int
+    span: Span
+
+
+@dataclass
+class Name:
+    name: str
+    span: Span
+
+
+@dataclass
+class Str:
+    value: str
+    span: Span
+
+
+@dataclass
+class BinOp:
+    op: str
+    left: Expr
+    right: Expr
+    span: Span
+
+
+@dataclass
+class Neg:
+    operand: Expr
+    span: Span
+
+
+@dataclass
+class Call:
+    name: str
+    args: list[Expr]
+    span: Span
+
+
+@dataclass
+class Group:
+    """Parenthesised expression(s): `(a)` or an argument list `(a, b)`."""
+
+    items: list[Expr]
+    span: Span
+
+
+Expr = Num | Name | Str | BinOp | Neg | Call | Group
+
+# ------------------------------------------------------------ line statements
+
+
+@dataclass
+class Const:
+    name: str
+    value: Expr
+    span: Span
+    name_span: Span
+
+
+@dataclass
+class Alias:
+    name: str
+    target: str
+    span: Span
+    name_span: Span
+    target_span: Span
+
+
+@dataclass
+class Include:
+    path: str
+    span: Span
+
+
+@dataclass
+class ProgramHeader:
+    kind: str  # "mp" | "isr"
+    number: int | None
+    name: str | None
+    span: Span
+
+
+@dataclass
+class End:
+    what: str  # "mp" | "isr" | "if" | "for"
+    span: Span
+
+
+@dataclass
+class ForStmt:
+    count: Expr
+    span: Span
+
+
+@dataclass
+class Next:
+    span: Span
+
+
+@dataclass
+class ExitFor:
+    span: Span
+
+
+@dataclass
+class Exit:
+    span: Span
+
+
+@dataclass
+class IfStmt:
+    left: Expr
+    op: str
+    right: Expr
+    span: Span
+
+
+@dataclass
+class Else:
+    span: Span
+
+
+@dataclass
+class LabelStmt:
+    label: str  # "0".."3" or an identifier
+    span: Span
+
+
+@dataclass
+class Goto:
+    label: str
+    span: Span
+
+
+@dataclass
+class CallStmt:
+    target: str  # "MP21", "21" or a program name
+    span: Span
+
+
+@dataclass
+class Terminate:
+    span: Span
+
+
+@dataclass
+class Assign:
+    target: str
+    target_span: Span
+    value: Expr
+    span: Span
+
+
+@dataclass
+class Command:
+    name: str
+    args: list[Expr]
+    span: Span
+    name_span: Span
+
+
+Statement = (
+    Const | Alias | Include | ProgramHeader | End | ForStmt | Next | ExitFor | Exit | IfStmt
+    | Else | LabelStmt | Goto | CallStmt | Terminate | Assign | Command
+)
+
+# ------------------------------------------------------- blocks (structure pass)
+
+
+@dataclass
+class ForBlock:
+    count: Expr
+    body: list[Node]
+    span: Span
+    end_span: Span
+
+
+@dataclass
+class IfBlock:
+    left: Expr
+    op: str
+    right: Expr
+    then: list[Node]
+    otherwise: list[Node] | None
+    span: Span
+    else_span: Span | None
+    end_span: Span
+
+
+Node = ForBlock | IfBlock | Statement
+
+
+@dataclass
+class Program:
+    kind: str  # "mp" | "isr"
+    slot: int | None
+    name: str | None
+    body: list[Node]
+    span: Span
+    end_span: Span
+    source: str  # the file the program was written in
+
+
+@dataclass
+class Unit:
+    """One build: top-level declarations and programs of every file and include."""
+
+    consts: list[Const] = field(default_factory=list)
+    aliases: list[Alias] = field(default_factory=list)
+    programs: list[Program] = field(default_factory=list)
