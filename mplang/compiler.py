@@ -70,6 +70,7 @@ class BuildResult:
     programs: list[ProgramImage] = field(default_factory=list)
     word_order: int = 0
     target: str = "et"
+    sources: dict[str, list[str]] = field(default_factory=dict)  # display name -> lines
 
     @property
     def ok(self) -> bool:
@@ -99,7 +100,9 @@ def compile_paths(paths: list[Path], options: Options = Options(), *,
     sources = load_sources(paths, sink, allow_outside=options.allow_outside_includes,
                            texts=texts)
     unit = build_unit(sources, sink)
-    return _finish(unit, catalogue, sink, options)
+    result = _finish(unit, catalogue, sink, options)
+    result.sources = {f.display: f.text.splitlines() for f in sources.files}
+    return result
 
 
 def compile_source(text: str, name: str = "<input>.mp", options: Options = Options()

@@ -503,8 +503,8 @@ class ProgramLowerer:
             if code is not None:
                 return self.check_value(param, code, arg.span, where)
         program = PROGRAM_RE.fullmatch(upper)
-        if program and param.kind in ("mp", "isr"):
-            if program.group(1).lower() != param.kind:
+        if program and param.kind in ("mp", "isr", "isr_or_none"):
+            if program.group(1).lower() != param.kind.removesuffix("_or_none"):
                 self.sink.add("E416", arg.span, f"{where} takes an {param.kind.upper()} number, "
                               f"not {arg.name}")
                 return None
@@ -565,8 +565,9 @@ class ProgramLowerer:
         low, high = param.min, param.max
         if kind == "mp":
             low, high = 1, max(self.profile.slot_numbers("mp"))
-        elif kind == "isr":
-            low, high = 1, max(self.profile.slot_numbers("isr"))
+        elif kind in ("isr", "isr_or_none"):
+            low = 1 if kind == "isr" else 0
+            high = max(self.profile.slot_numbers("isr"))
         elif kind == "label":
             low, high = 0, self.profile.limit("label_max")
         if param.values and value not in param.values:

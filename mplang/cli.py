@@ -1,0 +1,210 @@
+"""`mpc`: the command line, a thin shell over `mplang.compiler`.
+
+Exit codes (also in docs/cli.md):
+  0 success            1 errors in the sources     2 bad command-line usage
+  3 input files missing or unreadable               4 output cannot be written
+  70 internal error (a bug in mpc: please report it with the input)
+"""
+
+from __future__ import annotations
+
+import glob
+import sys
+from collections.abc import Callable
+from functools import wraps
+from pathlib import Path
+from typing import Any, TypeVar
+
+import click
+
+from mplang import __version__
+from mplang.compiler import DEFAULT_TEMPS, BuildResult, Options, compile_paths
+from mplang.diagnostics import Severity
+
+EXIT_OK = 0
+EXIT_SOURCE_ERRORS = 1
+EXIT_USAGE = 2
+EXIT_NO_INPUT = 3
+EXIT_OUTPUT = 4
+EXIT_INTERNAL = 70
+
+F = TypeVar("F", bound=Callable[..., Any])
+
+
+class InputError(click.ClickException):
+    exit_code = EXIT_NO_INPUT
+
+
+class OutputError(click.ClickException):
+    exit_code = EXIT_OUTPUT
+
+
+def guarded(func: F) -> F:
+    """Turn any unexpected exception into one line and exit 70: never a traceback."""
+
+    @wraps(func)
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        try:
+            return func(*args, **kwargs)
+        except (click.ClickException, click.exceptions.Exit, click.Abort, SystemExit):
+            raise
+        except KeyboardInterrupt:
+            click.echo("mpc: interrupted", err=True)
+            sys.exit(130)
+        except Exception as exc:  # noqa: BLE001 - the last line of defence
+            click.echo(f"mpc: internal error: {type(exc).__name__}: {exc}\n"
+                       "This is a bug in mpc; please report it with the input that caused it.",
+                       err=True)
+            sys.exit(EXIT_INTERNAL)
+
+    return wrapper  # type: ignore[return-value]
+
+
+def expand_inputs(patterns: tuple[str, ...]) -> list[Path]:
+    """Files, directories (every .mp below) and glob patterns, in a stable order."""
+    paths: list[Path] = []
+    for pattern in patterns:
+        path = Path(pattern)
+        if path.is_dir():
+            found = sorted(path.rglob("*.mp"))
+            if not found:
+                raise InputError(f"no .mp files in directory {pattern}")
+            paths += found
+        elif path.exists():
+            paths.append(path)
+        elif any(ch in pattern for ch in "*?["):
+            matches = sorted(Path(m) for m in glob.glob(pattern, recursive=True))
+            if not matches:
+                raise InputError(f"no files match {pattern}")
+            paths += matches
+        else:
+            raise InputError(f"{pattern}: no such file")
+    unique: list[Path] = []
+    for p in paths:
+        if p.resolve() not in {u.resolve() for u in unique}:
+            unique.append(p)
+    return unique
+
+
+def parse_temps(_ctx: click.Context, _param: click.Parameter, value: str | None) -> range:
+    if value is None:
+        return DEFAULT_TEMPS
+    try:
+        low_text, high_text = value.replace("VAR", "").replace("var", "").split("-")
+        low, high = int(low_text), int(high_text)
+    except ValueError:
+        raise click.BadParameter("write the pool as FIRST-LAST, e.g. 496-511") from None
+    if not 0 <= low <= high <= 511:
+        raise click.BadParameter("the pool must lie within VAR0..VAR511")
+    return range(low, high + 1)
+
+
+def write_output(text: str, output: str | None) -> None:
+    if output is None or output == "-":
+        click.echo(text, nl=False)
+        return
+    try:
+        Path(output).write_text(text, encoding="utf-8")
+    except OSError as exc:
+        raise OutputError(f"cannot write {output}: {exc.strerror or exc}") from None
+
+
+def report(result: BuildResult, werror: bool) -> int:
+    for diagnostic in result.diagnostics:
+        click.echo(diagnostic.render(), err=True)
+    errors = sum(1 for d in result.diagnostics if d.severity is Severity.ERROR)
+    warnings = len(result.diagnostics) - errors
+    if errors or (werror and warnings):
+        click.echo(f"mpc: {errors} error(s), {warnings} warning(s)", err=True)
+        return EXIT_SOURCE_ERRORS
+    return EXIT_OK
+
+
+common_options = [
+    click.option("--target", type=click.Choice(["et", "rs"]), default="et", show_default=True,
+                 help="Controller: ET-M8194H (Modbus TCP) or RS-M8194H (Modbus RTU)."),
+    click.option("--word-order", type=click.Choice(["0", "1"]), default=None,
+                 help="Device word order (holding register 14). Default: the device's, 0."),
+    click.option("--temp-vars", callback=parse_temps, default=None, metavar="FIRST-LAST",
+                 help="VAR pool for expression temporaries [default: 500-511]."),
+    click.option("--allow-outside-includes", is_flag=True,
+                 help="Let INCLUDE reach files outside the project directory."),
+    click.option("--werror", is_flag=True, help="Treat warnings as errors."),
+]
+
+
+def with_common(func: F) -> F:
+    for option in reversed(common_options):
+        func = option(func)
+    return func
+
+
+def build_options(target: str, word_order: str | None, temp_vars: range,
+                  allow_outside_includes: bool) -> Options:
+    return Options(word_order=None if word_order is None else int(word_order), target=target,
+                   temps=temp_vars, allow_outside_includes=allow_outside_includes)
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(__version__, prog_name="mpc")
+def main() -> None:
+    """mpc: compile, check, run and download M8194H macro programs (.mp)."""
+
+
+@main.command()
+@click.argument("files", nargs=-1, required=True)
+@click.option("-o", "--output", default=None, metavar="OUT",
+              help="Write the result here ('-' or absent: standard output).")
+@click.option("--format", "fmt", type=click.Choice(["json", "listing", "hex", "map"]),
+              default="json", show_default=True, help="Image JSON, human listing, hex "
+              "frames, or the link map.")
+@with_common
+@guarded
+def build(files: tuple[str, ...], output: str | None, fmt: str, target: str,
+          word_order: str | None, temp_vars: range, allow_outside_includes: bool,
+          werror: bool) -> None:
+    """Compile FILE... (files, directories or globs) together into one download image."""
+    from mplang import output as render
+
+    result = compile_paths(expand_inputs(files),
+                           build_options(target, word_order, temp_vars, allow_outside_includes))
+    code = report(result, werror)
+    if code:
+        sys.exit(code)
+    text = {
+        "json": lambda: render.render_json(result),
+        "listing": lambda: render.render_listing(result, result.sources),
+        "hex": lambda: render.render_hex(result),
+        "map": lambda: render.render_link_map(result),
+    }[fmt]()
+    write_output(text, output)
+
+
+@main.command()
+@click.argument("files", nargs=-1, required=True)
+@click.option("--format", "fmt", type=click.Choice(["text", "json", "sarif"]), default="text",
+              show_default=True, help="gcc-style lines, a JSON list, or SARIF 2.1.0.")
+@click.option("-o", "--output", default=None, metavar="OUT", help="Write the report here.")
+@with_common
+@guarded
+def lint(files: tuple[str, ...], fmt: str, output: str | None, target: str,
+         word_order: str | None, temp_vars: range, allow_outside_includes: bool,
+         werror: bool) -> None:
+    """Check FILE... without producing an image. Exit 1 if any error is found."""
+    from mplang import output as render
+
+    result = compile_paths(expand_inputs(files),
+                           build_options(target, word_order, temp_vars, allow_outside_includes))
+    diagnostics = result.diagnostics
+    if fmt == "text":
+        text = render.render_text(diagnostics)
+        if output is None:
+            click.echo(text, nl=False, err=False)
+        else:
+            write_output(text, output)
+    else:
+        write_output(render.render_sarif(diagnostics) if fmt == "sarif"
+                     else render.render_diagnostics_json(diagnostics), output)
+    errors = sum(1 for d in diagnostics if d.severity is Severity.ERROR)
+    if errors or (werror and diagnostics):
+        sys.exit(EXIT_SOURCE_ERRORS)

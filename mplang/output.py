@@ -1,0 +1,147 @@
+"""Renderings of a build: image JSON, human listing, hex dump, link map, and diagnostics as
+text, JSON and SARIF 2.1.0."""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+from mplang import __version__
+from mplang.compiler import BuildResult
+from mplang.diagnostics import Diagnostic
+from mplang.rules import RULES
+
+
+def _hex(frame: list[int]) -> str:
+    return " ".join(f"{word:04X}" for word in frame)
+
+
+def _slot_lines(first: int, cost: int) -> str:
+    return str(first) if cost == 1 else f"{first}-{first + cost - 1}"
+
+
+def render_json(result: BuildResult) -> str:
+    """Indented JSON with each frame kept on one line, so images diff well."""
+    image = result.image()
+    programs = image.pop("programs")
+    assert isinstance(programs, list)
+    head = json.dumps(image, indent=2)[:-2]
+    parts = []
+    for program in programs:
+        frames = program.pop("frames")
+        body = json.dumps(program, indent=2).replace("\n", "\n    ")[:-6]
+        frame_lines = ",\n".join("        " + json.dumps(f) for f in frames)
+        parts.append(f"    {body},\n      \"frames\": [\n{frame_lines}\n      ]\n    }}")
+    return head + ',\n  "programs": [\n' + ",\n".join(parts) + "\n  ]\n}\n"
+
+
+def render_listing(result: BuildResult, sources: dict[str, list[str]]) -> str:
+    """Per source line: slot line numbers it occupies, their cost, and the frames in hex."""
+    out = [f"; mplang listing  build {result.build_id()}  target {result.target.upper()}-M8194H"
+           f"  word order {result.word_order}"]
+    for image in result.programs:
+        program, placement = image.program, image.placement
+        title = f"{program.kind.upper()}{placement.slot}" + (f" {program.name}" if program.name
+                                                              else "")
+        placed = "auto-placed" if placement.auto else "pinned"
+        out.append("")
+        out.append(f"{title}  ({program.span.file}:{program.span.line}, {placed})  "
+                   f"{placement.lines_used}/{placement.budget} lines")
+        out.append(f"  {'source':<24} {'lines':>7} {'cost':>4}  frame")
+        out.append(f"  {'(create)':<24} {'':>7} {'':>4}  {_hex(image.create)}")
+        previous: tuple[str, int] | None = None
+        for lf in image.lines:
+            span = lf.line.span
+            where = f"{span.file}:{span.line}"
+            key = (span.file, span.line)
+            text = ""
+            if key != previous:
+                lines = sources.get(span.file, [])
+                text = lines[span.line - 1].strip() if 0 < span.line <= len(lines) else ""
+            out.append(f"  {where if key != previous else '':<24} "
+                       f"{_slot_lines(lf.first_slot_line, lf.line.command.line_cost):>7} "
+                       f"{lf.line.command.line_cost:>4}  {_hex(lf.frame):<44}"
+                       f"{'  ' + text if text else ''}".rstrip())
+            previous = key
+        used = placement.lines_used
+        close_where = f"{image.close_span.file}:{image.close_span.line}"
+        close_line = str(used - 1) if result_close_counts(image) else "-"
+        out.append(f"  {close_where:<24} {close_line:>7} {'1' if close_line != '-' else '0':>4}  "
+                   f"{_hex(image.close):<44}  END {program.kind.upper()}")
+    return "\n".join(out) + "\n"
+
+
+def result_close_counts(image: Any) -> bool:
+    lines = sum(lf.line.command.line_cost for lf in image.lines)
+    return bool(image.placement.lines_used > lines)
+
+
+def render_hex(result: BuildResult) -> str:
+    """One frame per line: `<slot> <index>: <registers>`, for diffing and for other tools."""
+    out = [f"# mplang hex  build {result.build_id()}  word order {result.word_order}"]
+    for image in result.programs:
+        label = f"{image.program.kind.upper()}{image.placement.slot}"
+        for index, frame in enumerate(image.frames):
+            out.append(f"{label:<6} {index:>3}: {_hex(frame)}")
+    return "\n".join(out) + "\n"
+
+
+def render_link_map(result: BuildResult) -> str:
+    out = [f"{'slot':<7} {'name':<20} {'lines':>9}  {'placed':<7} source"]
+    total_used = total_budget = 0
+    for image in result.programs:
+        p = image.placement
+        out.append(f"{image.program.kind.upper() + str(p.slot):<7} "
+                   f"{image.program.name or '-':<20} {p.lines_used:>4}/{p.budget:<4}  "
+                   f"{'auto' if p.auto else 'pinned':<7} "
+                   f"{image.program.span.file}:{image.program.span.line}")
+        total_used += p.lines_used
+        total_budget += p.budget
+    out.append(f"{len(result.programs)} programs, {total_used} of {total_budget} lines in their "
+               f"slots used")
+    return "\n".join(out) + "\n"
+
+
+def render_text(diagnostics: list[Diagnostic]) -> str:
+    return "".join(d.render() + "\n" for d in diagnostics)
+
+
+def render_diagnostics_json(diagnostics: list[Diagnostic]) -> str:
+    return json.dumps([{
+        "code": d.code, "name": RULES[d.code].name, "severity": d.severity.value,
+        "message": d.message, "hint": d.hint, "file": d.span.file, "line": d.span.line,
+        "column": d.span.col, "end_column": d.span.end_col,
+    } for d in diagnostics], indent=1) + "\n"
+
+
+def render_sarif(diagnostics: list[Diagnostic]) -> str:
+    """SARIF 2.1.0, as code-scanning UIs (GitHub, VS Code SARIF viewer) read it."""
+    used = sorted({d.code for d in diagnostics})
+    rules = [{
+        "id": code, "name": RULES[code].name,
+        "shortDescription": {"text": RULES[code].summary},
+        "fullDescription": {"text": RULES[code].why},
+        "help": {"text": RULES[code].fix},
+        "helpUri": f"docs/checks/{code}.md",
+        "defaultConfiguration": {"level": RULES[code].severity.value},
+    } for code in used]
+    results = []
+    for d in diagnostics:
+        region: dict[str, int] = {"startLine": d.span.line, "startColumn": d.span.col}
+        if d.span.end_col:
+            region["endColumn"] = d.span.end_col
+        results.append({
+            "ruleId": d.code, "ruleIndex": used.index(d.code), "level": d.severity.value,
+            "message": {"text": d.message + (f" ({d.hint})" if d.hint else "")},
+            "locations": [{"physicalLocation": {
+                "artifactLocation": {"uri": d.span.file.replace("\\", "/")},
+                "region": region}}],
+        })
+    sarif = {
+        "$schema": "https://json.schemastore.org/sarif-2.1.0.json",
+        "version": "2.1.0",
+        "runs": [{"tool": {"driver": {"name": "mplang", "version": __version__,
+                                      "rules": rules}},
+                  "results": results}],
+    }
+    return json.dumps(sarif, indent=1) + "\n"

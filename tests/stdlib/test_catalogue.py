@@ -1,0 +1,434 @@
+"""Prove stdlib/m8194h/commands.toml against the RS-M8194H API manual (v3.1).
+
+The manual is parsed here on its own (regular expressions over its tab-separated tables and
+its C prototypes), so that a wrong code, count, scope or parameter in the catalogue fails.
+Deviations from the manual are allowed only for rows that carry a ``choice`` and are listed
+below with the value the catalogue must hold.
+"""
+
+from __future__ import annotations
+
+import re
+import tomllib
+from functools import cache
+from pathlib import Path
+
+import pytest
+
+HERE = Path(__file__).resolve()
+REPO = HERE.parents[2]
+MANUAL = HERE.parents[3] / "shared/manuals/001_404865bff90dda3e.txt"
+CATALOGUE = REPO / "stdlib/m8194h/commands.toml"
+
+needs_manual = pytest.mark.skipif(
+    not MANUAL.is_file(),
+    reason=f"RS-M8194H manual not found at {MANUAL} (expected shared/ next to the repository)",
+)
+
+# --- deviations from appendix table 21 that a `choice` explains --------------------------
+CODE_DEVIATIONS = {
+    # 12.3 swaps these pairs; section remarks and example frames give the values below
+    "RSM_MACRO_LINE_3D_CONTINUE": 0x0C81,
+    "RSM_ABS_MACRO_LINE_3D_CONTINUE": 0x0CFC,
+    "RSM_MIX_2D_CONTINUE": 0x0A84,
+    "RSM_MACRO_MIX_2D_CONTINUE": 0x0C84,
+    "RSM_ABS_MIX_2D_CONTINUE": 0x0AFD,
+    "RSM_ABS_MACRO_MIX_2D_CONTINUE": 0x0CFD,
+}
+REGISTER_DEVIATIONS = {
+    "RSM_MACRO_FRNET_WAIT": 8,  # 12.3 says 7, prototype and example give 8
+    "RSM_MACRO_ABS_GET_POSITION": 2,  # 12.3 prints "X" next to a real code
+}
+WIRE_DEVIATIONS = {
+    ("RSM_MACRO_FRNET_READ", "bGroup"): 2,  # BYTE sent as 32 bits
+    ("RSM_MACRO_FRNET_WRITE", "bDoGroup"): 2,
+}
+# Table 1 marks IT on these macro rows; RS 990 forbids the IT table inside macros
+IT_SECTIONS = {
+    "3.3",
+    "3.4",
+    "3.5",
+    "3.6",
+    "3.7",
+    "3.8",
+    "3.9.1",
+    "3.9.2",
+    "3.10",
+    "3.11.1",
+    "3.11.2",
+    "3.12",
+    "3.13",
+    "3.14",
+    "3.15.1",
+    "3.15.2",
+    "3.16.1",
+    "3.16.2",
+}
+RS_ONLY = {"RSM_INTP_END", "RSM_MACRO_INTP_END"}
+INPUT_POINTERS = {("RSM_FRNET_WRITE_MULTI_GROUP_DO", "pwOutBuffer")}
+
+WIRE = {"BYTE": 1, "WORD": 1, "short": 1, "DWORD": 2, "long": 2, "float": 2}
+KINDS = {
+    "axis",
+    "axis1",
+    "axis1_or_none",
+    "axis_it",
+    "int",
+    "float",
+    "var",
+    "mp",
+    "isr",
+    "isr_or_none",
+    "label",
+    "calc_op",
+    "cmp_op",
+    "bvar",
+    "enum",
+}
+COMMAND_KEYS = {
+    "name",
+    "section",
+    "code",
+    "registers",
+    "scope",
+    "line_cost",
+    "returns",
+    "targets",
+    "summary",
+    "lines",
+    "choice",
+    "param",
+}
+PARAM_KEYS = {
+    "name",
+    "type",
+    "wire",
+    "kind",
+    "var",
+    "min",
+    "max",
+    "values",
+    "symbols",
+    "encoding",
+    "doc",
+}
+
+
+# --- loading ------------------------------------------------------------------------------
+@cache
+def catalogue() -> list[dict]:
+    with CATALOGUE.open("rb") as fh:
+        return tomllib.load(fh)["command"]
+
+
+def by_name() -> dict[str, dict]:
+    return {c["name"]: c for c in catalogue()}
+
+
+@cache
+def manual_lines() -> tuple[str, ...]:
+    return tuple(MANUAL.read_text(encoding="utf-8").split("\n"))
+
+
+def _block(start_pat: str, end_pat: str) -> list[tuple[int, str]]:
+    lines = manual_lines()
+    start = next(i for i, text in enumerate(lines) if re.search(start_pat, text))
+    end = next(i for i in range(start + 1, len(lines)) if re.search(end_pat, lines[i]))
+    return [(i + 1, lines[i]) for i in range(start, end)]
+
+
+@cache
+def table1() -> dict[str, dict]:
+    """Table 1 (RS ~366-666): section, function, RTC, MP, ISR, IT cells."""
+    rows = {}
+    row_re = re.compile(r"^(\d+(?:\.\d+)*)\t(RSM_\w+)\t([^\t]*)\t([^\t]*)\t([^\t]*)\t([^\t]*)$")
+    start, end = r"^Table 1: Command types and command scope", r"^1\.3 API Command Modbus Setup"
+    for no, line in _block(start, end):
+        m = row_re.match(line.rstrip("\r"))
+        if not m:
+            continue
+        cells = m.group(3, 4, 5, 6)
+        scope = [s for s, c in zip(("rtc", "mp", "isr", "it"), cells, strict=True) if c.strip()]
+        costs = {int(x) for c in cells for x in re.findall(r"x(\d)", c)}
+        assert len(costs) <= 1, line
+        cost = costs.pop() if costs else 1
+        rows[m.group(2)] = dict(section=m.group(1), scope=scope, cost=cost, line=no)
+    return rows
+
+
+@cache
+def appendix() -> list[dict]:
+    """Appendix table 21 (RS ~11502-11820)."""
+    rows = []
+    row_re = re.compile(r"^(\d+(?:\.\d+)*)\t(RSM_\w+)\t(\S+)\t(\S+)\t(\S+)\s*$")
+    start, end = r"^Appendix table 21: Sub Function Code mapping table", r"^12\.4 MODBUS Coil Table"
+    for no, line in _block(start, end):
+        m = row_re.match(line)
+        if not m:
+            continue
+        hexcode, deccode, regs = m.group(3, 4, 5)
+        code = int(hexcode, 16) if hexcode.lower().startswith("0x") else None
+        if code is not None:
+            assert int(deccode) == code, f"hex/dec columns disagree at RS {no}"
+        rows.append(
+            dict(
+                section=m.group(1),
+                name=m.group(2),
+                code=code,
+                registers=int(regs) if regs.isdigit() else None,
+                line=no,
+            )
+        )
+    return rows
+
+
+@cache
+def rvar_list() -> list[str]:
+    """Commands whose result SET_RVAR reads (9.3.2, RS ~10183-10195)."""
+    lines = manual_lines()
+    marker = "reads the return values of the following commands"
+    start = next(i for i, text in enumerate(lines) if marker in text)
+    names = []
+    for text in lines[start + 1 :]:
+        if text.startswith("Category"):
+            break
+        m = re.match(r"^\s*-\s*(RSM_\w+)\s*$", text)
+        if m:
+            names.append(m.group(1))
+    return names
+
+
+@cache
+def prototypes() -> dict[str, list[tuple[str, str, bool]]]:
+    """name -> [(type, param, is_pointer)] from the C prototypes in the function sections."""
+    text = [re.sub(r"<[^>]+>", "", raw) for raw in manual_lines()]
+    head = re.compile(r"(?:eRTU|HANDLE|WORD|eCOM_PORT)\**\s+\**(RSM_\w+?)\**\s*\(")
+    protos: dict[str, list[tuple[str, str, bool]]] = {}
+    for i, line in enumerate(text):
+        for m in head.finditer(line):
+            name = m.group(1)
+            if name in protos:
+                continue
+            rest, j = line[m.end() :], i
+            while ")" not in rest:
+                j += 1
+                rest += " " + text[j]
+            args = []
+            for raw in rest[: rest.index(")")].split(","):
+                a = re.sub(r"\*\*(\w+)\*\*", r"\1", raw.strip())
+                a = re.sub(r"\*(\w+)\*", r"\1", a)
+                if not a or a == "void":
+                    continue
+                pointer = "*" in a
+                typ, pname = re.findall(r"\w+", a)
+                args.append((typ, pname, pointer))
+            protos[name] = args
+    return protos
+
+
+# --- tests --------------------------------------------------------------------------------
+def test_schema():
+    rows = catalogue()
+    assert len(rows) == 285
+    for c in rows:
+        assert set(c) <= COMMAND_KEYS, (c["name"], set(c) - COMMAND_KEYS)
+        assert ("code" in c) == ("registers" in c), c["name"]
+        assert set(c["scope"]) <= {"rtc", "mp", "isr", "it"}
+        assert c["line_cost"] in (1, 2, 3, 4)
+        assert c["targets"] in (["rs"], ["rs", "et"])
+        assert c["summary"] and "\n" not in c["summary"]
+        assert set(c["lines"]) <= {"table1", "appendix", "signature", "example"}
+        for p in c.get("param", []):
+            assert set(p) <= PARAM_KEYS, (c["name"], p["name"], set(p) - PARAM_KEYS)
+            assert p["kind"] in KINDS, (c["name"], p["name"])
+            assert p["type"] in WIRE, (c["name"], p["name"])
+            assert isinstance(p["var"], bool) and p["doc"]
+            if "values" in p and "min" in p:
+                assert all(p["min"] <= v <= p["max"] for v in p["values"])
+            for v in p.get("symbols", {}).values():
+                assert v in p.get("values", [v])
+            if p["kind"] == "axis_it":
+                assert "it" in c["scope"] and "rtc" in c["scope"], c["name"]
+            if p.get("encoding") is not None:
+                assert p["encoding"] == "holding_address" and "choice" in c
+
+
+def test_no_duplicates():
+    names = [c["name"] for c in catalogue()]
+    assert len(names) == len(set(names))
+    codes = [c["code"] for c in catalogue() if "code" in c]
+    dup = {hex(x) for x in codes if codes.count(x) > 1}
+    assert not dup, dup
+
+
+def test_code_families():
+    for c in catalogue():
+        if "code" not in c:
+            continue
+        family = c["code"] >> 8
+        if "MACRO" in c["name"]:
+            assert family == 0x0C, (c["name"], hex(c["code"]))
+        else:
+            assert family == 0x0A, (c["name"], hex(c["code"]))
+
+
+def test_registers_equal_wire_sum():
+    for c in catalogue():
+        if "code" in c:
+            assert c["registers"] == 1 + sum(p["wire"] for p in c.get("param", [])), c["name"]
+
+
+def test_wire_follows_type_unless_chosen():
+    rows = by_name()
+    for c in catalogue():
+        for p in c.get("param", []):
+            key = (c["name"], p["name"])
+            if key in WIRE_DEVIATIONS:
+                assert p["wire"] == WIRE_DEVIATIONS[key] and "choice" in c, key
+            else:
+                assert p["wire"] == WIRE[p["type"]], key
+    for name, _ in WIRE_DEVIATIONS:
+        assert name in rows
+
+
+def test_targets():
+    for c in catalogue():
+        if c["name"] in RS_ONLY:
+            assert c["targets"] == ["rs"]
+        elif c["section"].startswith("2."):
+            assert "rs" in c["targets"]
+        else:
+            assert c["targets"] == ["rs", "et"], c["name"]
+
+
+@needs_manual
+def test_returns_match_9_3_2():
+    manual = rvar_list()
+    assert len(manual) == 12, manual
+    assert sorted(c["name"] for c in catalogue() if c["returns"]) == sorted(manual)
+
+
+@needs_manual
+def test_appendix_rows_present_with_same_code_and_count():
+    rows = by_name()
+    app = appendix()
+    assert len(app) == 285
+    order = [c["name"] for c in catalogue()]
+    assert [r["name"] for r in app] == order, "catalogue not in appendix order"
+    deviating = set()
+    for r in app:
+        c = rows[r["name"]]
+        assert c["section"] == r["section"], r["name"]
+        assert c["lines"]["appendix"] == r["line"], r["name"]
+        if r["code"] is None:
+            assert "code" not in c, r["name"]
+            continue
+        if c.get("code") != r["code"] or c.get("registers") != r["registers"]:
+            deviating.add(r["name"])
+    for name, code in CODE_DEVIATIONS.items():
+        assert rows[name]["code"] == code and "choice" in rows[name], name
+    for name, regs in REGISTER_DEVIATIONS.items():
+        assert rows[name]["registers"] == regs and "choice" in rows[name], name
+    assert rows["RSM_MACRO_FRNET_WAIT"]["registers"] == 8
+    assert deviating == set(CODE_DEVIATIONS) | set(REGISTER_DEVIATIONS)
+
+
+@needs_manual
+def test_swapped_codes_stay_unique_pairs():
+    # the six corrected codes are exactly the appendix's codes permuted
+    rows = by_name()
+    app = {r["name"]: r["code"] for r in appendix()}
+    printed = sorted(app[n] for n in CODE_DEVIATIONS)
+    assert printed == sorted(rows[n]["code"] for n in CODE_DEVIATIONS)
+
+
+@needs_manual
+def test_scope_and_cost_equal_table1():
+    t1 = table1()
+    assert len(t1) == 276
+    it_dropped = set()
+    for c in catalogue():
+        r = t1.get(c["name"])
+        if r is None:
+            assert c["section"].startswith("2.1."), c["name"]
+            assert c["scope"] == [] and "table1" not in c["lines"]
+            continue
+        assert c["section"] == r["section"], c["name"]
+        assert c["lines"]["table1"] == r["line"], c["name"]
+        assert c["line_cost"] == r["cost"], c["name"]
+        if c["scope"] != r["scope"]:
+            assert "choice" in c, c["name"]
+            assert c["scope"] == [s for s in r["scope"] if s != "it"], c["name"]
+            it_dropped.add(c["name"])
+    expected = {
+        n
+        for n, r in t1.items()
+        if "MACRO" in n and r["section"] in IT_SECTIONS and "it" in r["scope"]
+    }
+    assert len(expected) == 18
+    assert it_dropped == expected
+
+
+@needs_manual
+def test_it_rows_take_table5_axes():
+    for c in catalogue():
+        if "rtc" in c["scope"] and "it" in c["scope"]:
+            axes = [p for p in c.get("param", []) if p["name"] == "axis"]
+            assert axes and axes[0]["kind"] == "axis_it", c["name"]
+
+
+@needs_manual
+def test_parameters_match_prototypes():
+    protos = prototypes()
+    for c in catalogue():
+        proto = protos.get(c["name"])
+        assert proto is not None, c["name"]
+        assert c["lines"]["signature"] > 0
+        expected = [
+            (t, n)
+            for t, n, ptr in proto
+            if n not in ("hRsm", "SlaveAddr") and (not ptr or (c["name"], n) in INPUT_POINTERS)
+        ]
+        got = [(p["type"], p["name"]) for p in c.get("param", [])]
+        assert got == expected, c["name"]
+
+
+@needs_manual
+def test_prototype_counts_explain_register_deviations():
+    # 12.2.5 rule on the prototype reproduces every count except the FRnet group rows
+    protos = prototypes()
+    for c in catalogue():
+        if "code" not in c:
+            continue
+        skip = ("hRsm", "SlaveAddr")
+        args = [t for t, name, ptr in protos[c["name"]] if name not in skip and not ptr]
+        n = 1 + sum(WIRE[t] for t in args)
+        if c["name"] in {k for k, _ in WIRE_DEVIATIONS}:
+            assert c["registers"] == n + 1, c["name"]
+        else:
+            assert c["registers"] == n, c["name"]
+
+
+@needs_manual
+def test_var_operands_are_documented():
+    lines = manual_lines()
+    for c in catalogue():
+        for p in c.get("param", []):
+            if not (p["var"] or p["kind"] == "var"):
+                continue
+            start = c["lines"]["signature"]
+            window = "\n".join(lines[start - 1 : start + 60])
+            assert re.search(r"VAR0 ~ VAR511|use VARn", window), (c["name"], p["name"])
+
+
+@needs_manual
+def test_line_references_point_at_the_row():
+    lines = manual_lines()
+    for c in catalogue():
+        sig = re.sub(r"[*]|<[^>]+>", "", lines[c["lines"]["signature"] - 1])
+        assert re.search(re.escape(c["name"]) + r"\s*\(", sig), c["name"]
+        ex = c["lines"].get("example")
+        if ex:
+            text = lines[ex - 1]
+            code_bytes = f"{c['code'] >> 8:02X} {c['code'] & 0xFF:02X}" if "code" in c else None
+            assert c["name"] in text or (code_bytes and code_bytes in text), c["name"]
