@@ -187,6 +187,8 @@ def _describe_expected(expected: set[str]) -> str:
 def _report(err: UnexpectedInput, file: str, line_no: int, text: str,
             sink: DiagnosticSink) -> None:
     col = err.column if isinstance(err.column, int) and err.column > 0 else 1
+    if isinstance(err, UnexpectedToken) and err.token.type in ("_NL", "$END"):
+        col = len(text.rstrip()) + 1  # point just past the last character
     span = Span(file, line_no, col, col + 1)
     if isinstance(err, UnexpectedCharacters):
         char = text[col - 1] if 0 < col <= len(text) else "?"

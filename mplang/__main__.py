@@ -1,0 +1,5 @@
+"""`python -m mplang` is `mpc`."""
+
+from mplang.cli import main
+
+main()

@@ -1,0 +1,56 @@
+"""Every rule has a failing input in tests/data/checks/<CODE>*.mp that triggers it.
+
+Each input states what it must produce with lines `# expect: CODE LINE` (or
+`# expect: CODE LINE:COL`); the test asserts exactly those diagnostics, no more, no fewer.
+Inputs may INCLUDE helper files from tests/data/checks/include/.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+
+from mplang.compiler import Options, compile_paths
+from mplang.rules import RULES
+
+CHECKS = Path(__file__).parent / "data" / "checks"
+EXPECT = re.compile(r"#\s*expect:\s*([EW]\d{3})\s+(\d+)(?::(\d+))?")
+OPTIONS = re.compile(r"#\s*options:\s*(.*)")
+CASES = sorted(CHECKS.glob("*.mp"))
+
+
+def expected(path: Path) -> set[tuple[str, int, int | None]]:
+    found = set()
+    for match in EXPECT.finditer(path.read_text()):
+        col = int(match.group(3)) if match.group(3) else None
+        found.add((match.group(1), int(match.group(2)), col))
+    return found
+
+
+def options_for(path: Path) -> Options:
+    match = OPTIONS.search(path.read_text())
+    if not match:
+        return Options()
+    settings = dict(item.split("=") for item in match.group(1).split())
+    return Options(target=settings.get("target", "et"))
+
+
+@pytest.mark.parametrize("path", CASES, ids=[p.name for p in CASES])
+def test_check_input(path: Path) -> None:
+    result = compile_paths([path], options_for(path))
+    want = expected(path)
+    assert want, f"{path.name} declares no '# expect:' lines"
+    got = {(d.code, d.span.line, d.span.col) for d in result.diagnostics}
+    got_loose = {(code, line, None) for code, line, _ in got}
+    matched = {w for w in want if (w in got if w[2] is not None else w in got_loose)}
+    missing = want - matched
+    extra = {g for g in got if (g not in want and (g[0], g[1], None) not in want)}
+    rendered = "\n".join(d.render() for d in result.diagnostics)
+    assert not missing and not extra, f"missing {missing}, extra {extra}\n{rendered}"
+
+
+def test_every_rule_has_a_failing_input() -> None:
+    covered = {code for path in CASES for code, _, _ in expected(path)}
+    assert sorted(set(RULES) - covered) == []
