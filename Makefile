@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test lint bench clean
+.PHONY: demo test lint docs bench clean
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -12,17 +12,27 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install --quiet -e '.[dev]'
 	touch $(STAMP)
 
+# The main job. Until the virtual controller lands (issue 3) it builds every sample into one
+# image and shows the listing and the link map.
 demo: $(STAMP)
 	$(BIN)/mpc build samples/*.mp --format listing
-	$(BIN)/mpc build samples/*.mp --link-map -o /dev/null
+	@echo
+	$(BIN)/mpc build samples/*.mp --format map
+	$(BIN)/mpc build samples/*.mp -o samples.image.json
+	@echo "image written to samples.image.json"
 
-test: $(STAMP)
+test: $(STAMP) lint
+	$(BIN)/python -m pytest
+
+lint: $(STAMP)
 	$(BIN)/ruff check mplang tests bench
 	$(BIN)/mypy
-	$(BIN)/python -m pytest
+
+docs: $(STAMP)
+	$(BIN)/python -m mplang.docgen
 
 bench: $(STAMP)
 	$(BIN)/python bench/compile.py
 
 clean:
-	rm -rf $(VENV) build *.egg-info
+	rm -rf $(VENV) build *.egg-info samples.image.json

@@ -51,7 +51,7 @@ def guarded(func: F) -> F:
         except KeyboardInterrupt:
             click.echo("mpc: interrupted", err=True)
             sys.exit(130)
-        except Exception as exc:  # noqa: BLE001 - the last line of defence
+        except Exception as exc:
             click.echo(f"mpc: internal error: {type(exc).__name__}: {exc}\n"
                        "This is a bug in mpc; please report it with the input that caused it.",
                        err=True)

@@ -123,7 +123,8 @@ def _finish(unit: object, catalogue: Catalogue, sink: DiagnosticSink,
     try:
         scope.declare(unit)
     except ConstError as err:
-        sink.add(err.code, err.span, err.message)
+        if err.code:
+            sink.add(err.code, err.span, err.message)
     names = {p.name.upper(): p for p in unit.programs if p.name}
     lowered = [ProgramLowerer(scope, program, options.temps, options.target, names)
                .lower_program() for program in unit.programs]

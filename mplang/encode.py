@@ -123,7 +123,7 @@ class Encoder:
                 self.profile.var("byte_count"):
             return BVarRef(raw - self.bvar_base)
         if param.type == "float":
-            (value,) = struct.unpack(">f", struct.pack(">I", raw))
+            value: float = struct.unpack(">f", struct.pack(">I", raw))[0]
             return value
         return raw - (1 << 32) if raw & 0x80000000 else raw
 

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 from mplang.catalogue import Profile
 from mplang.diagnostics import DiagnosticSink
-from mplang.ir import LoweredProgram, ProgramRef
+from mplang.ir import CallSite, LoweredProgram, ProgramRef
 
 
 @dataclass
@@ -62,13 +62,13 @@ def link(programs: list[LoweredProgram], profile: Profile,
             sink.add("E501", program.span, f"{program.kind.upper()}{program.slot} does not "
                      f"exist: slots are {program.kind.upper()}1..{program.kind.upper()}{top}")
             continue
-        key = (program.kind, program.slot)
-        if key in taken:
+        slot_key = (program.kind, program.slot)
+        if slot_key in taken:
             sink.add("E502", program.span, f"{program.kind.upper()}{program.slot} is already "
-                     "taken", related=((taken[key].span, "first program in this slot"),),
+                     "taken", related=((taken[slot_key].span, "first program in this slot"),),
                      hint="give one of them another number, or none")
             continue
-        taken[key] = program
+        taken[slot_key] = program
         used = program.lines_used(close)
         if used > budget:
             detail = " including the closing line" if close else ""
@@ -106,7 +106,7 @@ def resolve(ref: ProgramRef, names: dict[str, LoweredProgram]) -> int | None:
 def _check_calls(placements: list[Placement], names: dict[str, LoweredProgram],
                  profile: Profile, sink: DiagnosticSink) -> None:
     by_slot = {p.slot: p.program for p in placements if p.program.kind == "mp"}
-    edges: dict[int, list[tuple[int, LoweredProgram, object]]] = {}
+    edges: dict[int, list[tuple[int, CallSite]]] = {}
     for placement in placements:
         program = placement.program
         if program.kind != "mp":
@@ -119,7 +119,7 @@ def _check_calls(placements: list[Placement], names: dict[str, LoweredProgram],
                 sink.add("W105", site.span, f"MP{slot} is not part of this build",
                          hint="make sure it is already on the device")
                 continue
-            edges.setdefault(placement.slot, []).append((slot, program, site))
+            edges.setdefault(placement.slot, []).append((slot, site))
     limit = profile.limit("call_depth")
     depth_memo: dict[int, int] = {}
     reported: set[int] = set()
@@ -131,13 +131,13 @@ def _check_calls(placements: list[Placement], names: dict[str, LoweredProgram],
         if slot in path:
             return 0
         best = 1
-        for callee, program, site in edges.get(slot, []):
+        for callee, site in edges.get(slot, []):
             if callee in path or callee == slot:
                 if slot not in reported:
                     reported.add(slot)
                     cycle = [*path[path.index(callee):], slot, callee] if callee in path \
                         else [slot, callee]
-                    sink.add("E432", site.span, "recursive CALL: " + " -> ".join(  # type: ignore[attr-defined]
+                    sink.add("E432", site.span, "recursive CALL: " + " -> ".join(
                         f"MP{n}" for n in cycle),
                         hint="the device has no recursion; use a loop instead")
                 continue

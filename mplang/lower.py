@@ -31,8 +31,11 @@ def wrap32(value: int) -> int:
     return value - (1 << 32) if value & 0x80000000 else value
 
 
-def apply_operator(op: str, left: int, right: int) -> int:
-    """VAR_CALCULATE semantics (device profile [arithmetic]): C division, 32-bit wrap."""
+def apply_operator(op: str, left: int, right: int, wrap: bool = True) -> int:
+    """VAR_CALCULATE semantics (device profile [arithmetic]): C division, 32-bit wrap.
+
+    Constant folding passes wrap=False: a constant that overflows is the author's mistake,
+    reported by the range check, not silently wrapped."""
     if op == "+":
         result = left + right
     elif op == "-":
@@ -50,10 +53,13 @@ def apply_operator(op: str, left: int, right: int) -> int:
         result = left | right
     else:
         raise ValueError(op)
-    return wrap32(result)
+    return wrap32(result) if wrap else result
 
 
 class ConstError(Exception):
+    """A constant that cannot be evaluated. code "" marks a follow-on of an error already
+    reported (a CONST whose own definition failed), which is not reported again."""
+
     def __init__(self, span: Span, message: str, code: str = "E206") -> None:
         super().__init__(message)
         self.span = span
@@ -92,7 +98,8 @@ class Scope:
 
     def declare(self, unit: ast.Unit) -> None:
         seen: dict[str, Span] = {}
-        for decl in [*unit.consts, *unit.aliases]:
+        decls: list[ast.Const | ast.Alias] = [*unit.consts, *unit.aliases]
+        for decl in decls:
             key = decl.name.upper()
             why = self.reserved(decl.name)
             if why:
@@ -114,8 +121,9 @@ class Scope:
                     continue
                 index = int(match.group(1))
                 if index >= self.catalogue.profile.var("count"):
+                    last = self.catalogue.profile.var("count") - 1
                     self.sink.add("E204", decl.target_span, f"{decl.target} does not exist: "
-                                  f"variables are VAR0..VAR{self.catalogue.profile.var('count') - 1}")
+                                  f"variables are VAR0..VAR{last}")
                     continue
                 self.aliases[key] = index
                 self.alias_spans[key] = decl.name_span
@@ -137,7 +145,8 @@ class Scope:
                               "expression", hint="CONST values may use numbers, other CONSTs "
                               "and + - * / & | ( )")
         except ConstError as err:
-            self.sink.add(err.code, err.span, err.message)
+            if err.code:
+                self.sink.add(err.code, err.span, err.message)
             value = None
         finally:
             self._evaluating.discard(key)
@@ -152,14 +161,14 @@ class Scope:
             case ast.Name(name=name):
                 key = name.upper()
                 if key in self.const_exprs:
-                    value = self.const(key)
-                    if value is None:
-                        raise ConstError(expr.span, f"CONST {name} has no value", "E206")
-                    return value
+                    known = self.const(key)
+                    if known is None:
+                        raise ConstError(expr.span, f"CONST {name} has no value", code="")
+                    return known
                 return None
             case ast.Neg(operand=operand):
                 inner = self.fold(operand)
-                return None if inner is None else wrap32(-inner)
+                return None if inner is None else -inner
             case ast.Group(items=[single]):
                 return self.fold(single)
             case ast.BinOp(op=op, left=left, right=right):
@@ -167,7 +176,7 @@ class Scope:
                 if a is None or b is None:
                     return None
                 try:
-                    return apply_operator(op, a, b)
+                    return apply_operator(op, a, b, wrap=False)
                 except ZeroDivisionError:
                     raise ConstError(right.span, "division by zero in a constant "
                                      "expression") from None
@@ -277,7 +286,8 @@ class ProgramLowerer:
         try:
             return self.scope.fold(expr)
         except ConstError as err:
-            self.sink.add(err.code, err.span, err.message)
+            if err.code:
+                self.sink.add(err.code, err.span, err.message)
             raise
 
     def check_immediate(self, value: int, span: Span) -> bool:
@@ -363,9 +373,9 @@ class ProgramLowerer:
             case ast.Group():
                 self.sink.add("E416", expr.span, "a list is not a value")
             case _:
-                operand = self.value_operand(expr)
-                if operand is not None:
-                    self.emit("SET_VAR", (dest, operand), expr.span)
+                simple = self.value_operand(expr)
+                if simple is not None:
+                    self.emit("SET_VAR", (dest, simple), expr.span)
         self.note_write(dest)
 
     def is_complex(self, expr: ast.Expr) -> bool:
@@ -413,7 +423,8 @@ class ProgramLowerer:
     def command_allowed(self, command: Command, span: Span) -> bool:
         """Scope checks: macro form, MP/ISR, target controller."""
         name = command.short_name
-        if command.short_name in ("MP_CLOSE", "MP_ISR_CLOSE"):
+        own_close = "MP_CLOSE" if self.kind == "mp" else "MP_ISR_CLOSE"
+        if name == own_close:
             self.sink.add("E406", span, f"{name} is generated by END {self.kind.upper()}",
                           hint="use EXIT to leave the program early")
             return False
@@ -491,7 +502,7 @@ class ProgramLowerer:
         return self.check_value(param, value, arg.span, where)
 
     def named_argument(self, command: Command, param: Param, arg: ast.Name, where: str
-                       ) -> Operand | None | bool:
+                       ) -> Operand | bool | None:
         """A name argument, or False if the name is not one of the special kinds."""
         upper = arg.name.upper()
         if upper in param.symbols:
@@ -519,9 +530,10 @@ class ProgramLowerer:
             return BVarRef(index)
         if param.kind in ("mp", "isr") and upper in self.program_names:
             return ProgramRef(name=upper)
-        index = self.scope.variable(arg.name)
-        if index is None:
+        found = self.scope.variable(arg.name)
+        if found is None:
             return False
+        index = found
         if not self.check_user_var(index, arg.span):
             return None
         ref = VarRef(index)
@@ -601,7 +613,14 @@ class ProgramLowerer:
             "axis1_or_none": singles | {0},
             "axis_it": set(range(1, 16)) | {c + offset for c in range(1, 16)},
         }[param.kind]
+        if param.values:
+            allowed &= set(param.values)
         if value not in allowed:
+            if param.values:
+                names = ", ".join(self.profile.axis_name(v) for v in sorted(param.values))
+                self.sink.add("E413", span, f"{where} must be one of {names}, not "
+                              f"{self.profile.axis_name(value) if 0 < value < 16 else value}")
+                return None
             what = {"axis1": "one axis (X, Y, Z or U)",
                     "axis1_or_none": "one axis (X, Y, Z or U) or 0"}.get(param.kind,
                                                                        "an axis combination")

@@ -199,7 +199,7 @@ def _report(err: UnexpectedInput, file: str, line_no: int, text: str,
         token = err.token
         if token.type in ("_NL", "$END"):
             found = "end of line"
-        elif token.type in ("NAME", "INT", "STRING") or token.type.isalpha() and len(token) > 1:
+        elif token.type in ("NAME", "INT", "STRING") or (token.type.isalpha() and len(token) > 1):
             kind = {"NAME": "name", "INT": "number", "STRING": "string"}.get(token.type, "keyword")
             found = f"{kind} {str(token)!r}"
         else:
@@ -249,7 +249,7 @@ def parse_text(text: str, file: str, sink: DiagnosticSink) -> list[ast.Statement
     parser, builder = _parser()
     builder.file, builder.line_offset = file, 0
     try:
-        result: list[ast.Statement] = parser.parse(text, start="start")
+        result: list[ast.Statement] = parser.parse(text, start="start")  # type: ignore[assignment]
         return result
     except (UnexpectedInput, VisitError, _SyntaxProblem):
         pass
@@ -260,7 +260,7 @@ def parse_text(text: str, file: str, sink: DiagnosticSink) -> list[ast.Statement
             continue
         builder.line_offset = index
         try:
-            statements.extend(parser.parse(line_text, start="line"))
+            statements.extend(parser.parse(line_text, start="line"))  # type: ignore[arg-type]
         except UnexpectedInput as err:
             _report(err, file, index + 1, line_text, sink)
             statements.extend(_placeholder(line_text, Span(file, index + 1)))

@@ -62,7 +62,7 @@ def test_keywords_are_case_insensitive_and_prefixes_stay_names() -> None:
 
 def test_every_bad_line_is_reported_with_its_column() -> None:
     text = "MP 1\n  FIXED_MOVE X,, 3\n  VAR1 = \n  IF VAR1 = 3\n  $\nEND MP\n"
-    statements, sink = parse(text)
+    _statements, sink = parse(text)
     where = sorted((d.span.line, d.span.col) for d in sink.items)
     assert where == [(2, 16), (3, 9), (4, 11), (5, 3)]
     assert all(d.code == "E101" for d in sink.items)
@@ -81,10 +81,10 @@ def test_spans_point_at_arguments() -> None:
     assert (diag.code, diag.span.line, diag.span.col) == ("E202", 2, 19)
 
 
-source_alphabet = st.sampled_from(list("MPISRENDFOXYZUVAR0123456789 ,=<>!()+-*/&|#\"'\n\t_.;$")
-                                  + ["MP ", "END MP", "FOR ", "NEXT", "IF ", "END IF", "ELSE",
-                                     "LABEL ", "GOTO ", "CALL ", "VAR1", "FIXED_MOVE X, 1",
-                                     "\n", "INCLUDE \"x.mp\"", "CONST A = ", "ISR 3"])
+SNIPPETS = ["MP ", "END MP", "FOR ", "NEXT", "IF ", "END IF", "ELSE", "LABEL ", "GOTO ",
+            "CALL ", "VAR1", "FIXED_MOVE X, 1", "\n", 'INCLUDE "x.mp"', "CONST A = ", "ISR 3"]
+source_alphabet = st.sampled_from([*"MPISRENDFOXYZUVAR0123456789 ,=<>!()+-*/&|#\"'\n\t_.;$",
+                                   *SNIPPETS])
 
 
 @settings(max_examples=300, deadline=None)
