@@ -18,8 +18,9 @@ demo: $(STAMP)
 	$(BIN)/mpc build samples/*.mp --format listing
 	@echo
 	$(BIN)/mpc build samples/*.mp --format map
-	$(BIN)/mpc build samples/*.mp -o samples.image.json
-	@echo "image written to samples.image.json"
+	mkdir -p build
+	$(BIN)/mpc build samples/*.mp -o build/samples.image.json
+	@echo "image written to build/samples.image.json"
 
 test: $(STAMP) lint
 	$(BIN)/python -m pytest
@@ -35,4 +36,4 @@ bench: $(STAMP)
 	$(BIN)/python bench/compile.py
 
 clean:
-	rm -rf $(VENV) build *.egg-info samples.image.json
+	rm -rf $(VENV) build *.egg-info

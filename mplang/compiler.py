@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import hashlib
 import json
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from mplang import catalogue as catalogue_module
 from mplang.catalogue import Catalogue
-from mplang.diagnostics import Diagnostic, DiagnosticSink, Span
+from mplang.diagnostics import Diagnostic, DiagnosticSink, Severity, Span
 from mplang.encode import Encoder
 from mplang.frontend.sources import load_sources
 from mplang.frontend.structure import build_unit
@@ -18,6 +19,9 @@ from mplang.link import Placement, link, resolve
 from mplang.lower import ConstError, ProgramLowerer, Scope
 
 IMAGE_FORMAT = "mplang-image/1"
+# `# mpc: ignore[W107]` (or `# mpc: ignore` for every warning) on a line silences warnings
+# reported on that line. Errors cannot be silenced: the device would reject the program.
+SUPPRESS = re.compile(r"mpc:\s*ignore(?:\[([A-Za-z0-9,\s]+)\])?")
 DEFAULT_TEMPS = range(500, 512)
 
 
@@ -102,7 +106,21 @@ def compile_paths(paths: list[Path], options: Options = Options(), *,
     unit = build_unit(sources, sink)
     result = _finish(unit, catalogue, sink, options)
     result.sources = {f.display: f.text.splitlines() for f in sources.files}
+    result.diagnostics = [d for d in result.diagnostics if not _suppressed(d, result.sources)]
     return result
+
+
+def _suppressed(diagnostic: Diagnostic, sources: dict[str, list[str]]) -> bool:
+    if diagnostic.severity is not Severity.WARNING:
+        return False
+    lines = sources.get(diagnostic.span.file, [])
+    if not 0 < diagnostic.span.line <= len(lines):
+        return False
+    match = SUPPRESS.search(lines[diagnostic.span.line - 1])
+    if match is None:
+        return False
+    codes = match.group(1)
+    return codes is None or diagnostic.code in {c.strip().upper() for c in codes.split(",")}
 
 
 def compile_source(text: str, name: str = "<input>.mp", options: Options = Options()

@@ -311,7 +311,7 @@ class ProgramLowerer:
         if ref is not None:
             self.note_read(ref, expr.span)
             return ref
-        if isinstance(expr, ast.Name):
+        if isinstance(expr, ast.Name) and not self.bare_query(expr.name):
             self.unknown_name(expr)
             return None
         temp = self.take_temp(expr.span)
@@ -334,6 +334,8 @@ class ProgramLowerer:
         match expr:
             case ast.Call():
                 self.lower_query(expr, dest)
+            case ast.Name(name=name) if self.bare_query(name):
+                self.lower_query(ast.Call(name, [], expr.span), dest)
             case ast.BinOp(op=op, left=left, right=right):
                 try:
                     folded = self.fold(expr)
@@ -377,6 +379,13 @@ class ProgramLowerer:
                 if simple is not None:
                     self.emit("SET_VAR", (dest, simple), expr.span)
         self.note_write(dest)
+
+    def bare_query(self, name: str) -> bool:
+        """`VAR1 = GET_ERROR` without brackets: a read that takes no arguments."""
+        if self.scope.variable(name) is not None or name.upper() in self.scope.const_exprs:
+            return False
+        command = self.cat.lookup(name)
+        return command is not None and command.returns and not command.params
 
     def is_complex(self, expr: ast.Expr) -> bool:
         while isinstance(expr, ast.Group) and len(expr.items) == 1:
@@ -528,7 +537,13 @@ class ProgramLowerer:
                               f"are bVAR0..bVAR{self.profile.var('byte_count') - 1}")
                 return None
             return BVarRef(index)
-        if param.kind in ("mp", "isr") and upper in self.program_names:
+        if param.kind in ("mp", "isr", "isr_or_none") and upper in self.program_names:
+            target = self.program_names[upper]
+            wanted = param.kind.removesuffix("_or_none")
+            if target.kind != wanted:
+                self.sink.add("E416", arg.span, f"{where} takes an {wanted.upper()} number, "
+                              f"but {arg.name} is an {target.kind.upper()}")
+                return None
             return ProgramRef(name=upper)
         found = self.scope.variable(arg.name)
         if found is None:
@@ -594,6 +609,13 @@ class ProgramLowerer:
             return None
         if param.wire == 2 and not self.check_immediate(value, span):
             return None
+        if param.encoding == "holding_address":
+            first = self.profile.var("holding_base")
+            last = first + 2 * (self.profile.var("count") - 1)
+            if first <= value <= last and (value - first) % 2 == 0:
+                self.sink.add("W108", span, f"{where} = {value} is sent exactly like "
+                              f"VAR{(value - first) // 2} (holding address {value})",
+                              hint="put the value in a variable and pass the variable")
         if param.wire == 1 and not -0x8000 <= value <= 0xFFFF:
             self.sink.add("E412", span, f"{where} = {value} does not fit in a {param.type}")
             return None

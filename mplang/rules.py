@@ -247,6 +247,11 @@ _RULES = [
     Rule("W106", "rvar-without-read", W, "SET_RVAR with no value-returning read before it.",
          "SET_RVAR stores the result of the preceding read (GET_LP, FRNET_IN, ...).",
          "Put the read right before it, or write VARn = GET_LP(X)."),
+    Rule("W108", "ambiguous-immediate", W,
+         "An immediate that the device would read as a variable reference.",
+         "FRNET_OUT sends a variable as its holding-register address 300 + 2n, so an output "
+         "pattern 300..1322 (even) looks exactly like VARn on the wire.",
+         "Put the pattern in a variable first: VARn = pattern, then FRNET_OUT group, VARn."),
     Rule("W107", "undocumented-variable", W,
          "A variable passed where the manual does not document variables.",
          "The manual documents VARn operands only for some parameters; the 32-bit "

@@ -25,7 +25,11 @@ def operand_strategy(param: Param) -> st.SearchStrategy[Operand]:
     if param.wire == 2:
         immediate = st.integers(-2_000_000_000, 2_000_000_000)
         if param.encoding == "holding_address":
-            return st.one_of(st.integers(0, 65535), st.builds(VarRef, st.integers(0, 511)))
+            # The manual's FRNET_OUT format cannot tell an immediate 300 + 2n from VARn
+            # (see the catalogue choice); decoding reads such words as variables.
+            unambiguous = st.integers(0, 65535).filter(lambda v: not (300 <= v <= 1322
+                                                                      and v % 2 == 0))
+            return st.one_of(unambiguous, st.builds(VarRef, st.integers(0, 511)))
         return st.one_of(immediate, st.builds(VarRef, st.integers(0, 511)))
     if param.kind == "bvar":
         return st.one_of(st.integers(0, 7), st.builds(BVarRef, st.integers(0, 127)))

@@ -120,3 +120,21 @@ def test_temporary_pool_exhaustion_is_reported() -> None:
     result = compile_source(f"MP 156\n VAR9 = {deep}\nEND MP\n",
                             options=Options(temps=range(510, 512)))
     assert "E422" in {d.code for d in result.diagnostics}
+
+
+def test_bare_zero_argument_query() -> None:
+    with_brackets = compile_source("MP 1\n VAR1 = GET_ERROR()\nEND MP\n")
+    bare = compile_source("MP 1\n VAR1 = GET_ERROR\nEND MP\n")
+    assert bare.ok and bare.programs[0].frames == with_brackets.programs[0].frames
+
+
+def test_program_name_must_be_of_the_right_kind() -> None:
+    result = compile_source("MP 41 big\n EXIT\nEND MP\nMP 1\n INTFACTOR_ENABLE X, 4, big\n"
+                            "END MP\n")
+    assert [d.code for d in result.diagnostics] == ["E416"]
+
+
+def test_only_warnings_can_be_silenced() -> None:
+    source = "MP 1\n VAR2 = VAR1   # mpc: ignore[W103]\n VAR3 = VAR9 # mpc: ignore\n" \
+             " FOO 1 # mpc: ignore\nEND MP\n"
+    assert [d.code for d in compile_source(source).diagnostics] == ["E201"]
