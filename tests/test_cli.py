@@ -9,6 +9,8 @@ from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from mplang.cli import main
 
@@ -126,3 +128,15 @@ def test_console_script_runs_as_a_process(project: Path) -> None:
     proc = subprocess.run([sys.executable, "-m", "mplang", "build", str(project / "bad.mp")],
                           capture_output=True, text=True, check=False)
     assert proc.returncode == 1 and "Traceback" not in proc.stderr
+
+
+@settings(max_examples=60, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(st.text(max_size=120))
+def test_arbitrary_text_never_raises_past_the_cli(tmp_path: Path, text: str) -> None:
+    source = tmp_path / "fuzz.mp"
+    source.write_text(text, encoding="utf-8")
+    for command in (["lint", str(source)], ["build", str(source), "--format", "listing"]):
+        result = CliRunner().invoke(main, command)
+        assert result.exit_code in (0, 1), result.output
+        assert result.exception is None or isinstance(result.exception, SystemExit)

@@ -1,0 +1,47 @@
+"""A plain (non-editable) install finds the grammar and the device data.
+
+The wheel is built from this checkout and imported straight from the .whl file (zip import),
+with the working directory elsewhere, so nothing can come from the source tree.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+@pytest.fixture(scope="module")
+def wheel(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("wheel")
+    subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation",
+                    "-q", "-w", str(out), str(ROOT)], check=True, capture_output=True)
+    (found,) = out.glob("mplang-*.whl")
+    return found
+
+
+def test_wheel_contains_grammar_and_stdlib(wheel: Path) -> None:
+    names = set(zipfile.ZipFile(wheel).namelist())
+    assert "mplang/grammar/mplang.lark" in names
+    assert "mplang/stdlib/m8194h/commands.toml" in names
+    assert "mplang/stdlib/m8194h/device.toml" in names
+
+
+def test_installed_package_compiles(wheel: Path, tmp_path: Path) -> None:
+    script = (
+        "import mplang, sys\n"
+        "assert mplang.__file__.startswith(sys.argv[1]), mplang.__file__\n"
+        "from mplang.compiler import compile_source\n"
+        "r = compile_source('MP 21\\n  FIXED_MOVE X, 1000\\nEND MP\\n')\n"
+        "print(r.programs[0].frames)\n"
+    )
+    proc = subprocess.run([sys.executable, "-c", script, str(wheel)], cwd=tmp_path,
+                          env={"PYTHONPATH": str(wheel), "PATH": "/usr/bin:/bin"},
+                          capture_output=True, text=True, check=False)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip() == "[[2761, 21], [3150, 1, 0, 1000], [3274]]"
