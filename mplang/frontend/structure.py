@@ -103,6 +103,23 @@ def _build_file(statements: list[ast.Statement], file: str, unit: ast.Unit,
     def in_program() -> bool:
         return bool(stack)
 
+    def close_block(kind: str, at: Span) -> None:
+        """NEXT or END IF: close the innermost block of `kind`, reporting blocks left open
+        inside it (they are closed too, so the rest of the file still makes sense)."""
+        word = BLOCK_WORD[kind]
+        if not any(b.kind == kind for b in stack):
+            sink.add("E304" if kind == "for" else "E308", at,
+                     f"{word} without an open {kind.upper()}")
+            return
+        while stack[-1].kind != kind:
+            inner = stack[-1]
+            sink.add("E303", at, f"{word} closes the {kind.upper()} of line "
+                     f"{_innermost(kind, stack).head.span.line} while the "
+                     f"{inner.kind.upper()} of line {inner.head.span.line} is still open",
+                     hint=f"write {BLOCK_WORD[inner.kind]} before {word}")
+            close_inner(stack.pop(), at)
+        close_inner(stack.pop(), at)
+
     for raw in statements:
         statement = _normalise(raw)
         match statement:
@@ -152,27 +169,9 @@ def _build_file(statements: list[ast.Statement], file: str, unit: ast.Unit,
                     continue
                 stack.append(_Open("if", statement))
             case ast.Next() | ast.End(what="for"):
-                if not any(b.kind == "for" for b in stack):
-                    sink.add("E304", statement.span, "NEXT without an open FOR")
-                    continue
-                while stack[-1].kind != "for":
-                    sink.add("E303", statement.span, f"NEXT closes the FOR of line "
-                             f"{_innermost('for', stack).head.span.line} while the IF of line "
-                             f"{stack[-1].head.span.line} is still open",
-                             hint="write END IF before NEXT")
-                    close_inner(stack.pop(), statement.span)
-                close_inner(stack.pop(), statement.span)
+                close_block("for", statement.span)
             case ast.End(what="if"):
-                if not any(b.kind == "if" for b in stack):
-                    sink.add("E308", statement.span, "END IF without an open IF")
-                    continue
-                while stack[-1].kind != "if":
-                    sink.add("E303", statement.span, f"END IF closes the IF of line "
-                             f"{_innermost('if', stack).head.span.line} while the FOR of line "
-                             f"{stack[-1].head.span.line} is still open",
-                             hint="write NEXT before END IF")
-                    close_inner(stack.pop(), statement.span)
-                close_inner(stack.pop(), statement.span)
+                close_block("if", statement.span)
             case ast.Else():
                 if not stack or stack[-1].kind != "if":
                     sink.add("E307", statement.span, "ELSE outside an IF block")
