@@ -12,8 +12,8 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install --quiet -e '.[dev]'
 	touch $(STAMP)
 
-# The main job. Until the virtual controller lands (issue 3) it builds every sample into one
-# image and shows the listing and the link map.
+# The main job: build every sample into one image (listing, link map, image JSON), then run
+# the homing-and-square job on the built-in virtual controller.
 demo: $(STAMP)
 	$(BIN)/mpc build samples/*.mp --format listing
 	@echo
@@ -21,6 +21,8 @@ demo: $(STAMP)
 	mkdir -p build
 	$(BIN)/mpc build samples/*.mp -o build/samples.image.json
 	@echo "image written to build/samples.image.json"
+	$(BIN)/mpc run samples/*.mp --call home_then_square
+	$(BIN)/mpc run samples/*.mp --call tour --json
 
 test: $(STAMP) lint
 	$(BIN)/python -m pytest
@@ -34,6 +36,7 @@ docs: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python bench/compile.py
+	$(BIN)/python bench/interp.py
 
 clean:
 	rm -rf $(VENV) build *.egg-info

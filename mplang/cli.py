@@ -3,6 +3,7 @@
 Exit codes (also in docs/cli.md):
   0 success            1 errors in the sources     2 bad command-line usage
   3 input files missing or unreadable               4 output cannot be written
+  5 the program failed or did not finish on the virtual controller
   70 internal error (a bug in mpc: please report it with the input)
 """
 
@@ -26,6 +27,7 @@ EXIT_SOURCE_ERRORS = 1
 EXIT_USAGE = 2
 EXIT_NO_INPUT = 3
 EXIT_OUTPUT = 4
+EXIT_RUN_FAILED = 5
 EXIT_INTERNAL = 70
 
 F = TypeVar("F", bound=Callable[..., Any])
@@ -208,3 +210,51 @@ def lint(files: tuple[str, ...], fmt: str, output: str | None, target: str,
     errors = sum(1 for d in diagnostics if d.severity is Severity.ERROR)
     if errors or (werror and diagnostics):
         sys.exit(EXIT_SOURCE_ERRORS)
+
+
+@main.command()
+@click.argument("files", nargs=-1, required=True)
+@click.option("--call", "call", default=None, metavar="MPn|NAME",
+              help="Program to call [default: the first MP of the first file].")
+@click.option("--json", "as_json", is_flag=True, help="Print variables, axes, time and error "
+              "as JSON.")
+@click.option("--max-time", type=click.FloatRange(min=0.001), default=3600.0, show_default=True,
+              help="Give up after this much simulated time (seconds).")
+@with_common
+@guarded
+def run(files: tuple[str, ...], call: str | None, as_json: bool, max_time: float, target: str,
+        word_order: str | None, temp_vars: range, allow_outside_includes: bool,
+        werror: bool) -> None:
+    """Build FILE..., load every program into a fresh virtual controller and run one."""
+    import json
+
+    from mplang.run import NoSuchProgram, RunSetupError, run_build
+
+    paths = expand_inputs(files)
+    result = compile_paths(paths, build_options(target, word_order, temp_vars,
+                                                allow_outside_includes))
+    code = report(result, werror)
+    if code:
+        sys.exit(code)
+    first = next((s for s in result.sources if Path(s).resolve() == paths[0].resolve()), None)
+    try:
+        outcome = run_build(result, call, first, max_time=max_time)
+    except NoSuchProgram as exc:
+        raise click.BadParameter(str(exc), param_hint="--call") from None
+    except RunSetupError as exc:
+        click.echo(f"mpc: {exc}", err=True)
+        sys.exit(EXIT_RUN_FAILED)
+    summary = outcome.to_json()
+    if as_json:
+        click.echo(json.dumps(summary, indent=1))
+    else:
+        click.echo(f"{outcome.called}: {'finished' if outcome.result.finished else 'FAILED'} "
+                   f"after {summary['time_ms']} ms simulated, {outcome.result.steps} lines")
+        for name, value in summary["vars"].items():  # type: ignore[attr-defined]
+            click.echo(f"  {name} = {value}")
+        for name, pos in summary["axes"].items():  # type: ignore[attr-defined]
+            click.echo(f"  {name}: lp {pos['lp']}, ep {pos['ep']}")
+        if outcome.result.error:
+            click.echo(f"error: {outcome.result.error}", err=True)
+    if not outcome.result.finished:
+        sys.exit(EXIT_RUN_FAILED)

@@ -140,3 +140,31 @@ def test_arbitrary_text_never_raises_past_the_cli(tmp_path: Path, text: str) -> 
         result = CliRunner().invoke(main, command)
         assert result.exit_code in (0, 1), result.output
         assert result.exception is None or isinstance(result.exception, SystemExit)
+
+
+def test_run_json_reports_vars_axes_time_and_error(project: Path) -> None:
+    (project / "moves.mp").write_text("MP 21 main\n  SET_V X, 10000\n  FIXED_MOVE X, 5000\n"
+                                      "  STOP_WAIT X\n  VAR1 = GET_LP(X)\n  VAR2 = VAR1 / 5\n"
+                                      "END MP\n")
+    code, out, _ = run("run", str(project / "moves.mp"), "--json")
+    assert code == 0
+    report = json.loads(out)
+    assert report["vars"] == {"VAR1": 5000, "VAR2": 1000}
+    assert report["axes"]["X"] == {"lp": 5000, "ep": 5000}
+    assert report["axes"]["U"] == {"lp": 0, "ep": 0}
+    assert report["error"] is None and report["time_ms"] > 0
+
+
+def test_run_picks_first_mp_of_first_file_or_call(project: Path) -> None:
+    (project / "two.mp").write_text("MP 30 second\n  VAR1 = 2\nEND MP\n"
+                                    "MP 5 first_in_file\n  VAR1 = 1\nEND MP\n")
+    assert json.loads(run("run", str(project / "two.mp"), "--json")[1])["vars"] == {"VAR1": 2}
+    code, out, _ = run("run", str(project / "two.mp"), "--json", "--call", "first_in_file")
+    assert code == 0 and json.loads(out)["vars"] == {"VAR1": 1}
+    assert run("run", str(project / "two.mp"), "--call", "MP99")[0] == 2
+
+
+def test_run_that_never_finishes_exits_5(project: Path) -> None:
+    (project / "spin.mp").write_text("MP 1\n  LABEL a\n  GOTO a\nEND MP\n")
+    code, out, _ = run("run", str(project / "spin.mp"), "--json", "--max-time", "1")
+    assert code == 5 and "without finishing" in json.loads(out)["error"]

@@ -1,0 +1,67 @@
+"""`mpc run`: build, load every program into a fresh virtual controller, call one, report."""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+from mplang.compiler import BuildResult
+from mplang.sim.controller import RunResult, VirtualController
+
+
+class RunSetupError(ValueError):
+    """The image does not load into the virtual controller."""
+
+
+class NoSuchProgram(RunSetupError):
+    """--call names a program that is not in the build."""
+
+
+@dataclass
+class RunReport:
+    controller: VirtualController
+    result: RunResult
+    called: str
+
+    def to_json(self) -> dict[str, object]:
+        snapshot = self.controller.snapshot()
+        snapshot["time_ms"] = round(self.result.time_s * 1000, 3)
+        snapshot["error"] = self.result.error
+        return snapshot
+
+
+def pick_program(build: BuildResult, call: str | None, first_file: str | None) -> int:
+    """The MP slot to call: `MPn`, `n` or a program name; by default the first MP of the
+    first file."""
+    mps = [p for p in build.programs if p.program.kind == "mp"]
+    if call is None:
+        ordered = sorted(mps, key=lambda p: (p.program.source != first_file,
+                                             p.program.source, p.program.span.line))
+        if not ordered:
+            raise NoSuchProgram("the build has no MP program to call")
+        return ordered[0].placement.slot
+    match = re.fullmatch(r"(?:MP)?(\d+)", call, re.IGNORECASE)
+    if match:
+        slot = int(match.group(1))
+        if not any(p.placement.slot == slot for p in mps):
+            raise NoSuchProgram(f"MP{slot} is not part of this build")
+        return slot
+    named = [p for p in mps if (p.program.name or "").upper() == call.upper()]
+    if not named:
+        raise NoSuchProgram(f"no MP named {call!r} in this build")
+    return named[0].placement.slot
+
+
+def run_build(build: BuildResult, call: str | None = None, first_file: str | None = None,
+              max_time: float = 3600.0) -> RunReport:
+    controller = VirtualController(word_order=build.word_order)
+    for image in build.programs:
+        error = controller.load_frames(image.program.kind, image.placement.slot, image.frames)
+        if error is not None:
+            reason = controller.profile.download_errors.get(error.code, "unknown")
+            raise RunSetupError(f"the virtual controller refused {image.program.label}: "
+                                f"download error {error.code:#04x} ({reason}) at line "
+                                f"{error.line}")
+    slot = pick_program(build, call, first_file)
+    controller.call(slot)
+    return RunReport(controller, controller.run(max_time=max_time), f"MP{slot}")

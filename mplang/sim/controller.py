@@ -1,0 +1,418 @@
+"""The virtual M8194H: macro memory, download protocol, variables, FRnet and the interpreter.
+
+The interpreter executes what the device stores, the decoded frames of each table, not the
+compiler's AST, so encoder and interpreter check each other. Time is simulated: every line
+costs the profile's line time, waits (TIMER, STOP_WAIT, FRNET_WAIT) jump the clock straight
+to the moment they end, and motion is computed analytically by `mplang.sim.motion`.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from mplang import catalogue as catalogue_module
+from mplang.catalogue import Catalogue
+from mplang.encode import Encoder
+from mplang.ir import BVarRef, Operand, VarRef
+from mplang.lower import apply_operator, wrap32
+from mplang.sim.motion import MotionModel
+from mplang.sim.tables import DownloadError, MacroTable, StoredLine, decode_frame, validate
+
+AXIS_NAMES = ("X", "Y", "Z", "U")
+MAX_STEPS_DEFAULT = 50_000_000
+
+
+class ExecutionError(Exception):
+    def __init__(self, code: int, message: str) -> None:
+        super().__init__(message)
+        self.code = code
+
+
+@dataclass
+class Frame:
+    """One level of the MP call stack."""
+
+    table: MacroTable
+    pc: int = 0
+    loops: list[tuple[int, VarRef | None, list[int]]] = field(default_factory=list)
+    # (FOR pc, the counted variable or None, internal counter for a constant count)
+
+
+@dataclass
+class RunResult:
+    finished: bool
+    time_s: float
+    steps: int
+    error: str | None = None
+
+
+class VirtualController:
+    """One M8194H. Programs get in through the download protocol (`write_subfunction`) or
+    `load_frames`; `call` starts an MP and `run` executes until it finishes."""
+
+    def __init__(self, catalogue: Catalogue | None = None, word_order: int = 0) -> None:
+        self.catalogue = catalogue or catalogue_module.load()
+        self.profile = self.catalogue.profile
+        self.encoder = Encoder(self.catalogue, word_order)
+        self.close_counts = self.profile.close_counts_as_line
+        self.line_time = int(self.profile.raw["execution"]["line_time_us"]) / 1e6
+        self.vars = [0] * self.profile.var("count")
+        self.bvars = [0] * self.profile.var("byte_count")
+        self.frnet = [0] * 16  # groups 0-7 DO, 8-15 DI (16 bits each)
+        self.tables: dict[tuple[str, int], MacroTable] = {}
+        self.motion = MotionModel()
+        self.clock = 0.0
+        self.state = "ready"  # "ready" | "mp" | "isr" (input register 100: 0/1/2)
+        self.pending: MacroTable | None = None
+        self.pending_line = 0
+        self.download_status = (0, 0, 0, 0, 0)  # registers 110-114
+        self.execution_error = (0, 0, 0, 0, 0)  # registers 115-119
+        self.illegal_cause = 0  # register 102
+        self.stack: list[Frame] = []
+        self.return_value = 0
+        self.handlers = self._handlers()
+
+    # ------------------------------------------------------------------ download
+    def write_subfunction(self, frame: list[int]) -> int:
+        """One FC16 write at register 8000. Returns 0, or the register-102 cause of the
+        ILLEGAL FUNCTION exception the device answers with."""
+        cause = self._write(frame)
+        self.illegal_cause = cause
+        return cause
+
+    def _write(self, frame: list[int]) -> int:
+        decoded = decode_frame(self.encoder, frame)
+        if decoded is None:
+            return 0x03 if frame and frame[0] not in self.catalogue.by_code else 0x02
+        command, operands = decoded
+        name = command.short_name
+        if self.state == "ready":
+            if name in ("MP_CREATE", "MP_ISR_CREATE"):
+                kind = "mp" if name == "MP_CREATE" else "isr"
+                slot = int(operands[0])  # type: ignore[arg-type]
+                if self.profile.budget(kind, slot) is None:
+                    return 0x02
+                self.pending = MacroTable(kind, slot)
+                self.pending_line = 0
+                self.state = kind
+                return 0
+            if command.is_macro:
+                return 0x08
+            return 0  # other real-time commands are accepted (and have no modelled effect)
+        assert self.pending is not None
+        kind = self.state
+        if not command.is_macro:
+            return 0x07
+        close = "MP_CLOSE" if kind == "mp" else "MP_ISR_CLOSE"
+        if name == close:
+            self._close()
+            return 0
+        if kind not in command.scope:
+            return 0x05 if kind == "isr" else 0x06
+        budget = self.profile.budget(kind, self.pending.slot) or 0
+        if self.pending_line + command.line_cost > budget:
+            return 0x04
+        self.pending.lines.append(StoredLine(command, operands, tuple(frame), self.pending_line))
+        self.pending_line += command.line_cost
+        return 0
+
+    def _close(self) -> None:
+        table = self.pending
+        assert table is not None
+        budget = self.profile.budget(table.kind, table.slot) or 0
+        error = validate(table, budget, self.catalogue, self.close_counts)
+        mp_no, isr_no = (table.slot, 0) if table.kind == "mp" else (0, table.slot)
+        if error is None:
+            self.tables[(table.kind, table.slot)] = table
+            self.download_status = (mp_no, isr_no, 0, 0, 0)
+        else:
+            self.tables.pop((table.kind, table.slot), None)
+            self.download_status = (mp_no, isr_no, error.command, error.line, error.code)
+        self.pending = None
+        self.state = "ready"
+
+    def load_frames(self, kind: str, slot: int, frames: list[list[int]]) -> DownloadError | None:
+        """Download one program (create ... close) and return its download error, if any."""
+        for frame in frames:
+            cause = self.write_subfunction(frame)
+            if cause:
+                self.state, self.pending = "ready", None
+                reason = self.profile.illegal_function_causes.get(cause, "unknown cause")
+                raise ValueError(f"{kind.upper()}{slot}: frame {frame} refused, cause "
+                                 f"{cause:#04x} ({reason})")
+        _mp, _isr, command, line, code = self.download_status
+        return DownloadError(code, line, command) if code else None
+
+    # -------------------------------------------------------------------- running
+    def call(self, slot: int) -> None:
+        table = self.tables.get(("mp", slot))
+        if table is None:
+            raise ValueError(f"MP{slot} is empty")
+        self.stack = [Frame(table)]
+
+    def run(self, max_time: float = 3600.0, max_steps: int = MAX_STEPS_DEFAULT) -> RunResult:
+        """Execute the called program until it (and its callees) finish."""
+        steps = 0
+        limit = self.clock + max_time
+        while self.stack:
+            if steps >= max_steps or self.clock > limit:
+                return RunResult(False, self.clock, steps,
+                                 f"stopped after {steps} lines and {self.clock:.3f} s of "
+                                 "simulated time without finishing")
+            frame = self.stack[-1]
+            if frame.pc >= len(frame.table.lines):
+                self.stack.pop()  # the closing line: return to the caller
+                self.clock += self.line_time
+                continue
+            line = frame.table.lines[frame.pc]
+            steps += 1
+            self.clock += self.line_time
+            try:
+                wait = self.execute(frame, line)
+            except ExecutionError as err:
+                self._record_error(frame, line, err.code)
+                self.stack = []
+                return RunResult(False, self.clock, steps, str(err))
+            if wait is not None:
+                if wait == float("inf") or wait > limit:
+                    self.clock = limit
+                    return RunResult(False, self.clock, steps,
+                                     f"{line.command.short_name} at line {line.slot_line} of "
+                                     f"{frame.table.kind.upper()}{frame.table.slot} waits for "
+                                     "ever")
+                self.clock = max(self.clock, wait)
+                self.motion.settle(self.clock)
+        # let motion started by the program finish, as the machine would
+        end = self.motion.idle_at(15, self.clock)
+        if end is not None:
+            self.clock = max(self.clock, end)
+            self.motion.settle(self.clock)
+        return RunResult(True, self.clock, steps)
+
+    def _record_error(self, frame: Frame, line: StoredLine, code: int) -> None:
+        table = frame.table
+        mp_no, isr_no = (table.slot, 0) if table.kind == "mp" else (0, table.slot)
+        self.execution_error = (mp_no, isr_no, line.command.code or 0, line.slot_line, code)
+
+    def value(self, operand: Operand) -> int:
+        if isinstance(operand, VarRef):
+            return self.vars[operand.index]
+        if isinstance(operand, BVarRef):
+            return self.bvars[operand.index]
+        return int(operand)  # type: ignore[arg-type]
+
+    def execute(self, frame: Frame, line: StoredLine) -> float | None:
+        """Run one line; return the simulated time to wait until, or None to go on."""
+        frame.pc += 1
+        handler = self.handlers.get(line.command.short_name)
+        if handler is None:
+            return None  # a setting the model does not simulate: accepted, no effect
+        return handler(frame, line.operands)
+
+    # --------------------------------------------------------------- line handlers
+    def _handlers(self) -> dict[str, Callable[[Frame, tuple[Operand, ...]], float | None]]:
+        m = self.motion
+
+        def setter(method: Callable[[int, int], None]) -> Callable[..., None]:
+            def run(_f: Frame, ops: tuple[Operand, ...]) -> None:
+                method(self.value(ops[0]), self.value(ops[1]))
+            return run
+
+        def vsetter(method: Callable[[int], None]) -> Callable[..., None]:
+            def run(_f: Frame, ops: tuple[Operand, ...]) -> None:
+                method(self.value(ops[0]))
+            return run
+
+        def returns(getter: Callable[[tuple[Operand, ...]], int]) -> Callable[..., None]:
+            def run(_f: Frame, ops: tuple[Operand, ...]) -> None:
+                self.return_value = wrap32(int(getter(ops)))
+            return run
+
+        def now_call(method: Callable[..., None]) -> Callable[..., None]:
+            def run(_f: Frame, ops: tuple[Operand, ...]) -> None:
+                method(*[self.value(o) for o in ops], self.clock)
+            return run
+
+        return {
+            "SET_VAR": self._set_var, "SET_RVAR": self._set_rvar,
+            "VAR_CALCULATE": self._calculate, "FOR": self._for, "NEXT": self._next,
+            "EXIT_FOR": self._exit_for, "IF": self._if, "ELSE": self._else,
+            "END_IF": lambda f, o: None, "LABEL": lambda f, o: None, "GOTO": self._goto,
+            "MP_CALL": self._mp_call, "EXIT_MACRO": self._exit_macro,
+            "MP_TERMINATE": self._terminate, "TIMER": self._timer,
+            "STOP_WAIT": self._stop_wait,
+            "SET_MAX_V": setter(m.set_max_v), "NORMAL_SPEED": setter(m.set_speed_mode),
+            "SET_SV": setter(m.set_sv), "SET_V": setter(m.set_v), "SET_A": setter(m.set_a),
+            "SET_D": setter(m.set_d), "SET_K": setter(m.set_k), "SET_L": setter(m.set_l),
+            "SET_AO": setter(m.set_ao),
+            "SET_LP": now_call(m.set_lp), "SET_EP": now_call(m.set_ep),
+            "FIXED_MOVE": now_call(m.fixed_move), "ABS_FIXED_MOVE": now_call(m.abs_move),
+            "CONTINUE_MOVE": now_call(m.continue_move),
+            "AXIS_ASSIGN": lambda f, o: m.axis_assign(*[self.value(x) for x in o]),
+            "VECTOR_SPEED": vsetter(m.set_vector_mode),
+            "SET_VSV": vsetter(m.set_vsv), "SET_VV": vsetter(m.set_vv),
+            "SET_VA": vsetter(m.set_va), "SET_VD": vsetter(m.set_vd),
+            "SET_VK": vsetter(m.set_vk), "SET_VL": vsetter(m.set_vl),
+            "SET_VAO": vsetter(m.set_vao),
+            "LINE_2D": self._line(False), "LINE_3D": self._line(False),
+            "ABS_LINE_2D": self._line(True), "ABS_LINE_3D": self._line(True),
+            "ARC_CW": self._arc(True, False), "ARC_CCW": self._arc(False, False),
+            "ABS_ARC_CW": self._arc(True, True), "ABS_ARC_CCW": self._arc(False, True),
+            "CIRCLE_CW": lambda f, o: m.circle((self.value(o[0]), self.value(o[1])), True,
+                                               self.clock),
+            "CIRCLE_CCW": lambda f, o: m.circle((self.value(o[0]), self.value(o[1])), False,
+                                                self.clock),
+            "DRV_HOLD": lambda f, o: m.hold(self.value(o[0])),
+            "DRV_START": lambda f, o: m.start(self.value(o[0]), self.clock),
+            "STOP_SLOWLY": lambda f, o: m.stop(self.value(o[0]), self.clock, sudden=False),
+            "STOP_SUDDENLY": lambda f, o: m.stop(self.value(o[0]), self.clock, sudden=True),
+            "VSTOP_SLOWLY": lambda f, o: m.vector_stop(self.clock, sudden=False),
+            "VSTOP_SUDDENLY": lambda f, o: m.vector_stop(self.clock, sudden=True),
+            "GET_LP": returns(lambda o: m.lp(self.value(o[0]), self.clock)),
+            "GET_EP": returns(lambda o: m.ep(self.value(o[0]), self.clock)),
+            "ABS_GET_POSITION": returns(lambda o: m.lp(self.value(o[0]), self.clock)),
+            "FRNET_IN": returns(lambda o: self.frnet[self.value(o[0])]),
+            "FRNET_READ": returns(lambda o: (self.frnet[self.value(o[0])]
+                                             >> self.value(o[1])) & 1),
+            "FRNET_OUT": self._frnet_out, "FRNET_WRITE": self._frnet_write,
+            "FRNET_WAIT": self._frnet_wait,
+            "GET_ERROR": returns(lambda o: 0), "GET_ERROR_CODE": returns(lambda o: 0),
+        }
+
+    def _set_var(self, _f: Frame, ops: tuple[Operand, ...]) -> None:
+        assert isinstance(ops[0], VarRef)
+        self.vars[ops[0].index] = wrap32(self.value(ops[1]))
+
+    def _set_rvar(self, _f: Frame, ops: tuple[Operand, ...]) -> None:
+        assert isinstance(ops[0], VarRef)
+        self.vars[ops[0].index] = self.return_value
+
+    def _calculate(self, _f: Frame, ops: tuple[Operand, ...]) -> None:
+        assert isinstance(ops[3], VarRef)
+        symbol = {v: k for k, v in self.profile.calc_ops.items()}[self.value(ops[1])]
+        try:
+            result = apply_operator(symbol, self.value(ops[0]), self.value(ops[2]))
+        except ZeroDivisionError:
+            raise ExecutionError(0x03, "division by zero in VAR_CALCULATE") from None
+        self.vars[ops[3].index] = result
+
+    def _for(self, frame: Frame, ops: tuple[Operand, ...]) -> None:
+        start = frame.pc - 1
+        count = self.value(ops[0])
+        if count <= 0:  # nothing to count down: skip the body
+            frame.pc = frame.table.for_end[start] + 1
+            return
+        ref = ops[0] if isinstance(ops[0], VarRef) else None
+        frame.loops.append((start, ref, [count]))
+
+    def _next(self, frame: Frame, _ops: tuple[Operand, ...]) -> None:
+        start, ref, counter = frame.loops[-1]
+        if ref is not None:
+            self.vars[ref.index] -= 1
+            remaining = self.vars[ref.index]
+        else:
+            counter[0] -= 1
+            remaining = counter[0]
+        if remaining > 0:
+            frame.pc = start + 1
+        else:
+            frame.loops.pop()
+
+    def _exit_for(self, frame: Frame, _ops: tuple[Operand, ...]) -> None:
+        end = frame.table.exit_for_end[frame.pc - 1]
+        frame.loops.pop()
+        frame.pc = end + 1
+
+    def _if(self, frame: Frame, ops: tuple[Operand, ...]) -> None:
+        left, right = self.value(ops[0]), self.value(ops[2])
+        code = self.value(ops[1])
+        if code > 0xFF and code not in self.profile.cmp_ops.values():
+            code = ((code & 0xFF) << 8) | (code >> 8)  # the example's byte order
+        symbol = {v: k for k, v in self.profile.cmp_ops.items()}[code]
+        holds = {"<": left < right, ">": left > right, "<=": left <= right,
+                 ">=": left >= right, "==": left == right, "!=": left != right}[symbol]
+        if not holds:
+            frame.pc = frame.table.if_false[frame.pc - 1] + 1
+
+    def _else(self, frame: Frame, _ops: tuple[Operand, ...]) -> None:
+        frame.pc = frame.table.else_end[frame.pc - 1] + 1
+
+    def _goto(self, frame: Frame, ops: tuple[Operand, ...]) -> None:
+        frame.loops.clear()  # labels stand outside every block: the jump leaves all loops
+        frame.pc = frame.table.labels[self.value(ops[0])] + 1
+
+    def _mp_call(self, _f: Frame, ops: tuple[Operand, ...]) -> None:
+        slot = self.value(ops[0])
+        table = self.tables.get(("mp", slot))
+        if table is None:
+            raise ExecutionError(0x02, f"MP_CALL MP{slot}: the slot is empty")
+        if len(self.stack) >= self.profile.limit("call_depth"):
+            raise ExecutionError(0x01, f"MP_CALL MP{slot}: more than "
+                                 f"{self.profile.limit('call_depth')} nested programs")
+        self.stack.append(Frame(table))
+
+    def _exit_macro(self, _f: Frame, _ops: tuple[Operand, ...]) -> None:
+        self.stack.pop()
+
+    def _terminate(self, _f: Frame, _ops: tuple[Operand, ...]) -> None:
+        self.stack.clear()
+
+    def _timer(self, _f: Frame, ops: tuple[Operand, ...]) -> float:
+        return self.clock + self.value(ops[0]) / 1000
+
+    def _stop_wait(self, _f: Frame, ops: tuple[Operand, ...]) -> float:
+        end = self.motion.idle_at(self.value(ops[0]), self.clock)
+        return float("inf") if end is None else end
+
+    def _line(self, absolute: bool) -> Callable[[Frame, tuple[Operand, ...]], None]:
+        def run(_f: Frame, ops: tuple[Operand, ...]) -> None:
+            self.motion.line(tuple(self.value(o) for o in ops), self.clock, absolute=absolute)
+        return run
+
+    def _arc(self, clockwise: bool, absolute: bool) -> Callable[[Frame, tuple[Operand, ...]], None]:
+        def run(_f: Frame, ops: tuple[Operand, ...]) -> None:
+            v = [self.value(o) for o in ops]
+            self.motion.arc((v[0], v[1]), (v[2], v[3]), clockwise, self.clock, absolute=absolute)
+        return run
+
+    def _frnet_out(self, _f: Frame, ops: tuple[Operand, ...]) -> None:
+        self.frnet[self.value(ops[0]) & 0x7] = self.value(ops[1]) & 0xFFFF
+
+    def _frnet_write(self, _f: Frame, ops: tuple[Operand, ...]) -> None:
+        group, channel, on = (self.value(o) for o in ops)
+        bit = 1 << channel
+        self.frnet[group] = (self.frnet[group] | bit) if on else (self.frnet[group] & ~bit)
+
+    def _frnet_wait(self, _f: Frame, ops: tuple[Operand, ...]) -> float | None:
+        group, channel, state, timeout = (self.value(o) for o in ops)
+        if ((self.frnet[group] >> channel) & 1) == state:
+            return None
+        # Nothing else changes FRnet inputs inside a run: the wait ends at its timeout.
+        return self.clock + timeout / 1000 if timeout > 0 else float("inf")
+
+    # --------------------------------------------------------------- inspection
+    def snapshot(self) -> dict[str, object]:
+        """The `mpc run --json` view: non-zero variables and every axis position."""
+        self.motion.settle(self.clock)
+        axes = {name: {"lp": self.motion.lp(1 << i, self.clock),
+                       "ep": self.motion.ep(1 << i, self.clock)}
+                for i, name in enumerate(AXIS_NAMES)}
+        return {"vars": {f"VAR{i}": v for i, v in enumerate(self.vars) if v},
+                "axes": axes, "time_ms": round(self.clock * 1000, 3)}
+
+    def save(self, path: Path) -> None:
+        """Persist macro memory (the device's non-volatile FRAM)."""
+        data = {f"{k}{s}": [list(line.frame) for line in t.lines]
+                for (k, s), t in self.tables.items()}
+        path.write_text(json.dumps(data))
+
+    def restore(self, path: Path) -> None:
+        data = json.loads(path.read_text())
+        for name, frames in data.items():
+            kind = "mp" if name.startswith("mp") else "isr"
+            slot = int(name[len(kind):])
+            create = self.encoder.create_frame(kind, slot)
+            self.load_frames(kind, slot, [create, *frames, self.encoder.close_frame(kind)])
