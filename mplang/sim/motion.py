@@ -80,6 +80,7 @@ from __future__ import annotations
 
 import copy
 import math
+from abc import ABC, abstractmethod
 from bisect import bisect_right
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -253,14 +254,16 @@ def _point_to_point(dist: float, plan: _Plan) -> _Profile:
 # ------------------------------------------------------------------------------ paths
 
 
-class _Path:
+class _Path(ABC):
     """Maps path length to axis positions (floats, in the axes' own frames)."""
 
+    @abstractmethod
     def pos(self, k: int, s: float) -> float:
-        raise NotImplementedError
+        """Position of path axis k after path length s."""
 
+    @abstractmethod
     def deriv(self, k: int, s: float) -> float:
-        raise NotImplementedError
+        """d(position of axis k)/d(path length) at s."""
 
 
 class _LinePath(_Path):
