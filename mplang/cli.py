@@ -82,8 +82,10 @@ def expand_inputs(patterns: tuple[str, ...]) -> list[Path]:
         else:
             raise InputError(f"{pattern}: no such file")
     unique: list[Path] = []
+    seen: set[Path] = set()
     for p in paths:
-        if p.resolve() not in {u.resolve() for u in unique}:
+        if p.resolve() not in seen:
+            seen.add(p.resolve())
             unique.append(p)
     return unique
 

@@ -120,10 +120,11 @@ def generated() -> dict[Path, str]:
 
 
 def main() -> int:
-    for path, text in generated().items():
+    pages = generated()
+    for path, text in pages.items():
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(text, encoding="utf-8")
-    print(f"wrote {len(generated())} pages")
+    print(f"wrote {len(pages)} pages")
     return 0
 
 

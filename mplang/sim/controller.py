@@ -59,6 +59,9 @@ class VirtualController:
         self.encoder = Encoder(self.catalogue, word_order)
         self.close_counts = self.profile.close_counts_as_line
         self.line_time = int(self.profile.raw["execution"]["line_time_us"]) / 1e6
+        # operator code -> symbol, built once: VAR_CALCULATE and IF are the hot lines
+        self.calc_symbols = {v: k for k, v in self.profile.calc_ops.items()}
+        self.cmp_symbols = {v: k for k, v in self.profile.cmp_ops.items()}
         self.vars = [0] * self.profile.var("count")
         self.bvars = [0] * self.profile.var("byte_count")
         self.frnet = [0] * 16  # groups 0-7 DO, 8-15 DI (16 bits each)
@@ -292,7 +295,7 @@ class VirtualController:
 
     def _calculate(self, _f: Frame, ops: tuple[Operand, ...]) -> None:
         assert isinstance(ops[3], VarRef)
-        symbol = {v: k for k, v in self.profile.calc_ops.items()}[self.value(ops[1])]
+        symbol = self.calc_symbols[self.value(ops[1])]
         try:
             result = apply_operator(symbol, self.value(ops[0]), self.value(ops[2]))
         except ZeroDivisionError:
@@ -329,9 +332,9 @@ class VirtualController:
     def _if(self, frame: Frame, ops: tuple[Operand, ...]) -> None:
         left, right = self.value(ops[0]), self.value(ops[2])
         code = self.value(ops[1])
-        if code > 0xFF and code not in self.profile.cmp_ops.values():
+        if code not in self.cmp_symbols:
             code = ((code & 0xFF) << 8) | (code >> 8)  # the example's byte order
-        symbol = {v: k for k, v in self.profile.cmp_ops.items()}[code]
+        symbol = self.cmp_symbols[code]
         holds = {"<": left < right, ">": left > right, "<=": left <= right,
                  ">=": left >= right, "==": left == right, "!=": left != right}[symbol]
         if not holds:
