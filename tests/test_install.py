@@ -32,6 +32,12 @@ def test_wheel_contains_grammar_and_stdlib(wheel: Path) -> None:
     assert "mplang/stdlib/m8194h/device.toml" in names
 
 
+def test_wheel_carries_every_module(wheel: Path) -> None:
+    names = set(zipfile.ZipFile(wheel).namelist())
+    modules = {p.relative_to(ROOT).as_posix() for p in (ROOT / "mplang").rglob("*.py")}
+    assert modules - names == set()
+
+
 def test_installed_package_compiles(wheel: Path, tmp_path: Path) -> None:
     script = (
         "import mplang, sys\n"

@@ -18,11 +18,17 @@ from mplang.catalogue import Catalogue
 from mplang.encode import Encoder
 from mplang.ir import BVarRef, Operand, VarRef
 from mplang.lower import apply_operator, wrap32
+from mplang.sim import axis_commands, interpolation_commands
 from mplang.sim.motion import MotionModel
 from mplang.sim.tables import DownloadError, MacroTable, StoredLine, decode_frame, validate
 
 AXIS_NAMES = ("X", "Y", "Z", "U")
 MAX_STEPS_DEFAULT = 50_000_000
+
+
+Handler = Callable[["Frame", tuple[Operand, ...]], "float | None"]
+"""Runs one stored line: gets the frame and the decoded operands, returns the simulated
+time to wait until (or None to go straight on)."""
 
 
 class ExecutionError(Exception):
@@ -216,7 +222,7 @@ class VirtualController:
         return handler(frame, line.operands)
 
     # --------------------------------------------------------------- line handlers
-    def _handlers(self) -> dict[str, Callable[[Frame, tuple[Operand, ...]], float | None]]:
+    def _handlers(self) -> dict[str, Handler]:
         m = self.motion
 
         def setter(method: Callable[[int, int], None]) -> Callable[..., None]:
@@ -260,20 +266,6 @@ class VirtualController:
             "SET_VA": vsetter(m.set_va), "SET_VD": vsetter(m.set_vd),
             "SET_VK": vsetter(m.set_vk), "SET_VL": vsetter(m.set_vl),
             "SET_VAO": vsetter(m.set_vao),
-            "LINE_2D": self._line(False), "LINE_3D": self._line(False),
-            "ABS_LINE_2D": self._line(True), "ABS_LINE_3D": self._line(True),
-            "ARC_CW": self._arc(True, False), "ARC_CCW": self._arc(False, False),
-            "ABS_ARC_CW": self._arc(True, True), "ABS_ARC_CCW": self._arc(False, True),
-            "CIRCLE_CW": lambda f, o: m.circle((self.value(o[0]), self.value(o[1])), True,
-                                               self.clock),
-            "CIRCLE_CCW": lambda f, o: m.circle((self.value(o[0]), self.value(o[1])), False,
-                                                self.clock),
-            "DRV_HOLD": lambda f, o: m.hold(self.value(o[0])),
-            "DRV_START": lambda f, o: m.start(self.value(o[0]), self.clock),
-            "STOP_SLOWLY": lambda f, o: m.stop(self.value(o[0]), self.clock, sudden=False),
-            "STOP_SUDDENLY": lambda f, o: m.stop(self.value(o[0]), self.clock, sudden=True),
-            "VSTOP_SLOWLY": lambda f, o: m.vector_stop(self.clock, sudden=False),
-            "VSTOP_SUDDENLY": lambda f, o: m.vector_stop(self.clock, sudden=True),
             "GET_LP": returns(lambda o: m.lp(self.value(o[0]), self.clock)),
             "GET_EP": returns(lambda o: m.ep(self.value(o[0]), self.clock)),
             "ABS_GET_POSITION": returns(lambda o: m.lp(self.value(o[0]), self.clock)),
@@ -282,7 +274,8 @@ class VirtualController:
                                              >> self.value(o[1])) & 1),
             "FRNET_OUT": self._frnet_out, "FRNET_WRITE": self._frnet_write,
             "FRNET_WAIT": self._frnet_wait,
-            "GET_ERROR": returns(lambda o: 0), "GET_ERROR_CODE": returns(lambda o: 0),
+            **interpolation_commands.handlers(self),
+            **axis_commands.handlers(self),
         }
 
     def _set_var(self, _f: Frame, ops: tuple[Operand, ...]) -> None:
@@ -369,17 +362,6 @@ class VirtualController:
     def _stop_wait(self, _f: Frame, ops: tuple[Operand, ...]) -> float:
         end = self.motion.idle_at(self.value(ops[0]), self.clock)
         return float("inf") if end is None else end
-
-    def _line(self, absolute: bool) -> Callable[[Frame, tuple[Operand, ...]], None]:
-        def run(_f: Frame, ops: tuple[Operand, ...]) -> None:
-            self.motion.line(tuple(self.value(o) for o in ops), self.clock, absolute=absolute)
-        return run
-
-    def _arc(self, clockwise: bool, absolute: bool) -> Callable[[Frame, tuple[Operand, ...]], None]:
-        def run(_f: Frame, ops: tuple[Operand, ...]) -> None:
-            v = [self.value(o) for o in ops]
-            self.motion.arc((v[0], v[1]), (v[2], v[3]), clockwise, self.clock, absolute=absolute)
-        return run
 
     def _frnet_out(self, _f: Frame, ops: tuple[Operand, ...]) -> None:
         self.frnet[self.value(ops[0]) & 0x7] = self.value(ops[1]) & 0xFFFF
