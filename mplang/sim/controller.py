@@ -9,12 +9,14 @@ to the moment they end, and motion is computed analytically by `mplang.sim.motio
 from __future__ import annotations
 
 import json
+import math
+from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from mplang import catalogue as catalogue_module
-from mplang.catalogue import Catalogue
+from mplang.catalogue import Catalogue, Command
 from mplang.encode import Encoder
 from mplang.ir import BVarRef, Operand, VarRef
 from mplang.lower import apply_operator, wrap32
@@ -26,9 +28,12 @@ AXIS_NAMES = ("X", "Y", "Z", "U")
 MAX_STEPS_DEFAULT = 50_000_000
 
 
-Handler = Callable[["Frame", tuple[Operand, ...]], "float | None"]
-"""Runs one stored line: gets the frame and the decoded operands, returns the simulated
-time to wait until (or None to go straight on)."""
+Wait = Callable[[], float]
+"""A pending wait: returns the simulated time it ends (inf: not foreseeable now)."""
+Handler = Callable[["Frame", tuple[Operand, ...]], "Wait | None"]
+"""Runs one stored line: gets the frame and the decoded operands, returns a wait (or None
+to go straight on)."""
+Program = list[tuple[Handler | None, tuple[Operand, ...]]]
 
 
 class ExecutionError(Exception):
@@ -45,6 +50,22 @@ class Frame:
     pc: int = 0
     loops: list[tuple[int, VarRef | None, list[int]]] = field(default_factory=list)
     # (FOR pc, the counted variable or None, internal counter for a constant count)
+    wait: Callable[[], float] | None = None
+    # a pending TIMER / STOP_WAIT / FRNET_WAIT: returns when it ends (inf: not foreseeable).
+    # It is asked again whenever time moves, so a stop or an input change ends it early.
+
+
+@dataclass
+class QueuedCommand:
+    """A real-time command in the DPRAM FIFO, executed at `due` on the simulated clock."""
+
+    command: Command
+    operands: tuple[Operand, ...]
+    due: float
+
+
+class DeviceBusy(Exception):
+    """The real-time command FIFO is full: the device answers exception 0x06."""
 
 
 @dataclass
@@ -57,14 +78,20 @@ class RunResult:
 
 class VirtualController:
     """One M8194H. Programs get in through the download protocol (`write_subfunction`) or
-    `load_frames`; `call` starts an MP and `run` executes until it finishes."""
+    `load_frames`; `call` starts an MP; `advance` runs everything (macro lines, real-time
+    commands from the FIFO, waits, motion) up to a point of simulated time, `run` until the
+    called program finishes."""
 
     def __init__(self, catalogue: Catalogue | None = None, word_order: int = 0) -> None:
         self.catalogue = catalogue or catalogue_module.load()
         self.profile = self.catalogue.profile
-        self.encoder = Encoder(self.catalogue, word_order)
+        self.encoders = (Encoder(self.catalogue, 0), Encoder(self.catalogue, 1))
+        self.encoder = self.encoders[word_order]
         self.close_counts = self.profile.close_counts_as_line
-        self.line_time = int(self.profile.raw["execution"]["line_time_us"]) / 1e6
+        execution = self.profile.raw["execution"]
+        self.line_time = int(execution["line_time_us"]) / 1e6
+        self.rtc_time = int(execution["rtc_command_time_us"]) / 1e6
+        self.fifo_capacity = self.profile.limit("command_fifo")
         # operator code -> symbol, built once: VAR_CALCULATE and IF are the hot lines
         self.calc_symbols = {v: k for k, v in self.profile.calc_ops.items()}
         self.cmp_symbols = {v: k for k, v in self.profile.cmp_ops.items()}
@@ -75,19 +102,37 @@ class VirtualController:
         self.motion = MotionModel()
         self.clock = 0.0
         self.state = "ready"  # "ready" | "mp" | "isr" (input register 100: 0/1/2)
+        self.chip_state = 3  # input register 101 (appendix table 12)
         self.pending: MacroTable | None = None
         self.pending_line = 0
         self.download_status = (0, 0, 0, 0, 0)  # registers 110-114
         self.execution_error = (0, 0, 0, 0, 0)  # registers 115-119
         self.illegal_cause = 0  # register 102
         self.stack: list[Frame] = []
+        self.fifo: deque[QueuedCommand] = deque()
         self.return_value = 0
+        self.error: str | None = None  # why the last program stopped, if it failed
+        self.log: deque[str] = deque(maxlen=200)  # what the device did, for `mpc sim -v`
         self.handlers = self._handlers()
+        self.programs: dict[tuple[str, int], tuple[MacroTable, Program]] = {}
+
+    @property
+    def word_order(self) -> int:
+        return self.encoder.word_order
+
+    @word_order.setter
+    def word_order(self, value: int) -> None:
+        self.encoder = self.encoders[1 if value else 0]
+
+    @property
+    def running(self) -> bool:
+        return bool(self.stack)
 
     # ------------------------------------------------------------------ download
     def write_subfunction(self, frame: list[int]) -> int:
         """One FC16 write at register 8000. Returns 0, or the register-102 cause of the
-        ILLEGAL FUNCTION exception the device answers with."""
+        ILLEGAL FUNCTION exception the device answers with; raises `DeviceBusy` when a
+        real-time command finds the FIFO full."""
         cause = self._write(frame)
         self.illegal_cause = cause
         return cause
@@ -100,6 +145,8 @@ class VirtualController:
         name = command.short_name
         if self.state == "ready":
             if name in ("MP_CREATE", "MP_ISR_CREATE"):
+                if self.stack:
+                    return 0xC3  # no download while a macro runs (device.toml choice)
                 kind = "mp" if name == "MP_CREATE" else "isr"
                 slot = int(operands[0])  # type: ignore[arg-type]
                 if self.profile.budget(kind, slot) is None:
@@ -107,10 +154,15 @@ class VirtualController:
                 self.pending = MacroTable(kind, slot)
                 self.pending_line = 0
                 self.state = kind
+                self.chip_state = 6
                 return 0
             if command.is_macro:
                 return 0x08
-            return 0  # other real-time commands are accepted (and have no modelled effect)
+            if len(self.fifo) >= self.fifo_capacity:
+                raise DeviceBusy(f"{command.name}: the command FIFO is full")
+            start = max(self.clock, self.fifo[-1].due if self.fifo else self.clock)
+            self.fifo.append(QueuedCommand(command, operands, start + self.rtc_time))
+            return 0
         assert self.pending is not None
         kind = self.state
         if not command.is_macro:
@@ -142,6 +194,7 @@ class VirtualController:
             self.download_status = (mp_no, isr_no, error.command, error.line, error.code)
         self.pending = None
         self.state = "ready"
+        self.chip_state = 7
 
     def load_frames(self, kind: str, slot: int, frames: list[list[int]]) -> DownloadError | None:
         """Download one program (create ... close) and return its download error, if any."""
@@ -156,44 +209,117 @@ class VirtualController:
         return DownloadError(code, line, command) if code else None
 
     # -------------------------------------------------------------------- running
-    def call(self, slot: int) -> None:
-        table = self.tables.get(("mp", slot))
+    def call(self, slot: int, kind: str = "mp") -> None:
+        """Start MPn (or ISRn) now; the caller then advances time to run it."""
+        table = self.tables.get((kind, slot))
         if table is None:
-            raise ValueError(f"MP{slot} is empty")
+            raise ValueError(f"{kind.upper()}{slot} is empty")
+        if self.stack:
+            raise ValueError(f"cannot call {kind.upper()}{slot}: "
+                             f"{self.stack[0].table.kind.upper()}{self.stack[0].table.slot} "
+                             "is running")
+        self.error = None
         self.stack = [Frame(table)]
+        self.chip_state = 8 if kind == "mp" else 10
+        self.log.append(f"{self.clock:.4f} s: {kind.upper()}{slot} called")
+
+    def _compiled(self, table: MacroTable) -> Program:
+        """The table's lines as (handler, operands) pairs, built once per table."""
+        key = (table.kind, table.slot)
+        built = self.programs.get(key)
+        if built is not None and built[0] is table:
+            return built[1]
+        program = [(self.handlers.get(line.command.short_name), line.operands)
+                   for line in table.lines]
+        self.programs[key] = (table, program)
+        return program
+
+    def advance(self, until: float, max_steps: int = MAX_STEPS_DEFAULT,
+                until_idle: bool = False) -> int:
+        """Run the device up to simulated time `until` (or `max_steps` macro lines): macro
+        lines at the profile's line time, queued real-time commands when they fall due,
+        waits that end early when the state they wait for arrives. With `until_idle` it
+        returns as soon as no program runs and no command is queued. Returns lines run."""
+        steps = 0
+        stack = self.stack
+        fifo = self.fifo
+        line_time = self.line_time
+        while True:
+            if fifo and fifo[0].due <= self.clock:
+                self._run_rtc(fifo.popleft())
+                continue
+            horizon = until if not fifo or fifo[0].due > until else fifo[0].due
+            if not stack:
+                if self.chip_state in (8, 10):
+                    self.chip_state += 1  # MP / ISR execution finished
+                if until_idle and not fifo:
+                    return steps
+                if self.clock < horizon:
+                    self.clock = horizon
+                if horizon >= until:
+                    return steps
+                continue
+            frame = stack[-1]
+            if frame.wait is not None:
+                end = frame.wait()
+                if end > horizon:
+                    if self.clock < horizon:
+                        self.clock = horizon
+                    if horizon >= until:
+                        return steps
+                    continue
+                if end > self.clock:
+                    self.clock = end
+                frame.wait = None
+                self.motion.settle(self.clock)
+                continue
+            if self.clock >= until or steps >= max_steps:
+                return steps
+            program = self._compiled(frame.table)
+            end_pc = len(program)
+            while self.clock < horizon and steps < max_steps:
+                pc = frame.pc
+                if pc >= end_pc:
+                    stack.pop()  # the closing line: return to the caller
+                    self.clock += line_time
+                    break
+                handler, operands = program[pc]
+                steps += 1
+                self.clock += line_time
+                frame.pc = pc + 1
+                if handler is None:
+                    continue  # a setting the model does not simulate: accepted, no effect
+                try:
+                    wait = handler(frame, operands)
+                except ExecutionError as err:
+                    line = frame.table.lines[pc]
+                    self._record_error(frame, line, err.code)
+                    self.error = str(err)
+                    stack.clear()
+                    break
+                if wait is not None:
+                    frame.wait = wait
+                    break
+                if not stack or stack[-1] is not frame:
+                    break  # MP_CALL, EXIT_MACRO or MP_TERMINATE changed the program
 
     def run(self, max_time: float = 3600.0, max_steps: int = MAX_STEPS_DEFAULT) -> RunResult:
         """Execute the called program until it (and its callees) finish."""
-        steps = 0
         limit = self.clock + max_time
-        while self.stack:
-            if steps >= max_steps or self.clock > limit:
-                return RunResult(False, self.clock, steps,
-                                 f"stopped after {steps} lines and {self.clock:.3f} s of "
-                                 "simulated time without finishing")
+        steps = self.advance(limit, max_steps, until_idle=True)
+        if self.error is not None:
+            return RunResult(False, self.clock, steps, self.error)
+        if self.stack:
             frame = self.stack[-1]
-            if frame.pc >= len(frame.table.lines):
-                self.stack.pop()  # the closing line: return to the caller
-                self.clock += self.line_time
-                continue
-            line = frame.table.lines[frame.pc]
-            steps += 1
-            self.clock += self.line_time
-            try:
-                wait = self.execute(frame, line)
-            except ExecutionError as err:
-                self._record_error(frame, line, err.code)
-                self.stack = []
-                return RunResult(False, self.clock, steps, str(err))
-            if wait is not None:
-                if wait == float("inf") or wait > limit:
-                    self.clock = limit
-                    return RunResult(False, self.clock, steps,
-                                     f"{line.command.short_name} at line {line.slot_line} of "
-                                     f"{frame.table.kind.upper()}{frame.table.slot} waits for "
-                                     "ever")
-                self.clock = max(self.clock, wait)
-                self.motion.settle(self.clock)
+            if frame.wait is not None and frame.wait() == math.inf:
+                line = frame.table.lines[frame.pc - 1]
+                self.clock = limit
+                return RunResult(False, self.clock, steps,
+                                 f"{line.command.short_name} at line {line.slot_line} of "
+                                 f"{frame.table.kind.upper()}{frame.table.slot} waits for ever")
+            return RunResult(False, self.clock, steps,
+                             f"stopped after {steps} lines and {self.clock:.3f} s of "
+                             "simulated time without finishing")
         # let motion started by the program finish, as the machine would
         end = self.motion.idle_at(15, self.clock)
         if end is not None:
@@ -205,6 +331,44 @@ class VirtualController:
         table = frame.table
         mp_no, isr_no = (table.slot, 0) if table.kind == "mp" else (0, table.slot)
         self.execution_error = (mp_no, isr_no, line.command.code or 0, line.slot_line, code)
+        self.log.append(f"{self.clock:.4f} s: execution error {code:#04x} in "
+                        f"{table.kind.upper()}{table.slot} line {line.slot_line}")
+
+    # ------------------------------------------------------- real-time commands
+    def _run_rtc(self, queued: QueuedCommand) -> None:
+        """Execute one real-time command from the FIFO at its due time."""
+        self.clock = max(self.clock, queued.due)
+        name = queued.command.short_name
+        values = [self.value(o) for o in queued.operands]
+        try:
+            if name == "MP_CALL" or name == "MP_ISR_CALL":
+                self.call(values[0], "mp" if name == "MP_CALL" else "isr")
+            elif name == "WRITE_VAR":
+                self.vars[values[0]] = wrap32(values[1])
+            elif name == "WRITE_BVAR":
+                self.bvars[values[0]] = values[1] & 0xFF
+            elif name == "CLEAR_CARD_BUFFER":
+                self.fifo.clear()
+            elif name == "RESET_CARD":
+                self.reset()
+            else:
+                handler = self.handlers.get(name)
+                if handler is not None:
+                    handler(Frame(MacroTable("rtc", 0)), queued.operands)
+        except (ValueError, ExecutionError) as err:
+            self.log.append(f"{self.clock:.4f} s: {queued.command.name} ignored: {err}")
+            return
+        self.log.append(f"{self.clock:.4f} s: {queued.command.name} {values}")
+
+    def reset(self) -> None:
+        """RESET_CARD: stop every program and motion, clear the FIFO and the motion chip's
+        settings; macro memory and variables are kept (they live in FRAM and RAM)."""
+        self.stack.clear()
+        self.fifo.clear()
+        self.motion = MotionModel()
+        self.handlers = self._handlers()
+        self.programs.clear()
+        self.chip_state = 3
 
     def value(self, operand: Operand) -> int:
         if isinstance(operand, VarRef):
@@ -212,14 +376,6 @@ class VirtualController:
         if isinstance(operand, BVarRef):
             return self.bvars[operand.index]
         return int(operand)  # type: ignore[arg-type]
-
-    def execute(self, frame: Frame, line: StoredLine) -> float | None:
-        """Run one line; return the simulated time to wait until, or None to go on."""
-        frame.pc += 1
-        handler = self.handlers.get(line.command.short_name)
-        if handler is None:
-            return None  # a setting the model does not simulate: accepted, no effect
-        return handler(frame, line.operands)
 
     # --------------------------------------------------------------- line handlers
     def _handlers(self) -> dict[str, Handler]:
@@ -356,12 +512,17 @@ class VirtualController:
     def _terminate(self, _f: Frame, _ops: tuple[Operand, ...]) -> None:
         self.stack.clear()
 
-    def _timer(self, _f: Frame, ops: tuple[Operand, ...]) -> float:
-        return self.clock + self.value(ops[0]) / 1000
+    def _timer(self, _f: Frame, ops: tuple[Operand, ...]) -> Wait:
+        end = self.clock + self.value(ops[0]) / 1000
+        return lambda: end
 
-    def _stop_wait(self, _f: Frame, ops: tuple[Operand, ...]) -> float:
-        end = self.motion.idle_at(self.value(ops[0]), self.clock)
-        return float("inf") if end is None else end
+    def _stop_wait(self, _f: Frame, ops: tuple[Operand, ...]) -> Wait:
+        mask = self.value(ops[0])
+
+        def idle() -> float:
+            end = self.motion.idle_at(mask, self.clock)
+            return math.inf if end is None else end
+        return idle
 
     def _frnet_out(self, _f: Frame, ops: tuple[Operand, ...]) -> None:
         self.frnet[self.value(ops[0]) & 0x7] = self.value(ops[1]) & 0xFFFF
@@ -371,12 +532,18 @@ class VirtualController:
         bit = 1 << channel
         self.frnet[group] = (self.frnet[group] | bit) if on else (self.frnet[group] & ~bit)
 
-    def _frnet_wait(self, _f: Frame, ops: tuple[Operand, ...]) -> float | None:
+    def _frnet_wait(self, _f: Frame, ops: tuple[Operand, ...]) -> Wait | None:
         group, channel, state, timeout = (self.value(o) for o in ops)
         if ((self.frnet[group] >> channel) & 1) == state:
             return None
-        # Nothing else changes FRnet inputs inside a run: the wait ends at its timeout.
-        return self.clock + timeout / 1000 if timeout > 0 else float("inf")
+        deadline = self.clock + timeout / 1000 if timeout > 0 else math.inf
+
+        def level_or_timeout() -> float:
+            # inputs change only from outside (the simulator's API): seen when time moves
+            if ((self.frnet[group] >> channel) & 1) == state:
+                return self.clock
+            return deadline
+        return level_or_timeout
 
     # --------------------------------------------------------------- inspection
     def snapshot(self) -> dict[str, object]:
