@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -26,6 +27,7 @@ from mplang.sim.tables import DownloadError, MacroTable, StoredLine, decode_fram
 
 AXIS_NAMES = ("X", "Y", "Z", "U")
 MAX_STEPS_DEFAULT = 50_000_000
+MEMORY_FORMAT = "mpc-fram/1"
 
 
 Wait = Callable[[], float]
@@ -115,6 +117,7 @@ class VirtualController:
         self.log: deque[str] = deque(maxlen=200)  # what the device did, for `mpc sim -v`
         self.handlers = self._handlers()
         self.programs: dict[tuple[str, int], tuple[MacroTable, Program]] = {}
+        self.memory_version = 0  # counts stored programs: tells `mpc sim` when to save FRAM
 
     @property
     def word_order(self) -> int:
@@ -189,6 +192,7 @@ class VirtualController:
         if error is None:
             self.tables[(table.kind, table.slot)] = table
             self.download_status = (mp_no, isr_no, 0, 0, 0)
+            self.memory_version += 1
         else:
             self.tables.pop((table.kind, table.slot), None)
             self.download_status = (mp_no, isr_no, error.command, error.line, error.code)
@@ -556,15 +560,45 @@ class VirtualController:
                 "axes": axes, "time_ms": round(self.clock * 1000, 3)}
 
     def save(self, path: Path) -> None:
-        """Persist macro memory (the device's non-volatile FRAM)."""
-        data = {f"{k}{s}": [list(line.frame) for line in t.lines]
-                for (k, s), t in self.tables.items()}
-        path.write_text(json.dumps(data))
+        """Persist macro memory (the device's non-volatile FRAM): every stored table as the
+        frames that downloaded it, with the word order they were written in."""
+        programs = {f"{kind}{slot}": [list(line.frame) for line in table.lines]
+                    for (kind, slot), table in sorted(self.tables.items())}
+        data = {"format": MEMORY_FORMAT, "word_order": self.word_order, "programs": programs}
+        tmp = path.with_name(path.name + ".tmp")
+        tmp.write_text(json.dumps(data, indent=1))
+        tmp.replace(path)  # never leave a half-written memory file behind
 
     def restore(self, path: Path) -> None:
-        data = json.loads(path.read_text())
-        for name, frames in data.items():
-            kind = "mp" if name.startswith("mp") else "isr"
-            slot = int(name[len(kind):])
-            create = self.encoder.create_frame(kind, slot)
-            self.load_frames(kind, slot, [create, *frames, self.encoder.close_frame(kind)])
+        """Load macro memory saved by `save`, validating every table like a download.
+        Raises ValueError with the reason if the file is not such a memory image."""
+        try:
+            data = json.loads(path.read_text(encoding="utf-8"))
+        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+            raise ValueError(f"not JSON: {exc}") from None
+        if not isinstance(data, dict) or data.get("format") != MEMORY_FORMAT:
+            raise ValueError(f"no \"format\": \"{MEMORY_FORMAT}\" key")
+        programs = data.get("programs")
+        word_order = data.get("word_order")
+        if not isinstance(programs, dict) or word_order not in (0, 1):
+            raise ValueError("\"programs\" must be an object and \"word_order\" 0 or 1")
+        current = self.word_order
+        self.word_order = word_order
+        try:
+            for name, frames in programs.items():
+                match = re.fullmatch(r"(mp|isr)(\d+)", str(name))
+                if match is None or not isinstance(frames, list) or not all(
+                        isinstance(f, list) and all(isinstance(w, int) for w in f)
+                        for f in frames):
+                    raise ValueError(f"{name!r}: expected mpN/isrN with a list of frames")
+                kind, slot = match.group(1), int(match.group(2))
+                if self.profile.budget(kind, slot) is None:
+                    raise ValueError(f"{name}: no such slot")
+                create = self.encoder.create_frame(kind, slot)
+                error = self.load_frames(kind, slot,
+                                         [create, *frames, self.encoder.close_frame(kind)])
+                if error is not None:
+                    raise ValueError(f"{name}: download error {error.code:#04x} at line "
+                                     f"{error.line}")
+        finally:
+            self.word_order = current

@@ -1,0 +1,250 @@
+"""The Modbus face of the virtual M8194H: the manual's register tables over the controller.
+
+Pure Python, no Modbus library: `mplang.modbus` serves this map over TCP and RTU, and tests
+can read it directly. Addresses are the manual's zero-based ones (appendix 12, RS 11202ff).
+Every read is computed from the controller at its present simulated time; every write goes
+through the controller, so a register map and the interpreter can never disagree.
+
+Choices where the manual is silent are in `stdlib/m8194h/device.toml` ([registers]) and in
+docs/simulator.md.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from mplang.sim.controller import AXIS_NAMES, DeviceBusy, VirtualController
+
+ILLEGAL_FUNCTION = 0x01
+ILLEGAL_ADDRESS = 0x02
+ILLEGAL_VALUE = 0x03
+DEVICE_BUSY = 0x06
+
+INPUT_SPAN = 200  # input registers 0..199 (undefined ones read 0)
+HOLDING_SPAN = 1324  # holding registers 0..1323 (VAR511 ends at 1323)
+SUBFUNCTION_FIRST = 8000
+SUBFUNCTION_LAST = 8100
+SIM_DI_FIRST = 9008  # simulator extension: FRnet DI groups 8..15, writable for tests
+SIM_DI_LAST = 9015
+COIL_SPAN = 132  # coils: FRnet DO 0..127, servo state 128..131
+DISCRETE_SPAN = 288  # discrete inputs: FRnet DI, axis status, stop causes, DI signals
+
+
+@dataclass(frozen=True)
+class Refusal(Exception):
+    """The device answers with a Modbus exception; `cause` is register 102's value."""
+
+    code: int
+    cause: int = 0
+    reason: str = ""
+
+
+class RegisterMap:
+    """Reads and writes of the four Modbus tables of one virtual controller."""
+
+    def __init__(self, controller: VirtualController) -> None:
+        self.vc = controller
+        raw = controller.profile.raw
+        self.identity = raw["identity"]
+        self.var_base = int(raw["variables"]["holding_base"])
+        self.bvar_base = int(raw["variables"]["byte_holding_base"])
+        self.call_register = int(raw["registers"]["call_mp"])
+        self.word_order_register = int(raw["registers"]["word_order"])
+        self.frnet_event = 0  # holding 9
+
+    # ----------------------------------------------------------------- helpers
+    def _pair(self, value: int) -> list[int]:
+        """A signed 32-bit value as two registers in the present word order."""
+        value &= 0xFFFFFFFF
+        high, low = value >> 16, value & 0xFFFF
+        return [low, high] if self.vc.word_order else [high, low]
+
+    def _join(self, first: int, second: int) -> int:
+        high, low = (second, first) if self.vc.word_order else (first, second)
+        value = (high << 16) | low
+        return value - (1 << 32) if value & 0x80000000 else value
+
+    def _axes_pairs(self, getter: str) -> list[int]:
+        motion, now = self.vc.motion, self.vc.clock
+        out: list[int] = []
+        for i in range(len(AXIS_NAMES)):
+            out += self._pair(round(getattr(motion, getter)(1 << i, now)))
+        return out
+
+    def _running_number(self) -> int:
+        stack = self.vc.stack
+        return stack[-1].table.slot if stack else 0
+
+    # ------------------------------------------------------------ input registers
+    def input_registers(self) -> list[int]:
+        """The whole input register table (FC4), as of the controller's present time."""
+        vc = self.vc
+        regs = [0] * INPUT_SPAN
+        regs[0:16] = [g & 0xFFFF for g in vc.frnet]
+        motion, now = vc.motion, vc.clock
+        for i in range(len(AXIS_NAMES)):
+            regs[58 + i] = 0 if motion.busy(1 << i, now) else 1  # stop status
+        regs[24] = self._running_number()
+        regs[26:34] = self._axes_pairs("lp")
+        regs[34:42] = self._axes_pairs("ep")
+        regs[42:50] = self._axes_pairs("cv")
+        regs[50:58] = self._axes_pairs("ca")
+        regs[71] = vc.fifo_capacity - len(vc.fifo)
+        regs[81] = int(self.identity["module_id"])
+        regs[82:84] = self._pair(int(self.identity["rsm_firmware"]))
+        regs[84:86] = self._pair(int(self.identity["i8094h_firmware"]))
+        regs[100] = {"ready": 0, "mp": 1, "isr": 2}[vc.state]
+        regs[101] = vc.chip_state
+        regs[102] = vc.illegal_cause
+        regs[110:115] = list(vc.download_status)
+        regs[115:120] = list(vc.execution_error)
+        regs[160:168] = self._axes_pairs("lp")
+        return regs
+
+    def read_input(self, address: int, count: int) -> list[int]:
+        if address < 0 or address + count > INPUT_SPAN:
+            raise Refusal(ILLEGAL_ADDRESS, reason=f"input registers end at {INPUT_SPAN - 1}")
+        return self.input_registers()[address:address + count]
+
+    # ---------------------------------------------------------- holding registers
+    def holding_registers(self) -> list[int]:
+        """Holding registers 0..1323 (FC3)."""
+        vc = self.vc
+        regs = [0] * HOLDING_SPAN
+        regs[0:8] = vc.frnet[0:8]
+        regs[self.call_register] = self._running_number() if vc.stack and \
+            vc.stack[0].table.kind == "mp" else 0
+        regs[9] = self.frnet_event
+        regs[self.word_order_register] = vc.word_order
+        regs[82:90] = self._axes_pairs("lp")
+        regs[90:98] = self._axes_pairs("lp")
+        regs[98:106] = self._axes_pairs("ep")
+        regs[106:114] = self._axes_pairs("cv")
+        regs[114:122] = self._axes_pairs("ca")
+        for n, value in enumerate(vc.bvars):
+            regs[self.bvar_base + n] = value & 0xFF
+        for n, value in enumerate(vc.vars):
+            regs[self.var_base + 2 * n:self.var_base + 2 * n + 2] = self._pair(value)
+        return regs
+
+    def read_holding(self, address: int, count: int) -> list[int]:
+        if address >= 0 and address + count <= HOLDING_SPAN:
+            return self.holding_registers()[address:address + count]
+        if address >= SUBFUNCTION_FIRST and address + count <= SUBFUNCTION_LAST + 1:
+            return [0] * count  # the sub-function window is write-only: it reads as zeros
+        if address >= SIM_DI_FIRST and address + count <= SIM_DI_LAST + 1:
+            return self.vc.frnet[8 + address - SIM_DI_FIRST:8 + address - SIM_DI_FIRST + count]
+        last = address + count - 1
+        raise Refusal(ILLEGAL_ADDRESS, reason=f"no holding register {address}..{last}")
+
+    def write_holding(self, address: int, values: list[int]) -> None:
+        """FC6/FC16. Writes spanning several areas are taken area by area, in order."""
+        end = address + len(values)
+        if address == SUBFUNCTION_FIRST and end <= SUBFUNCTION_LAST + 1:
+            self._subfunction(values)
+            return
+        if address >= SIM_DI_FIRST and end <= SIM_DI_LAST + 1:
+            for k, value in enumerate(values):
+                self.vc.frnet[8 + address - SIM_DI_FIRST + k] = value & 0xFFFF
+            return
+        if not (address >= 0 and end <= HOLDING_SPAN):
+            raise Refusal(ILLEGAL_ADDRESS, reason=f"holding {address}..{end - 1} is not writable")
+        var_end = self.var_base + 2 * len(self.vc.vars)
+        for register in (address, end - 1):
+            if self.var_base <= register < var_end:
+                pair_start = register - (register - self.var_base) % 2
+                if pair_start < address or pair_start + 2 > end:
+                    raise Refusal(ILLEGAL_FUNCTION, 0xC0,
+                                  "a VAR takes two registers; only one was written")
+        k = 0
+        while k < len(values):
+            k += self._write_one(address + k, values, k)
+
+    def _write_one(self, register: int, values: list[int], k: int) -> int:
+        """Apply the write at `register` (values[k:]); return how many registers it used."""
+        vc = self.vc
+        value = values[k]
+        if register < 8:
+            vc.frnet[register] = value & 0xFFFF
+            return 1
+        if register == self.call_register:
+            self._call(value)
+            return 1
+        if register == 9:
+            self.frnet_event = 1 if value else 0
+            return 1
+        if register == self.word_order_register:
+            if value not in (0, 1):
+                raise Refusal(ILLEGAL_VALUE, reason="word order is 0 or 1")
+            vc.word_order = value
+            return 1
+        if 82 <= register < 106:
+            if k + 1 >= len(values) or (register - 82) % 2:
+                raise Refusal(ILLEGAL_FUNCTION, 0xC0, "a position takes two registers")
+            axis = 1 << (((register - 82) // 2) % 4)
+            position = self._join(values[k], values[k + 1])
+            if register < 98:
+                vc.motion.set_lp(axis, position, vc.clock)
+            else:
+                vc.motion.set_ep(axis, position, vc.clock)
+            return 2
+        if self.bvar_base <= register < self.bvar_base + len(vc.bvars):
+            vc.bvars[register - self.bvar_base] = value & 0xFF
+            return 1
+        if self.var_base <= register < self.var_base + 2 * len(vc.vars):
+            n = (register - self.var_base) // 2
+            vc.vars[n] = self._join(values[k], values[k + 1])
+            return 2
+        raise Refusal(ILLEGAL_ADDRESS, reason=f"holding register {register} is read-only "
+                                              "or undefined")
+
+    def _call(self, slot: int) -> None:
+        vc = self.vc
+        if vc.stack:
+            vc.illegal_cause = int(vc.profile.raw["execution"]["busy_while_running"])
+            raise Refusal(ILLEGAL_FUNCTION, vc.illegal_cause, "a macro program is running")
+        if ("mp", slot) not in vc.tables:
+            vc.illegal_cause = 0x02
+            raise Refusal(ILLEGAL_FUNCTION, 0x02, f"MP{slot} is empty")
+        vc.call(slot)
+
+    def _subfunction(self, frame: list[int]) -> None:
+        try:
+            cause = self.vc.write_subfunction(frame)
+        except DeviceBusy as busy:
+            raise Refusal(DEVICE_BUSY, reason=str(busy)) from None
+        if cause:
+            reason = self.vc.profile.illegal_function_causes.get(cause, "")
+            raise Refusal(ILLEGAL_FUNCTION, cause, reason)
+
+    # ------------------------------------------------------------ coils, inputs
+    def coils(self) -> list[bool]:
+        bits = [bool((self.vc.frnet[n // 16] >> (n % 16)) & 1) for n in range(128)]
+        return bits + [True] * len(AXIS_NAMES)  # servo state: on (no servo model yet)
+
+    def read_coils(self, address: int, count: int) -> list[bool]:
+        if address < 0 or address + count > COIL_SPAN:
+            raise Refusal(ILLEGAL_ADDRESS, reason=f"coils end at {COIL_SPAN - 1}")
+        return self.coils()[address:address + count]
+
+    def write_coils(self, address: int, values: list[bool]) -> None:
+        if address < 0 or address + len(values) > 128:
+            raise Refusal(ILLEGAL_ADDRESS, reason="only FRnet DO coils 0..127 are writable")
+        for k, on in enumerate(values):
+            n = address + k
+            bit = 1 << (n % 16)
+            group = self.vc.frnet[n // 16]
+            self.vc.frnet[n // 16] = (group | bit) if on else (group & ~bit)
+
+    def discrete_inputs(self) -> list[bool]:
+        vc = self.vc
+        bits = [bool((vc.frnet[8 + n // 16] >> (n % 16)) & 1) for n in range(128)]
+        status = [False] * (DISCRETE_SPAN - 128)
+        for i in range(len(AXIS_NAMES)):
+            status[16 * i] = vc.motion.busy(1 << i, vc.clock)  # DRIVING
+        return bits + status
+
+    def read_discrete(self, address: int, count: int) -> list[bool]:
+        if address < 0 or address + count > DISCRETE_SPAN:
+            raise Refusal(ILLEGAL_ADDRESS, reason=f"discrete inputs end at {DISCRETE_SPAN - 1}")
+        return self.discrete_inputs()[address:address + count]
