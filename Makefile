@@ -4,7 +4,10 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test lint docs bench clean
+.PHONY: demo test lint docs bench clean tools
+
+# Debian packages the tests use: mbpoll, an independent Modbus client (libmodbus).
+SUDO := $(shell [ "$$(id -u)" != 0 ] && command -v sudo >/dev/null 2>&1 && echo sudo)
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -24,8 +27,13 @@ demo: $(STAMP)
 	$(BIN)/mpc run samples/*.mp --call home_then_square
 	$(BIN)/mpc run samples/*.mp --call tour --json
 
-test: $(STAMP) lint
+test: $(STAMP) tools lint
 	$(BIN)/python -m pytest
+
+tools:
+	@command -v mbpoll >/dev/null 2>&1 || $(SUDO) apt-get install -y -q mbpoll >/dev/null 2>&1 \
+	  || { $(SUDO) apt-get update -q >/dev/null 2>&1 && $(SUDO) apt-get install -y -q mbpoll >/dev/null; } \
+	  || echo "make: could not install mbpoll; the tests that use it will fail"
 
 lint: $(STAMP)
 	$(BIN)/ruff check mplang tests bench

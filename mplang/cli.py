@@ -311,7 +311,14 @@ def sim(files: tuple[str, ...], tcp: tuple[str, int] | None, serial: str | None,
     import signal
 
     from mplang.sim.controller import VirtualController
-    from mplang.sim.service import ServiceError, SimOptions, load_memory, preload, serve
+    from mplang.sim.service import (
+        ServiceError,
+        SimOptions,
+        load_memory,
+        preload,
+        save_memory,
+        serve,
+    )
 
     controller = VirtualController(word_order=int(word_order or 0))
     try:
@@ -326,6 +333,8 @@ def sim(files: tuple[str, ...], tcp: tuple[str, int] | None, serial: str | None,
                 sys.exit(code)
             preload(controller, result)
             click.echo(f"mpc sim: {len(result.programs)} program(s) downloaded")
+            if memory is not None:
+                save_memory(controller, memory)
     except ServiceError as exc:
         click.echo(f"mpc sim: {exc}", err=True)
         sys.exit(EXIT_NO_INPUT if exc.kind == "memory" else EXIT_RUN_FAILED)

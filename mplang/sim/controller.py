@@ -348,9 +348,9 @@ class VirtualController:
             if name == "MP_CALL" or name == "MP_ISR_CALL":
                 self.call(values[0], "mp" if name == "MP_CALL" else "isr")
             elif name == "WRITE_VAR":
-                self.vars[values[0]] = wrap32(values[1])
+                self.vars[self._index(queued.operands[0])] = wrap32(values[1])
             elif name == "WRITE_BVAR":
-                self.bvars[values[0]] = values[1] & 0xFF
+                self.bvars[self._index(queued.operands[0])] = values[1] & 0xFF
             elif name == "CLEAR_CARD_BUFFER":
                 self.fifo.clear()
             elif name == "RESET_CARD":
@@ -363,6 +363,13 @@ class VirtualController:
             self.log.append(f"{self.clock:.4f} s: {queued.command.name} ignored: {err}")
             return
         self.log.append(f"{self.clock:.4f} s: {queued.command.name} {values}")
+
+    @staticmethod
+    def _index(operand: Operand) -> int:
+        """The variable number a WRITE_VAR / WRITE_bVAR names (sent as a variable operand)."""
+        if isinstance(operand, (VarRef, BVarRef)):
+            return operand.index
+        return int(operand)  # type: ignore[arg-type]
 
     def reset(self) -> None:
         """RESET_CARD: stop every program and motion, clear the FIFO and the motion chip's
