@@ -35,6 +35,7 @@ from mplang.sim.registers import (
 Server = ModbusTcpServer | ModbusSerialServer
 """A running pymodbus server, as `serve_tcp` / `serve_rtu` return it."""
 
+MAX_LINES_PER_CATCH_UP = 200_000
 READ_COILS, READ_DISCRETE, READ_HOLDING, READ_INPUT = 1, 2, 3, 4
 WRITE_COIL, WRITE_REGISTER, WRITE_COILS, WRITE_REGISTERS = 5, 6, 15, 16
 
@@ -69,10 +70,12 @@ class DeviceFace:
         self.refusals: list[Refusal] = []
 
     def catch_up(self) -> None:
-        """Run the controller up to the present moment."""
+        """Run the controller up to the present moment. A program that needs more lines than
+        `MAX_LINES_PER_CATCH_UP` to get there makes the device lag instead of blocking every
+        client: its simulated clock falls behind and catches up on later calls."""
         now = self.clock.now()
         if now > self.controller.clock:
-            self.controller.advance(now)
+            self.controller.advance(now, MAX_LINES_PER_CATCH_UP)
 
     async def action(self, function_code: int, start_address: int, address: int, count: int,
                      current: list[int], values: list[int] | list[bool] | None) -> ExcCodes | None:
