@@ -425,6 +425,8 @@ class VirtualController:
             "SET_D": setter(m.set_d), "SET_K": setter(m.set_k), "SET_L": setter(m.set_l),
             "SET_AO": setter(m.set_ao),
             "SET_LP": now_call(m.set_lp), "SET_EP": now_call(m.set_ep),
+            # "assigns the current position to a new logic position value" (RS 3012)
+            "ABS_SET_POSITION": now_call(m.set_lp),
             "FIXED_MOVE": now_call(m.fixed_move), "ABS_FIXED_MOVE": now_call(m.abs_move),
             "CONTINUE_MOVE": now_call(m.continue_move),
             "AXIS_ASSIGN": lambda f, o: m.axis_assign(*[self.value(x) for x in o]),

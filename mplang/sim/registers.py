@@ -26,8 +26,23 @@ SUBFUNCTION_FIRST = 8000
 SUBFUNCTION_LAST = 8100
 SIM_DI_FIRST = 9008  # simulator extension: FRnet DI groups 8..15, writable for tests
 SIM_DI_LAST = 9015
+# 32-bit values: a read or write must take both registers of each, starting at the first
+# ("the start address ... must begin from the MSW ... Otherwise, the host will receive an
+# exception error. This rule will be applied to other long, DWORD or float type values",
+# RS 3108-3110). Half-open ranges of pairs.
+INPUT_PAIRS = ((26, 58), (62, 70), (82, 86), (160, 168))
+HOLDING_PAIRS = ((82, 122), (300, 1324))
 COIL_SPAN = 132  # coils: FRnet DO 0..127, servo state 128..131
 DISCRETE_SPAN = 288  # discrete inputs: FRnet DI, axis status, stop causes, DI signals
+
+
+def _check_pairs(pairs: tuple[tuple[int, int], ...], address: int, end: int) -> None:
+    """Refuse an access [address, end) that cuts a 32-bit value in half."""
+    for low, high in pairs:
+        for edge in (address, end):
+            if low < edge < high and (edge - low) % 2:
+                raise Refusal(ILLEGAL_FUNCTION, 0xC0,
+                              "a 32-bit value takes two registers, most significant first")
 
 
 @dataclass(frozen=True)
@@ -104,6 +119,7 @@ class RegisterMap:
     def read_input(self, address: int, count: int) -> list[int]:
         if address < 0 or address + count > INPUT_SPAN:
             raise Refusal(ILLEGAL_ADDRESS, reason=f"input registers end at {INPUT_SPAN - 1}")
+        _check_pairs(INPUT_PAIRS, address, address + count)
         return self.input_registers()[address:address + count]
 
     # ---------------------------------------------------------- holding registers
@@ -129,6 +145,7 @@ class RegisterMap:
 
     def read_holding(self, address: int, count: int) -> list[int]:
         if address >= 0 and address + count <= HOLDING_SPAN:
+            _check_pairs(HOLDING_PAIRS, address, address + count)
             return self.holding_registers()[address:address + count]
         if address >= SUBFUNCTION_FIRST and address + count <= SUBFUNCTION_LAST + 1:
             return [0] * count  # the sub-function window is write-only: it reads as zeros
@@ -149,13 +166,7 @@ class RegisterMap:
             return
         if not (address >= 0 and end <= HOLDING_SPAN):
             raise Refusal(ILLEGAL_ADDRESS, reason=f"holding {address}..{end - 1} is not writable")
-        var_end = self.var_base + 2 * len(self.vc.vars)
-        for register in (address, end - 1):
-            if self.var_base <= register < var_end:
-                pair_start = register - (register - self.var_base) % 2
-                if pair_start < address or pair_start + 2 > end:
-                    raise Refusal(ILLEGAL_FUNCTION, 0xC0,
-                                  "a VAR takes two registers; only one was written")
+        _check_pairs(HOLDING_PAIRS, address, end)
         k = 0
         while k < len(values):
             k += self._write_one(address + k, values, k)
@@ -179,8 +190,6 @@ class RegisterMap:
             vc.word_order = value
             return 1
         if 82 <= register < 106:
-            if k + 1 >= len(values) or (register - 82) % 2:
-                raise Refusal(ILLEGAL_FUNCTION, 0xC0, "a position takes two registers")
             axis = 1 << (((register - 82) // 2) % 4)
             position = self._join(values[k], values[k + 1])
             if register < 98:

@@ -90,6 +90,10 @@ def test_refusals_carry_the_register_102_cause() -> None:
     assert regs.read_input(102, 1) == [0x08]
     half = refusal(regs.write_holding, 301, [1, 2])  # VAR0's low word and VAR1's high word
     assert (half.code, half.cause) == (ILLEGAL_FUNCTION, 0xC0)
+    cut = refusal(regs.read_input, 27, 2)  # from the LSW of X's LP to the MSW of Y's
+    assert (cut.code, cut.cause) == (ILLEGAL_FUNCTION, 0xC0)
+    assert refusal(regs.read_holding, 300, 3).cause == 0xC0
+    assert regs.read_input(24, 4) == [0, 0, 0, 0]  # whole pairs from a single register on
     assert refusal(regs.write_holding, 14, [2]).code == ILLEGAL_VALUE
     assert refusal(regs.read_input, 199, 2).code == ILLEGAL_ADDRESS
     assert refusal(regs.write_holding, 106, [0, 0]).code == ILLEGAL_ADDRESS  # CV is read-only
