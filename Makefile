@@ -45,6 +45,7 @@ docs: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/python bench/compile.py
 	$(BIN)/python bench/interp.py
+	$(BIN)/python bench/modbus.py
 
 clean:
 	rm -rf $(VENV) build *.egg-info
