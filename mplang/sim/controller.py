@@ -112,6 +112,7 @@ class VirtualController:
         self.illegal_cause = 0  # register 102
         self.stack: list[Frame] = []
         self.fifo: deque[QueuedCommand] = deque()
+        self.isr_queue: deque[int] = deque()  # ISR numbers waiting to run
         self.return_value = 0
         self.error: str | None = None  # why the last program stopped, if it failed
         self.log: deque[str] = deque(maxlen=200)  # what the device did, for `mpc sim -v`
@@ -238,6 +239,25 @@ class VirtualController:
         self.programs[key] = (table, program)
         return program
 
+    def request_isr(self, slot: int) -> None:
+        """Run ISRn as soon as possible: at once, above a running MP (which resumes where it
+        was when the ISR ends), or after the ISR that runs now (ISRs do not nest)."""
+        self.isr_queue.append(slot)
+
+    def _isr_running(self) -> bool:
+        return any(frame.table.kind == "isr" for frame in self.stack)
+
+    def _start_isr(self, slot: int) -> None:
+        table = self.tables.get(("isr", slot))
+        if table is None:
+            self.log.append(f"{self.clock:.4f} s: ISR{slot} is empty: request ignored")
+            return
+        if not self.stack:
+            self.error = None
+        self.stack.append(Frame(table))
+        self.chip_state = 10
+        self.log.append(f"{self.clock:.4f} s: ISR{slot} started")
+
     def advance(self, until: float, max_steps: int = MAX_STEPS_DEFAULT,
                 until_idle: bool = False) -> int:
         """Run the device up to simulated time `until` (or `max_steps` macro lines): macro
@@ -252,6 +272,11 @@ class VirtualController:
             if fifo and fifo[0].due <= self.clock:
                 self._run_rtc(fifo.popleft())
                 continue
+            if self.isr_queue and not self._isr_running():
+                self._start_isr(self.isr_queue.popleft())
+                continue
+            if self.chip_state == 10 and stack and not self._isr_running():
+                self.chip_state = 8  # the ISR returned to the program it interrupted
             horizon = until if not fifo or fifo[0].due > until else fifo[0].due
             if not stack:
                 if self.chip_state in (8, 10):
@@ -345,8 +370,10 @@ class VirtualController:
         name = queued.command.short_name
         values = [self.value(o) for o in queued.operands]
         try:
-            if name == "MP_CALL" or name == "MP_ISR_CALL":
-                self.call(values[0], "mp" if name == "MP_CALL" else "isr")
+            if name == "MP_CALL":
+                self.call(values[0])
+            elif name == "MP_ISR_CALL":
+                self.request_isr(values[0])
             elif name == "WRITE_VAR":
                 self.vars[self._index(queued.operands[0])] = wrap32(values[1])
             elif name == "WRITE_BVAR":
@@ -376,6 +403,7 @@ class VirtualController:
         settings; macro memory and variables are kept (they live in FRAM and RAM)."""
         self.stack.clear()
         self.fifo.clear()
+        self.isr_queue.clear()
         self.motion = MotionModel()
         self.handlers = self._handlers()
         self.programs.clear()

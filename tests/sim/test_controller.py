@@ -194,3 +194,25 @@ def test_macro_memory_persists(tmp_path: Path) -> None:
     second.restore(store)
     second.call(21)
     assert second.run().finished and second.vars[1] == 42
+
+
+def test_isr_call_preempts_the_running_program_which_then_resumes() -> None:
+    build = compile_source("MP 21\n VAR1 = 1\n TIMER 1000\n VAR3 = VAR2 + VAR1\nEND MP\n"
+                           "ISR 3\n VAR2 = 40\n VAR1 = VAR1 + 1\nEND ISR\n")
+    assert build.ok, [d.render() for d in build.diagnostics]
+    vc = VirtualController()
+    for program in build.programs:
+        assert vc.load_frames(program.program.kind, program.placement.slot,
+                              program.frames) is None
+    vc.call(21)
+    vc.advance(0.5)
+    assert vc.chip_state == 8 and vc.vars[1] == 1
+    isr_call = CAT.by_vendor["RSM_MP_ISR_CALL"].code
+    assert vc.write_subfunction([isr_call, 3]) == 0
+    vc.advance(0.502)
+    assert vc.vars[1:3] == [2, 40] and vc.chip_state == 8  # ISR done, MP21 still waits
+    vc.advance(2.0)
+    assert vc.vars[3] == 42 and vc.chip_state == 9 and not vc.running
+    assert vc.write_subfunction([isr_call, 5]) == 0  # an empty ISR: the request is dropped
+    vc.advance(2.1)
+    assert not vc.running and any("ISR5 is empty" in entry for entry in vc.log)
