@@ -28,6 +28,7 @@ from mplang.sim.tables import DownloadError, MacroTable, StoredLine, decode_fram
 AXIS_NAMES = ("X", "Y", "Z", "U")
 MAX_STEPS_DEFAULT = 50_000_000
 MEMORY_FORMAT = "mpc-fram/1"
+NOT_EXECUTABLE = 0x04  # execution error type: the line's values make no sense to the device
 
 
 Wait = Callable[[], float]
@@ -35,7 +36,15 @@ Wait = Callable[[], float]
 Handler = Callable[["Frame", tuple[Operand, ...]], "Wait | None"]
 """Runs one stored line: gets the frame and the decoded operands, returns a wait (or None
 to go straight on)."""
-Program = list[tuple[Handler | None, tuple[Operand, ...]]]
+Program = list[tuple[Handler | None, tuple[Operand, ...], bool]]
+"""A table's lines ready to run: handler, operands, and whether the line may change the
+motion model (after such a line the interpreter looks again for due interrupts)."""
+
+# Lines that only touch variables and control flow: the hot path never leaves for them.
+PURE_COMMANDS = frozenset({
+    "SET_VAR", "SET_RVAR", "VAR_CALCULATE", "FOR", "NEXT", "EXIT_FOR", "IF", "ELSE",
+    "END_IF", "LABEL", "GOTO", "MP_CALL", "EXIT_MACRO", "MP_TERMINATE", "TIMER",
+})
 
 
 class ExecutionError(Exception):
@@ -119,6 +128,7 @@ class VirtualController:
         self.handlers = self._handlers()
         self.programs: dict[tuple[str, int], tuple[MacroTable, Program]] = {}
         self.memory_version = 0  # counts stored programs: tells `mpc sim` when to save FRAM
+        self.epoch = 0  # counts changes made to the motion model from outside its own plan
 
     @property
     def word_order(self) -> int:
@@ -229,12 +239,13 @@ class VirtualController:
         self.log.append(f"{self.clock:.4f} s: {kind.upper()}{slot} called")
 
     def _compiled(self, table: MacroTable) -> Program:
-        """The table's lines as (handler, operands) pairs, built once per table."""
+        """The table's lines as `Program` entries, built once per table."""
         key = (table.kind, table.slot)
         built = self.programs.get(key)
         if built is not None and built[0] is table:
             return built[1]
-        program = [(self.handlers.get(line.command.short_name), line.operands)
+        program = [(self.handlers.get(line.command.short_name), line.operands,
+                    line.command.short_name not in PURE_COMMANDS)
                    for line in table.lines]
         self.programs[key] = (table, program)
         return program
@@ -312,7 +323,7 @@ class VirtualController:
                     stack.pop()  # the closing line: return to the caller
                     self.clock += line_time
                     break
-                handler, operands = program[pc]
+                handler, operands, touches_motion = program[pc]
                 steps += 1
                 self.clock += line_time
                 frame.pc = pc + 1
@@ -320,15 +331,20 @@ class VirtualController:
                     continue  # a setting the model does not simulate: accepted, no effect
                 try:
                     wait = handler(frame, operands)
-                except ExecutionError as err:
+                except (ExecutionError, ValueError) as err:
                     line = frame.table.lines[pc]
-                    self._record_error(frame, line, err.code)
-                    self.error = str(err)
+                    code = err.code if isinstance(err, ExecutionError) else NOT_EXECUTABLE
+                    self._record_error(frame, line, code)
+                    self.error = (str(err) if isinstance(err, ExecutionError) else
+                                  f"{line.command.short_name} at line {line.slot_line}: {err}")
                     stack.clear()
                     break
                 if wait is not None:
                     frame.wait = wait
                     break
+                if touches_motion:
+                    self.epoch += 1
+                    break  # a new motion (and its interrupts): look at the events again
                 if not stack or stack[-1] is not frame:
                     break  # MP_CALL, EXIT_MACRO or MP_TERMINATE changed the program
 
@@ -367,6 +383,7 @@ class VirtualController:
     def _run_rtc(self, queued: QueuedCommand) -> None:
         """Execute one real-time command from the FIFO at its due time."""
         self.clock = max(self.clock, queued.due)
+        self.epoch += 1
         name = queued.command.short_name
         values = [self.value(o) for o in queued.operands]
         try:
@@ -390,6 +407,11 @@ class VirtualController:
             self.log.append(f"{self.clock:.4f} s: {queued.command.name} ignored: {err}")
             return
         self.log.append(f"{self.clock:.4f} s: {queued.command.name} {values}")
+
+    def touch(self) -> None:
+        """Say the motion model was changed from outside (a register write, a simulated
+        input): pending waits predict their end again."""
+        self.epoch += 1
 
     @staticmethod
     def _index(operand: Operand) -> int:
@@ -559,10 +581,16 @@ class VirtualController:
 
     def _stop_wait(self, _f: Frame, ops: tuple[Operand, ...]) -> Wait:
         mask = self.value(ops[0])
+        known: list[float] = []  # the answer for `epoch` (predicting it may simulate ahead)
+        epoch = -1
 
         def idle() -> float:
-            end = self.motion.idle_at(mask, self.clock)
-            return math.inf if end is None else end
+            nonlocal epoch
+            if epoch != self.epoch:
+                end = self.motion.idle_at(mask, self.clock)
+                known[:] = [math.inf if end is None else end]
+                epoch = self.epoch
+            return known[0]
         return idle
 
     def _frnet_out(self, _f: Frame, ops: tuple[Operand, ...]) -> None:

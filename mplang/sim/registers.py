@@ -196,6 +196,7 @@ class RegisterMap:
                 vc.motion.set_lp(axis, position, vc.clock)
             else:
                 vc.motion.set_ep(axis, position, vc.clock)
+            vc.touch()
             return 2
         if self.bvar_base <= register < self.bvar_base + len(vc.bvars):
             vc.bvars[register - self.bvar_base] = value & 0xFF
