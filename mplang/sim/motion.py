@@ -74,6 +74,67 @@ Conventions and simplifications
   equal to the start (or on the start ray) means a full circle.  When the finish
   point is not exactly on the circle the radius is blended linearly along the sweep
   so the path stays continuous and still ends exactly on the finish point.
+* Continuous interpolation (7.4.2-7.4.10).  LINE_2D_INITIAL / LINE_3D_INITIAL /
+  MIX_2D_INITIAL act as AXIS_ASSIGN plus VECTOR_SPEED 1 / 8 / (nAcc 0: 0, nAcc 1: 1)
+  and SET_VSV/VV/VA: the manual only says they "set the necessary parameters" for a
+  symmetric T-curve (l.8267, l.8474) or constant VV / T-curve (l.8704), so writing the
+  ordinary vector registers is the choice.  A CONTINUE without an INITIAL runs with the
+  present vector settings, S-curve modes as T-curves with VA (and VD if asymmetric),
+  since continuous interpolation knows only constant speed and T-curves.
+* The segments of a continuous interpolation (relative ones from the exact end of the
+  previous segment, ABS_ ones absolute) form one chain driven by one profile over the
+  summed path length: one acceleration from VSV at the start, VV across every
+  junction, and a deceleration to VSV only for the last segment (LINE nType 1,
+  l.8335; MIX nAcc 1, l.8761) or after INTP_END.  The deceleration point is placed so
+  the stop lands on the last point; it lies in an earlier segment when the last one is
+  shorter than the braking distance (the manual calls it automatic for RECTANGLE,
+  l.8192, and is silent for the other commands).  Constant-speed chains stop without
+  decelerating (l.8761).  Corners are not smoothed: the direction changes at a
+  junction at full speed (no look-ahead is described).
+* Segments are buffered without limit (no depth is given for continuous
+  interpolation); a segment that arrives while its chain runs replans the profile from
+  the present position and speed.  A chain that runs out of segments before its last
+  one stops at the end of those it has, at the speed it had: the device cannot brake
+  for a segment it has not been sent.  The 3-axis examples end that way, their
+  closing calls having nType 0 (l.8601, l.8680).  A last segment that comes too late
+  to brake fully brakes at once (VA) and loses the remaining speed on the end point.
+* A chain takes more segments while it waits to start or runs undisturbed and has not
+  had its last one; a stop, a new *_INITIAL, other assigned axes, or another command
+  waiting for its axes (which a segment must not overtake) ends that, and the next
+  segment opens a new chain, queued like any command.
+* INTP_END (l.9551): type 0 / 1 (2 / 3 axes, l.9563) marks the end of the open chain
+  of that many axes, which then decelerates to a stop at the end of its segments; a
+  type that does not match has no effect.  The manual asks for it before single-axis
+  moves or coordinate changes; those already wait for a running interpolation here.
+* MIX_2D_CONTINUE nType 1-5 (l.8762) are LINE_2D, ARC_CW/CCW and CIRCLE_CW/CCW with the
+  arc conventions above; relative centres and end points count from the segment's
+  start, ABS_ ones are absolute (l.8820).
+* RECTANGLE (7.4.1): the figure defining Sp0-Sp7 is not in the text (l.8206, nor in
+  the ET manual).  Choice: Lp and Wp are the outer extents along axis 1 and axis 2
+  (the ET manual calls them the travel of each axis), Rp the radius of the four corner
+  arcs, cut to min(Lp // 2, Wp // 2) so straight sides are Lp - 2r and Wp - 2r long.
+  Sp0-Sp7 are the eight points where a side meets an arc, counter-clockwise from the
+  left end of the lower side: in the rectangle's frame (r, 0), (Lp-r, 0), (Lp, r),
+  (Lp, Wp-r), (Lp-r, Wp), (r, Wp), (0, Wp-r), (0, r).  The present position is point
+  Sp; one lap runs in the direction nDir (0 CCW, 1 CW, l.8207) back to it.  nAcc 0 is
+  constant RV; nAcc 1 a T-curve RSV -> RV at RA, decelerating at RD (l.8205, l.8214)
+  with the point computed over the whole lap (l.8192).  RECTANGLE leaves AXIS_ASSIGN
+  and the vector settings alone.
+* HELIX_3D (7.4.11): the centre is relative to the start, as CIRCLE_CW's (l.6897; the
+  text only says "the value of center", l.8880, and the examples start from 0, where
+  both readings agree).  nDir 0 is CW, 1 CCW (l.8878, the reverse of RECTANGLE).  The
+  circle turns |cycle| times while axis 3 moves cycle * pitch in proportion to the
+  angle (l.8882-8883), so a negative cycle reverses axis 3, not the rotation.  VV is
+  the constant 3-D vector speed, without ramps (only VV is given); the firmware's
+  "software macro-function" (l.8864) is not modelled.  A zero radius moves axis 3 only.
+* Axis I/O (sensors, hardware and software limits, home search, emergency stop, error
+  codes, compare, latch, synchronous actions, interrupt factors) lives in
+  ``axis_io.py``, whose docstring lists its own conventions.  Its events (a limit or a
+  sensor edge reached, a compare value passed) are folded into the model's next event
+  by ``_recompute`` and handled by ``settle`` in time order, before the motions ending
+  at the same instant; every ended motion is reported to it (D-END, next home step).
+  A command that starts is dropped in an emergency, while EMG is asserted or while an
+  enabled ALARM is active.
 """
 
 from __future__ import annotations
@@ -84,6 +145,8 @@ from abc import ABC, abstractmethod
 from bisect import bisect_right
 from collections.abc import Callable
 from dataclasses import dataclass, field
+
+from mplang.sim import axis_io
 
 AXES = ("X", "Y", "Z", "U")
 
@@ -396,7 +459,12 @@ class MotionModel:
         self._ax = [_AxisState() for _ in AXES]
         self._queue: list[_Cmd] = []  # waiting for busy axes
         self._pending: list[_Cmd] = []  # waiting for DRV_START
+        self.io = axis_io.AxisIO(self)  # sensors, limits, homing, errors, interrupts
         self._next_end = _INF
+        # continuous interpolation (7.4): chains by id, and the one still taking segments
+        self._chains: dict[int, _Chain] = {}
+        self._chain_seq = 0
+        self._open: _Chain | None = None
 
     # ---------------------------------------------------------------- settings
     def _set(self, axis_mask: int, name: str, value: int) -> None:
@@ -445,11 +513,14 @@ class MotionModel:
             else:
                 ax.shift += delta
             ax.ep_off -= delta  # the encoder counter is not touched
+            self.io.lp_moved(i, delta)
+        self._recompute()  # compare values and limits are met at other times now
 
     def set_ep(self, axis_mask: int, value: int, now: float) -> None:
         self.settle(now)
         for i in _mask_axes(axis_mask):
             self._ax[i].ep_off = int(value) - self._lp(i, now)
+        self._recompute()
 
     # ------------------------------------------------------ interpolation settings
     def axis_assign(self, axis1: int, axis2: int, axis3: int) -> None:
@@ -590,6 +661,7 @@ class MotionModel:
         self._pending = [c for c in self._pending if not axes & set(c.axes)]
         for m in self._motions():
             if axes & set(m.axes):
+                self.io.stopping(m, now, sudden)
                 self._stop_motion(m, now, sudden)
         self._dequeue(now)
         self._recompute()
@@ -601,6 +673,7 @@ class MotionModel:
         self._pending = [c for c in self._pending if not c.vector]
         for m in self._motions():
             if m.vector:
+                self.io.stopping(m, now, sudden)
                 self._stop_motion(m, now, sudden)
         self._dequeue(now)
         self._recompute()
@@ -640,7 +713,7 @@ class MotionModel:
         for ax in self._ax:
             if ax.motion is not None and ax.motion.end < end:
                 end = ax.motion.end
-        self._next_end = end
+        self._next_end = min(end, self.io.reschedule())  # limits, sensors, compare
 
     def _issue(self, cmd: _Cmd, now: float) -> None:
         self.settle(now)
@@ -655,6 +728,8 @@ class MotionModel:
         self._recompute()
 
     def _start(self, cmd: _Cmd, t: float) -> None:
+        if self.io.refuses(cmd.axes, t):
+            return  # emergency, EMG input or servo alarm: the command is dropped
         m = cmd.build(self, t)
         if m is None:
             return
@@ -664,6 +739,7 @@ class MotionModel:
             return
         for i in m.axes:
             self._ax[i].motion = m
+        self.io.started(m, t)
 
     def _dequeue(self, t: float) -> None:
         blocked: set[int] = set()
@@ -680,6 +756,7 @@ class MotionModel:
         """Finish, in time order, every motion that ended at or before `now`."""
         while self._next_end <= now:
             t = self._next_end
+            self.io.fire(t)  # axis I/O events due at t (limits, home sensors, compare)
             for ax in self._ax:
                 m = ax.motion
                 if m is not None and m.end <= t:
@@ -688,8 +765,10 @@ class MotionModel:
                         other.pos = m.final[k] + other.shift
                         other.shift = 0
                         other.motion = None
+                    self.io.ended(m, t)  # D-END, or the next home-search step
             self._dequeue(t)
             self._recompute()
+        self.io.advance(now)
 
     # ------------------------------------------------------------------- state
     def _lp(self, i: int, now: float) -> int:
@@ -751,7 +830,7 @@ class MotionModel:
         wanted = set(axes)
         if any(wanted & set(c.axes) for c in self._pending):
             return None
-        if not any(wanted & set(c.axes) for c in self._queue):
+        if not any(wanted & set(c.axes) for c in self._queue) and self.io.quiet():
             end = now
             for i in axes:
                 m = self._ax[i].motion
@@ -772,6 +851,171 @@ class MotionModel:
         """Earliest end of a running motion after `now` (None if nothing will end)."""
         self.settle(now)
         return None if self._next_end == _INF else self._next_end
+
+    # ------------------------------------------- axis I/O query API (see axis_io.py)
+    def axis_report(self, axis_index: int, now: float) -> axis_io.AxisReport:
+        """DI status, error code, stop causes, servo, emergency, home and latch of one
+        axis (0..3) at `now`: what the Modbus registers of appendix 12 show."""
+        return self.io.report(axis_index, now)
+
+    def next_interrupt(self, now: float) -> float | None:
+        """Time of the earliest interrupt request, pending or still to come if nothing
+        changes (None if none will come)."""
+        return self.io.next_interrupt(now)
+
+    def take_interrupts(self, until: float) -> list[tuple[float, int]]:
+        """Remove and return, in time order, the (time, ISR number) requests due at or
+        before `until`."""
+        return self.io.take_interrupts(until)
+
+    # ------------------------- continuous interpolation, rectangle, helix (7.4, 7.5.9)
+    def continuous_initial(self, axes: tuple[int, ...], mode: int, vsv: int, vv: int,
+                           va: int) -> None:
+        """LINE_2D_INITIAL / LINE_3D_INITIAL / MIX_2D_INITIAL: the equivalent AXIS_ASSIGN,
+        VECTOR_SPEED `mode` and SET_VSV/VV/VA; the next segment starts a new chain."""
+        self.axis_assign(axes[0], axes[1], axes[2] if len(axes) > 2 else 0)
+        self.set_vector_mode(mode)
+        self.set_vsv(vsv)
+        self.set_vv(vv)
+        self.set_va(va)
+        self._open = None
+
+    def continuous_line(self, values: tuple[int, ...], last: bool, now: float,
+                        absolute: bool = False) -> None:
+        """LINE_2D_CONTINUE / LINE_3D_CONTINUE (and ABS_): one more straight segment."""
+        if len(values) not in (2, 3):
+            raise ValueError(f"a continuous line takes 2 or 3 values, got {len(values)}")
+        self._continue(_Seg("line", tuple(int(v) for v in values), absolute), last, now)
+
+    def continuous_mix(self, shape: int, center: tuple[int, int], finish: tuple[int, int],
+                       last: bool, now: float, absolute: bool = False) -> None:
+        """MIX_2D_CONTINUE (and ABS_): shape 1 line, 2/3 CW/CCW arc, 4/5 CW/CCW circle."""
+        c = (int(center[0]), int(center[1]))
+        f = (int(finish[0]), int(finish[1]))
+        if shape == 1:
+            seg = _Seg("line", f, absolute)
+        elif shape in (2, 3):
+            seg = _Seg("arc", c + f, absolute, shape == 2)
+        elif shape in (4, 5):
+            seg = _Seg("circle", c, absolute, shape == 4)
+        else:
+            raise ValueError(f"MIX_2D_CONTINUE nType must be 1..5, got {shape}")
+        self._continue(seg, last, now)
+
+    def intp_end(self, dims: int, now: float) -> None:
+        """INTP_END: the open continuous interpolation on `dims` axes gets no more
+        segments, so it decelerates to a stop at the end of those it has."""
+        self.settle(now)
+        chain = self._open
+        if chain is None or len(chain.axes) != dims:
+            return
+        self._open = None
+        if self._chain_alive(chain):
+            self._grow(chain, None, True, now)
+
+    def rectangle(self, axes: tuple[int, int], constant: bool, start_point: int,
+                  clockwise: bool, size: tuple[int, int, int],
+                  speeds: tuple[int, int, int, int], now: float) -> None:
+        """RECTANGLE: one lap of a rounded rectangle from the present position, which is
+        its tangent point Sp; size = (Lp, Wp, Rp), speeds = (RSV, RV, RA, RD)."""
+        i, j = _axis_index(axes[0]), _axis_index(axes[1])
+        if i == j:
+            raise ValueError("the rectangle's axes must be distinct")
+        if not 0 <= start_point <= 7:
+            raise ValueError(f"RECTANGLE start point must be 0..7, got {start_point}")
+        lp, wp, rp = (int(x) for x in size)
+        if lp < 1 or wp < 1 or rp < 0:
+            raise ValueError(f"RECTANGLE needs Lp, Wp >= 1 and Rp >= 0, got {size}")
+        sv, v, acc, dec = speeds
+        max_v = self.settings[i].max_v
+        top = _quantise(v, max_v)
+        plan = (_Plan(top, top, 1.0, 1.0, False, constant=True) if constant else
+                _Plan(_quantise(sv, max_v), top, float(max(acc, 1)), float(max(dec, 1)),
+                      False))
+        r = min(rp, lp // 2, wp // 2)
+        self._issue(_Cmd((i, j), True, _rectangle_builder((i, j), start_point, clockwise,
+                                                          lp, wp, r, plan)), now)
+
+    def helix(self, axes: tuple[int, int, int], clockwise: bool, vv: int,
+              center: tuple[int, int], cycle: int, pitch: int, now: float) -> None:
+        """HELIX_3D: `cycle` turns around a centre relative to the start in the plane of
+        axes 1/2 while axis 3 advances `pitch` per turn, at the constant vector speed."""
+        idx = tuple(_axis_index(a) for a in axes)
+        if len(set(idx)) != 3:
+            raise ValueError("the helix axes must be distinct")
+        v = _quantise(vv, self.settings[idx[0]].max_v)
+        plan = _Plan(v, v, 1.0, 1.0, False, constant=True)
+        self._issue(_Cmd(idx, True, _helix_builder(idx, (int(center[0]), int(center[1])),
+                                                   clockwise, int(cycle), int(pitch),
+                                                   plan)), now)
+
+    def _continuous_plan(self) -> _Plan:
+        """The vector plan, S-curve modes run as T-curves (VA, and VD if asymmetric):
+        continuous interpolation only knows constant speed and T-curves (l.8267, l.8704)."""
+        plan = self._vector_plan()
+        if not plan.s_curve:
+            return plan
+        vs = self.vector
+        dec = vs.vd if _VECTOR_KIND[vs.mode] == "asymS" else vs.va
+        return _Plan(plan.sv, plan.v, float(max(vs.va, 1)), float(max(dec, 1)), False)
+
+    def _chain_alive(self, chain: _Chain) -> bool:
+        """Waiting to start, or running undisturbed (not stopped, not finished)."""
+        if not chain.started:
+            return any(c is chain.cmd for c in self._queue) or any(
+                c is chain.cmd for c in self._pending)
+        m = chain.motion
+        return m is not None and self._ax[chain.axes[0]].motion is m
+
+    def _chain_open(self, chain: _Chain) -> bool:
+        """Can take one more segment: alive, no last segment yet, and no later command
+        waiting for its axes (a segment must not overtake it)."""
+        if chain.closed or not self._chain_alive(chain):
+            return False
+        wanted = set(chain.axes)
+        return not any(c is not chain.cmd and wanted & set(c.axes)
+                       for c in (*self._queue, *self._pending))
+
+    def _continue(self, seg: _Seg, last: bool, now: float) -> None:
+        self.settle(now)
+        n = 2 if seg.shape != "line" else len(seg.values)
+        if n > len(self.assigned):
+            raise ValueError(f"{n}-axis continuous interpolation needs {n} assigned axes")
+        axes = self.assigned[:n]
+        chain = self._open
+        if chain is not None and chain.axes == axes and self._chain_open(chain):
+            self._grow(chain, seg, last, now)
+        else:
+            self._chains = {k: c for k, c in self._chains.items() if self._chain_alive(c)}
+            self._chain_seq += 1
+            chain = _Chain(axes, self._continuous_plan(), [seg], last)
+            chain.cmd = _Cmd(axes, True, _chain_builder(self._chain_seq))
+            self._chains[self._chain_seq] = chain
+            self._issue(chain.cmd, now)
+        self._open = None if last else chain
+
+    def _grow(self, chain: _Chain, seg: _Seg | None, last: bool, now: float) -> None:
+        """Add a segment (or only the end mark) to a live chain and replan from now."""
+        chain.closed = chain.closed or last
+        if not chain.started:
+            if seg is not None:
+                chain.specs.append(seg)
+            return
+        m = chain.motion
+        if m is None:
+            return
+        s, v, _a = m.prof.state(now - m.t0)
+        if seg is not None:
+            shift = tuple(self._ax[i].shift for i in chain.axes)
+            part, length, chain.end = _lay(seg, chain.end, shift)
+            if part is not None:
+                chain.path.add(part, length)
+        prof = _chain_profile(s, v, chain.path.length, chain.plan, chain.closed)
+        new = _Motion(chain.axes, now, prof, chain.path, chain.end, chain.plan, True)
+        for i in chain.axes:
+            self._ax[i].motion = new
+        chain.motion = new
+        self._recompute()
 
 
 # ------------------------------------------------------------------ command builders
@@ -828,17 +1072,272 @@ def _arc_builder(axes: tuple[int, ...], center: tuple[int, int], finish: tuple[i
         else:
             cx, cy = x0 + center[0], y0 + center[1]
             fx, fy = (x0, y0) if full else (x0 + finish[0], y0 + finish[1])
-        r0 = math.hypot(x0 - cx, y0 - cy)
-        if r0 == 0.0:
+        path = _arc_path(x0, y0, cx, cy, fx, fy, clockwise, full)
+        if path is None:
             return None  # no circle through the start point: nothing moves
-        r1 = math.hypot(fx - cx, fy - cy)
-        th0 = math.atan2(y0 - cy, x0 - cx)
-        th1 = math.atan2(fy - cy, fx - cx) if r1 > 0.0 else th0
-        sweep = ((th0 - th1) if clockwise else (th1 - th0)) % _TWO_PI
-        if full or sweep < 1e-12:
-            sweep = _TWO_PI
-        path = _ArcPath(cx, cy, r0, r1, th0, -sweep if clockwise else sweep)
         prof = _point_to_point(path.length, plan)
         return _Motion(axes, t, prof, path, (fx, fy), plan, True)
+
+    return build
+
+
+# ------------------------------------- continuous interpolation, rectangle, helix (7.4)
+
+
+def _arc_path(x0: int, y0: int, cx: int, cy: int, fx: int, fy: int, clockwise: bool,
+              full: bool) -> _ArcPath | None:
+    """The arc from (x0, y0) around (cx, cy) to (fx, fy); None if the radius is zero."""
+    r0 = math.hypot(x0 - cx, y0 - cy)
+    if r0 == 0.0:
+        return None
+    r1 = math.hypot(fx - cx, fy - cy)
+    th0 = math.atan2(y0 - cy, x0 - cx)
+    th1 = math.atan2(fy - cy, fx - cx) if r1 > 0.0 else th0
+    sweep = ((th0 - th1) if clockwise else (th1 - th0)) % _TWO_PI
+    if full or sweep < 1e-12:
+        sweep = _TWO_PI
+    return _ArcPath(cx, cy, r0, r1, th0, -sweep if clockwise else sweep)
+
+
+class _ChainPath(_Path):
+    """Parts joined end to end, so one profile drives a whole continuous interpolation."""
+
+    __slots__ = ("length", "offsets", "parts")
+
+    def __init__(self) -> None:
+        self.parts: list[_Path] = []
+        self.offsets: list[float] = []  # path length at the start of each part
+        self.length = 0.0
+
+    def add(self, part: _Path, length: float) -> None:
+        self.offsets.append(self.length)
+        self.parts.append(part)
+        self.length += length
+
+    def _at(self, s: float) -> tuple[_Path, float]:
+        i = max(bisect_right(self.offsets, s) - 1, 0)
+        return self.parts[i], s - self.offsets[i]
+
+    def pos(self, k: int, s: float) -> float:
+        part, ds = self._at(s)
+        return part.pos(k, ds)
+
+    def deriv(self, k: int, s: float) -> float:
+        part, ds = self._at(s)
+        return part.deriv(k, ds)
+
+
+class _HelixPath(_Path):
+    """A circle in the plane of path axes 0/1 while path axis 2 advances in proportion."""
+
+    __slots__ = ("circle", "dz", "length", "z0")
+
+    def __init__(self, circle: _ArcPath, z0: int, dz: int) -> None:
+        self.circle = circle
+        self.z0 = z0
+        self.dz = dz
+        self.length = math.hypot(circle.length, dz)
+
+    def pos(self, k: int, s: float) -> float:
+        f = s / self.length
+        if k == 2:
+            return self.z0 + self.dz * f
+        return self.circle.pos(k, f * self.circle.length)
+
+    def deriv(self, k: int, s: float) -> float:
+        if k == 2:
+            return self.dz / self.length
+        scale = self.circle.length / self.length
+        return self.circle.deriv(k, s * scale) * scale
+
+
+@dataclass(frozen=True)
+class _Seg:
+    """One commanded segment of a continuous interpolation, laid out when its start is known."""
+
+    shape: str  # "line", "arc" or "circle"
+    values: tuple[int, ...]  # line: end point; arc: centre then finish; circle: centre
+    absolute: bool
+    clockwise: bool = False
+
+
+def _lay(seg: _Seg, start: tuple[int, ...],
+         shift: tuple[int, ...]) -> tuple[_Path | None, float, tuple[int, ...]]:
+    """(part, its length, exact end) of a segment from `start`, all in the path frame.
+
+    `shift` is each axis's SET_LP correction, which absolute values are taken out of.
+    A segment that does not move gives no part and ends where it starts."""
+
+    def point(values: tuple[int, ...]) -> tuple[int, ...]:
+        if seg.absolute:
+            return tuple(v - d for v, d in zip(values, shift, strict=True))
+        return tuple(p + v for p, v in zip(start, values, strict=True))
+
+    if seg.shape == "line":
+        end = point(seg.values)
+        deltas = tuple(e - p for p, e in zip(start, end, strict=True))
+        length = math.sqrt(sum(d * d for d in deltas))
+        if length == 0.0:
+            return None, 0.0, start
+        return _LinePath(start, deltas, length), length, end
+    cx, cy = point(seg.values[:2])
+    fx, fy = point(seg.values[2:4]) if seg.shape == "arc" else start
+    arc = _arc_path(start[0], start[1], cx, cy, fx, fy, seg.clockwise, seg.shape == "circle")
+    if arc is None:
+        return None, 0.0, start  # no circle through the start point: nothing moves
+    return arc, arc.length, (fx, fy)
+
+
+@dataclass
+class _Chain:
+    """A continuous interpolation (7.4.2-7.4.10): segments that run back to back.
+
+    Segments commanded before the chain starts wait in `specs`; once it runs, each new
+    segment is laid out at once and the profile is replanned from the present state."""
+
+    axes: tuple[int, ...]
+    plan: _Plan
+    specs: list[_Seg] = field(default_factory=list)
+    closed: bool = False  # the last segment is known: stop at its end
+    cmd: _Cmd | None = None
+    started: bool = False
+    path: _ChainPath = field(default_factory=_ChainPath)
+    end: tuple[int, ...] = ()  # exact end of the laid-out segments, path frame
+    motion: _Motion | None = None
+
+
+def _chain_profile(s: float, v: float, total: float, plan: _Plan, closed: bool) -> _Profile:
+    """Profile from path length `s` at speed `v` up to `total`, T-curve or constant.
+
+    An open chain accelerates towards the vector speed and keeps it to the end of the
+    segments it has; a closed one plans its deceleration to the start speed at `total`,
+    and if the distance is already too short it brakes at once and the speed left at
+    `total` is lost there (the stop of a chain that ran out of segments)."""
+    top = max(plan.v, 1.0)
+    rem = total - s
+    if rem <= 0.0:
+        return _Profile(s, v)
+    if plan.constant or plan.sv >= top:
+        prof = _Profile(s, top)
+        prof.add(rem / top, 0.0, 0.0)
+    elif not closed:
+        prof = _Profile(s, v)
+        up = (top * top - v * v) / (2.0 * plan.acc) if v < top else 0.0
+        if up >= rem:
+            prof.add((math.sqrt(v * v + 2.0 * plan.acc * rem) - v) / plan.acc, plan.acc, 0.0)
+        else:
+            _ramp(prof, v, top, plan.acc, False)
+            prof.add((rem - up) / max(top, v), 0.0, 0.0)
+    else:
+        prof = _Profile(s, v)
+        acc, dec, sv = plan.acc, plan.dec, plan.sv
+        brake = (v * v - sv * sv) / (2.0 * dec) if v > sv else 0.0
+        if brake >= rem:
+            prof.add((v - math.sqrt(max(v * v - 2.0 * dec * rem, 0.0))) / dec, -dec, 0.0)
+        else:
+            peak2 = (rem + v * v / (2.0 * acc) + sv * sv / (2.0 * dec)) / (
+                1.0 / (2.0 * acc) + 1.0 / (2.0 * dec))
+            peak = min(math.sqrt(peak2), top)
+            up = abs(peak * peak - v * v) / (2.0 * acc)
+            down = (peak * peak - sv * sv) / (2.0 * dec)
+            _ramp(prof, v, peak, acc, False)
+            prof.add((rem - up - down) / peak, 0.0, 0.0)
+            _ramp(prof, peak, sv, dec, False)
+    prof.length = total
+    return prof
+
+
+def _chain_builder(cid: int) -> Callable[[MotionModel, float], _Motion | None]:
+    """Start chain `cid` (looked up in the model, so copies of the model stay separate)."""
+
+    def build(model: MotionModel, t: float) -> _Motion | None:
+        chain = model._chains[cid]
+        chain.started = True
+        chain.end = tuple(model._ax[i].pos for i in chain.axes)
+        zero = (0,) * len(chain.axes)
+        for seg in chain.specs:
+            part, length, chain.end = _lay(seg, chain.end, zero)
+            if part is not None:
+                chain.path.add(part, length)
+        chain.specs = []
+        if chain.path.length == 0.0:
+            return None
+        plan = chain.plan
+        v0 = plan.v if plan.constant else plan.sv
+        prof = _chain_profile(0.0, v0, chain.path.length, plan, chain.closed)
+        chain.motion = _Motion(chain.axes, t, prof, chain.path, chain.end, plan, True)
+        return chain.motion
+
+    return build
+
+
+# Tangent points of the rounded rectangle, in the frame of its bounding box (axis 1 along
+# the length, axis 2 along the width, lower-left corner at the origin), numbered
+# counter-clockwise from the left end of the lower side: these are Sp0-Sp7.  The edge from
+# point k to point k+1 is a side for even k and a corner arc for odd k.
+def _rectangle_parts(x0: int, y0: int, sp: int, clockwise: bool, lp: int, wp: int,
+                     r: int) -> list[tuple[_Path, float]]:
+    """Lines and arcs of one lap from tangent point `sp`, which is (x0, y0)."""
+    pts = ((r, 0), (lp - r, 0), (lp, r), (lp, wp - r), (lp - r, wp), (r, wp), (0, wp - r),
+           (0, r))
+    centres = {1: (lp - r, r), 3: (lp - r, wp - r), 5: (r, wp - r), 7: (r, r)}
+    ox, oy = x0 - pts[sp][0], y0 - pts[sp][1]
+    step = -1 if clockwise else 1
+    parts: list[tuple[_Path, float]] = []
+    a = sp
+    for _ in range(8):
+        b = (a + step) % 8
+        edge = a if step == 1 else b
+        (xa, ya), (xb, yb) = pts[a], pts[b]
+        if edge % 2 == 0:
+            dx, dy = xb - xa, yb - ya
+            length = math.hypot(dx, dy)
+            if length > 0.0:
+                parts.append((_LinePath((ox + xa, oy + ya), (dx, dy), length), length))
+        else:
+            cx, cy = centres[edge]
+            arc = _arc_path(ox + xa, oy + ya, ox + cx, oy + cy, ox + xb, oy + yb, clockwise,
+                            False)
+            if arc is not None:
+                parts.append((arc, arc.length))
+        a = b
+    return parts
+
+
+def _rectangle_builder(axes: tuple[int, ...], sp: int, clockwise: bool, lp: int, wp: int,
+                       r: int, plan: _Plan) -> Callable[[MotionModel, float], _Motion | None]:
+    def build(model: MotionModel, t: float) -> _Motion | None:
+        x0, y0 = model._ax[axes[0]].pos, model._ax[axes[1]].pos
+        path = _ChainPath()
+        for part, length in _rectangle_parts(x0, y0, sp, clockwise, lp, wp, r):
+            path.add(part, length)
+        prof = _point_to_point(path.length, plan)
+        return _Motion(axes, t, prof, path, (x0, y0), plan, True)
+
+    return build
+
+
+def _helix_builder(axes: tuple[int, ...], center: tuple[int, int], clockwise: bool,
+                   cycle: int, pitch: int,
+                   plan: _Plan) -> Callable[[MotionModel, float], _Motion | None]:
+    def build(model: MotionModel, t: float) -> _Motion | None:
+        x0, y0, z0 = (model._ax[i].pos for i in axes)
+        cx, cy = x0 + center[0], y0 + center[1]
+        radius = math.hypot(x0 - cx, y0 - cy)
+        dz = cycle * pitch
+        path: _Path
+        if radius == 0.0 or cycle == 0:
+            if dz == 0:
+                return None
+            length = float(abs(dz))
+            path = _LinePath((x0, y0, z0), (0, 0, dz), length)
+        else:
+            sweep = _TWO_PI * abs(cycle)
+            circle = _ArcPath(cx, cy, radius, radius, math.atan2(y0 - cy, x0 - cx),
+                              -sweep if clockwise else sweep)
+            helix = _HelixPath(circle, z0, dz)
+            path, length = helix, helix.length
+        prof = _point_to_point(length, plan)
+        return _Motion(axes, t, prof, path, (x0, y0, z0 + dz), plan, True)
 
     return build
