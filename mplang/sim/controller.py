@@ -289,10 +289,17 @@ class VirtualController:
             if self.chip_state == 10 and stack and not self._isr_running():
                 self.chip_state = 8  # the ISR returned to the program it interrupted
             horizon = until if not fifo or fifo[0].due > until else fifo[0].due
+            interrupt = self.motion.next_interrupt(self.clock)  # (RESET_CARD replaces it)
+            if interrupt is not None:
+                if interrupt <= self.clock:
+                    for _time, isr in self.motion.take_interrupts(self.clock):
+                        self.request_isr(isr)
+                    continue
+                horizon = min(horizon, interrupt)
             if not stack:
                 if self.chip_state in (8, 10):
                     self.chip_state += 1  # MP / ISR execution finished
-                if until_idle and not fifo:
+                if until_idle and not fifo and interrupt is None:
                     return steps
                 if self.clock < horizon:
                     self.clock = horizon

@@ -587,9 +587,11 @@ END ISR
 """)
     io = vc.motion.io
     assert io.triggered_factors(vc.clock)[axis_io.INT_P_GE_CPLUS] == X
-    start = 7 * 100e-6  # FIXED_MOVE is the 7th line; each line takes 100 us
-    assert vc.motion.take_interrupts(vc.clock) == [
-        (pytest.approx(start + cruise_time(4999.5)), 1)]
+    # the controller dispatched ISR1 when X passed C+ (at 4999.5, where LP turns 5000) and
+    # the ISR's first line ran one line time later, at 10000 pulses/s: one pulse further on
+    assert vc.vars[1] == 5001
+    assert vc.motion.take_interrupts(vc.clock) == []
+    assert any("ISR1 started" in entry for entry in vc.log)
     io.intfactor_enable(X, axis_io.INT_P_GE_CPLUS, 1, vc.clock)
     source = example("RSM_MACRO_INTFACTOR_DISABLE")
     assert source == "INTFACTOR_DISABLE XYZU, 4"

@@ -216,3 +216,11 @@ def test_isr_call_preempts_the_running_program_which_then_resumes() -> None:
     assert vc.write_subfunction([isr_call, 5]) == 0  # an empty ISR: the request is dropped
     vc.advance(2.1)
     assert not vc.running and any("ISR5 is empty" in entry for entry in vc.log)
+
+
+def test_interrupt_after_the_program_ended_still_runs_its_isr() -> None:
+    """D-END of a move the program left running raises ISR2 after MP21 has finished:
+    `mpc run` waits for the motion, so the ISR runs too."""
+    vc = run("MP 21\n INTFACTOR_ENABLE X, 7, 2\n ENABLE_INT\n FIXED_MOVE X, 1000\nEND MP\n"
+             "ISR 2\n VAR5 = GET_LP(X)\nEND ISR\n")
+    assert vc.vars[5] == 1000 and vc.chip_state == 11
