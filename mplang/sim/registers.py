@@ -6,13 +6,15 @@ Every read is computed from the controller at its present simulated time; every 
 through the controller, so a register map and the interpreter can never disagree.
 
 Choices where the manual is silent are in `stdlib/m8194h/device.toml` ([registers]) and in
-docs/simulator.md.
+docs/simulator.md; one is the U axis's DI signals at 280-287 rather than the printed 380-387
+(profile key `registers.di_signal_u_first`).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
+from mplang.sim.axis_io import AxisReport
 from mplang.sim.controller import AXIS_NAMES, DeviceBusy, VirtualController
 
 ILLEGAL_FUNCTION = 0x01
@@ -86,6 +88,10 @@ class RegisterMap:
             out += self._pair(round(getattr(motion, getter)(1 << i, now)))
         return out
 
+    def _reports(self) -> list[AxisReport]:
+        vc = self.vc
+        return [vc.motion.axis_report(i, vc.clock) for i in range(len(AXIS_NAMES))]
+
     def _running_number(self) -> int:
         stack = self.vc.stack
         return stack[-1].table.slot if stack else 0
@@ -97,8 +103,16 @@ class RegisterMap:
         regs = [0] * INPUT_SPAN
         regs[0:16] = [g & 0xFFFF for g in vc.frnet]
         motion, now = vc.motion, vc.clock
-        for i in range(len(AXIS_NAMES)):
-            regs[58 + i] = 0 if motion.busy(1 << i, now) else 1  # stop status
+        for i, report in enumerate(self._reports()):
+            regs[16 + i] = report.di_status & 0xFFFF
+            regs[20 + i] = report.error_code & 0xFFFF
+            regs[58 + i] = 1 if report.stopped else 0
+            regs[62 + 2 * i:64 + 2 * i] = self._pair(report.latch)
+            regs[88 + i] = report.di_signal & 0xFFFF
+            regs[92 + i] = report.home_state & 0xFFFF
+            regs[25] |= 1 if report.emergency else 0
+        regs[70] = motion.io.error_state(now)
+        regs[130:140] = [mask & 0xFFFF for mask in motion.io.triggered_factors(now)]
         regs[24] = self._running_number()
         regs[26:34] = self._axes_pairs("lp")
         regs[34:42] = self._axes_pairs("ep")
@@ -230,7 +244,7 @@ class RegisterMap:
     # ------------------------------------------------------------ coils, inputs
     def coils(self) -> list[bool]:
         bits = [bool((self.vc.frnet[n // 16] >> (n % 16)) & 1) for n in range(128)]
-        return bits + [True] * len(AXIS_NAMES)  # servo state: on (no servo model yet)
+        return bits + [report.servo_on for report in self._reports()]
 
     def read_coils(self, address: int, count: int) -> list[bool]:
         if address < 0 or address + count > COIL_SPAN:
@@ -249,10 +263,12 @@ class RegisterMap:
     def discrete_inputs(self) -> list[bool]:
         vc = self.vc
         bits = [bool((vc.frnet[8 + n // 16] >> (n % 16)) & 1) for n in range(128)]
-        status = [False] * (DISCRETE_SPAN - 128)
-        for i in range(len(AXIS_NAMES)):
-            status[16 * i] = vc.motion.busy(1 << i, vc.clock)  # DRIVING
-        return bits + status
+        reports = self._reports()
+        for word, width in (("di_status", 16), ("stop_causes", 16), ("di_signal", 8)):
+            for report in reports:  # tables 25, 26, 27: one block of bits per axis
+                value = getattr(report, word)
+                bits += [bool((value >> n) & 1) for n in range(width)]
+        return bits
 
     def read_discrete(self, address: int, count: int) -> list[bool]:
         if address < 0 or address + count > DISCRETE_SPAN:

@@ -171,3 +171,25 @@ def test_any_var_round_trips_through_its_holding_pair(n: int, value: int, order:
     regs.write_holding(300 + 2 * n, pair if order == 0 else pair[::-1])
     assert vc.vars[n] == value
     assert regs.read_holding(300 + 2 * n, 2) == (pair if order == 0 else pair[::-1])
+
+
+def test_axis_status_tables_follow_the_motion_model() -> None:
+    """Registers 16-23, 58-61, 70 and discrete inputs 128-287 show the axis reports; an
+    emergency stop raises the EMERGENCY bits of every axis (tables 3, 25, 26)."""
+    vc, regs = fresh()
+    regs.write_holding(8000, rtc("FIXED_MOVE", 2, 50000))
+    vc.advance(0.05)
+    y_status = regs.read_input(17, 1)[0]
+    assert y_status & 1 and regs.read_discrete(144, 1) == [True]  # Y DRIVING
+    assert regs.read_input(58, 4) == [1, 0, 1, 1]
+    regs.write_holding(8000, rtc("EMERGENCY_STOP", 0))
+    vc.advance(0.06)
+    assert regs.read_input(58, 4) == [1, 1, 1, 1]
+    assert regs.read_input(25, 1) == [1] and regs.read_input(70, 1) == [1]
+    reports = [vc.motion.axis_report(i, vc.clock) for i in range(4)]
+    assert regs.read_input(20, 4) == [r.error_code for r in reports]
+    causes = regs.read_discrete(192, 64)
+    assert [causes[16 * i + 5] for i in range(4)] == [True] * 4  # EMERGENCY, table 26
+    signals = regs.read_discrete(256, 32)
+    assert signals[24:32] == [bool((reports[3].di_signal >> n) & 1) for n in range(8)]
+    assert regs.read_coils(128, 4) == [r.servo_on for r in reports]
