@@ -5,6 +5,11 @@ Exit codes (also in docs/cli.md):
   3 input files missing or unreadable               4 output cannot be written
   5 the program failed or did not finish on the virtual controller
   6 a Modbus endpoint cannot be opened (port in use, no such serial device)
+  7 mpc flash: the device cannot be reached (refused, no answer, no such serial port)
+  8 mpc flash: the device refused a program, or cannot take the image (word order)
+  9 mpc flash: the device did not confirm a download (download-status registers)
+  10 mpc flash: interrupted: the link failed beyond --retries, the device stayed busy, or
+     Ctrl-C / SIGTERM; programs after the last verified one may be missing
   70 internal error (a bug in mpc: please report it with the input)
 """
 
@@ -30,7 +35,13 @@ EXIT_NO_INPUT = 3
 EXIT_OUTPUT = 4
 EXIT_RUN_FAILED = 5
 EXIT_TRANSPORT = 6
+EXIT_NO_DEVICE = 7
+EXIT_REJECTED = 8
+EXIT_UNVERIFIED = 9
+EXIT_INTERRUPTED = 10
 EXIT_INTERNAL = 70
+FLASH_EXIT = {"verified": EXIT_OK, "no-device": EXIT_NO_DEVICE, "rejected": EXIT_REJECTED,
+              "unverified": EXIT_UNVERIFIED, "interrupted": EXIT_INTERRUPTED}
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -358,3 +369,130 @@ def sim(files: tuple[str, ...], tcp: tuple[str, int] | None, serial: str | None,
         click.echo(f"mpc sim: {exc}", err=True)
         sys.exit(EXIT_NO_INPUT if exc.kind == "memory" else EXIT_TRANSPORT)
     click.echo("mpc sim: stopped")
+
+
+def parse_device_address(_ctx: click.Context, _param: click.Parameter,
+                         value: str | None) -> tuple[str, int] | None:
+    """HOST[:PORT] with the Modbus TCP port 502 by default; IPv6 as [ADDR]:PORT or bare."""
+    if value is None:
+        return None
+    host, port_text = value, "502"
+    if value.startswith("["):
+        host, _, rest = value[1:].partition("]")
+        if rest:
+            port_text = rest.removeprefix(":")
+    elif value.count(":") == 1:
+        host, port_text = value.split(":")
+    try:
+        port = int(port_text)
+    except ValueError:
+        raise click.BadParameter(f"{value!r}: write HOST or HOST:PORT, e.g. 192.168.0.16:502"
+                                 ) from None
+    if not host or not 1 <= port <= 65535:
+        raise click.BadParameter(f"{value!r}: write HOST or HOST:PORT with a port in 1..65535")
+    return host, port
+
+
+@main.command(short_help="Download and verify programs in one device (Modbus TCP or RTU).")
+@click.argument("files", nargs=-1, required=True)
+@click.option("--tcp", callback=parse_device_address, default=None, metavar="HOST[:PORT]",
+              help="The device's Modbus TCP address (ET-M8194H) [default port: 502].")
+@click.option("--serial", default=None, metavar="PORT",
+              help="The serial port of a Modbus RTU device (RS-M8194H).")
+@click.option("--unit", type=click.IntRange(1, 247), default=1, show_default=True,
+              help="Modbus unit id: the RTU slave address (the ET-M8194H answers as 1).")
+@click.option("--baud", type=click.IntRange(min=50), default=115200, show_default=True)
+@click.option("--parity", type=click.Choice(["N", "E", "O"]), default="N", show_default=True)
+@click.option("--stopbits", type=click.Choice(["1", "2"]), default="1", show_default=True)
+@click.option("--timeout", type=click.FloatRange(min=0.01, max=60), default=1.0,
+              show_default=True, help="Seconds to wait for each answer.")
+@click.option("--retries", type=click.IntRange(0, 100), default=3, show_default=True,
+              help="Repeats after a timeout or a lost connection (reads, reconnections, "
+              "re-downloads of a program).")
+@click.option("--set-word-order", is_flag=True,
+              help="If the device's word order (holding register 14) differs from the "
+              "image's, set it instead of refusing.")
+@click.option("--json", "as_json", is_flag=True, help="Print a JSON summary on standard output.")
+@click.option("--dry-run", is_flag=True,
+              help="Print every frame that would be sent; connect to nothing.")
+@with_common
+@guarded
+def flash(files: tuple[str, ...], tcp: tuple[str, int] | None, serial: str | None, unit: int,
+          baud: int, parity: str, stopbits: str, timeout: float, retries: int,
+          set_word_order: bool, as_json: bool, dry_run: bool, target: str,
+          word_order: str | None, temp_vars: range, allow_outside_includes: bool,
+          werror: bool) -> None:
+    """Download FILE... (.mp sources built together, or one image JSON) into one device over
+    Modbus TCP or RTU, and verify every program through its download-status registers."""
+    import asyncio
+    import json
+    import logging
+    import signal
+    from dataclasses import replace
+
+    from mplang import flash as flashing
+    from mplang.modbus import DeviceLink, Endpoint
+
+    if (tcp is None) == (serial is None) and not dry_run:
+        raise click.UsageError("give the device: --tcp HOST[:PORT] or --serial PORT")
+    paths = expand_inputs(files)
+    rebuild: Callable[[int], flashing.FlashImage] | None = None
+    if any(p.suffix.lower() == ".json" for p in paths):
+        if len(paths) != 1:
+            raise click.UsageError("give one image JSON, or .mp sources, not both")
+        if word_order is not None:
+            raise click.BadParameter("an image JSON carries its own word order; --word-order "
+                                     "is for building .mp sources", param_hint="--word-order")
+        try:
+            image = flashing.load_image(paths[0])
+        except OSError as exc:
+            raise InputError(f"cannot read {paths[0]}: {exc.strerror or exc}") from None
+        except flashing.ImageError as exc:
+            raise InputError(f"{exc}") from None
+    else:
+        options = build_options(target, word_order, temp_vars, allow_outside_includes)
+        result = compile_paths(paths, options)
+        code = report(result, werror)
+        if code:
+            sys.exit(code)
+        image = flashing.image_from_build(result)
+        if word_order is None:  # follow the device's word order: the build is the same
+            def build_for(order: int) -> flashing.FlashImage:
+                return flashing.image_from_build(
+                    compile_paths(paths, replace(options, word_order=order)))
+            rebuild = build_for
+    if dry_run:
+        click.echo(json.dumps(flashing.plan_json(image)) + "\n" if as_json
+                   else flashing.render_plan(image), nl=False)
+        return
+    endpoint = Endpoint(host=tcp[0] if tcp else None, port=tcp[1] if tcp else 502,
+                        serial=serial, baudrate=baud, parity=parity, stopbits=int(stopbits),
+                        unit=unit, timeout=timeout, retries=retries)
+    logging.getLogger("pymodbus").setLevel(logging.CRITICAL)
+    flasher = flashing.Flasher(image, DeviceLink(endpoint), flashing.FlashOptions(
+        set_word_order=set_word_order, rebuild=rebuild),
+        lambda text: click.echo(f"mpc flash: {text}", err=True))
+
+    async def main_task() -> flashing.FlashReport:
+        task = asyncio.ensure_future(flasher.run())
+        loop = asyncio.get_running_loop()
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            loop.add_signal_handler(sig, task.cancel)
+        try:
+            return await task
+        except asyncio.CancelledError:
+            return flasher.report
+
+    outcome = asyncio.run(main_task())
+    verified = sum(1 for p in outcome.programs if p.status == "verified")
+    if outcome.ok:
+        click.echo(f"mpc flash: {verified} program(s) verified on {outcome.device}"
+                   + (f" (build {outcome.build_id})" if outcome.build_id else ""), err=True)
+    else:
+        where = f"{outcome.where}: " if outcome.where else ""
+        click.echo(f"mpc flash: {where}error: {outcome.error}", err=True)
+        click.echo(f"mpc flash: {verified} of {len(outcome.programs)} program(s) verified",
+                   err=True)
+    if as_json:
+        click.echo(json.dumps(outcome.to_json(), indent=1))
+    sys.exit(FLASH_EXIT[outcome.outcome])

@@ -58,13 +58,20 @@ class ProgramImage:
     def frames(self) -> list[list[int]]:
         return [self.create, *(lf.frame for lf in self.lines), self.close]
 
+    @property
+    def frame_lines(self) -> list[int]:
+        """The source line of each frame in `source` (create: the MP/ISR line, close: its END
+        line), so a device's refusal can be traced back to the source from the image alone."""
+        return [self.program.span.line, *(lf.line.span.line for lf in self.lines),
+                self.close_span.line]
+
     def to_json(self) -> dict[str, object]:
         program = self.program
         return {
             "kind": program.kind, "slot": self.placement.slot, "name": program.name,
             "source": program.source, "lines_used": self.placement.lines_used,
             "budget": self.placement.budget, "auto_placed": self.placement.auto,
-            "frames": self.frames,
+            "frame_lines": self.frame_lines, "frames": self.frames,
         }
 
 

@@ -29,9 +29,11 @@ def render_json(result: BuildResult) -> str:
     parts = []
     for program in programs:
         frames = program.pop("frames")
+        lines = program.pop("frame_lines")
         body = json.dumps(program, indent=2).replace("\n", "\n    ")[:-6]
         frame_lines = ",\n".join("        " + json.dumps(f) for f in frames)
-        parts.append(f"    {body},\n      \"frames\": [\n{frame_lines}\n      ]\n    }}")
+        parts.append(f"    {body},\n      \"frame_lines\": {json.dumps(lines)},\n"
+                     f"      \"frames\": [\n{frame_lines}\n      ]\n    }}")
     return head + ',\n  "programs": [\n' + ",\n".join(parts) + "\n  ]\n}\n"
 
 

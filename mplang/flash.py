@@ -1,0 +1,581 @@
+"""`mpc flash` as a library call: download an image into one device and verify every program.
+
+The device's own protocol (ET 6801-6835, appendix 12.1.12-12.1.13) decides the sequence. Per
+program:
+
+1. Read input register 100. A device left in MP or ISR download state (a download cut short,
+   by us or by someone else) is sent the matching close frame and must read ready (0) again.
+   If that close stored a truncated program in another slot, the slot is emptied (create +
+   close) so that no half program can be called.
+2. Create, every line, close: one FC16 at holding register 8000 per frame.
+3. Read 100-114: ready again, registers 110/111 name this slot, 114 (download error) is 0.
+
+Failures, and what is done about them:
+
+- a Modbus exception 0x06 (busy), or ILLEGAL FUNCTION with cause 0xC1 (DPRAM full): the frame
+  was refused, not stored; wait (growing pauses) and send the same frame again;
+- any other exception: the device refused the frame. Register 102 gives the cause, reported
+  in words at the source line of that frame; the download is closed and the slot emptied;
+- a download error in 110-114 after the close: reported in words at the source line that
+  holds the device's 0-based slot line;
+- no answer, or a lost connection, during a frame: whether the device stored the frame is
+  unknown, so the program is downloaded again from its create frame (step 1 closes the
+  half-open download first), up to `retries` times. Reads are simply repeated (DeviceLink).
+
+Success means every program was verified. `flash` returns a `FlashReport` with one
+`ProgramResult` per program whatever happens; its `outcome` tells the CLI which exit code.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from mplang import catalogue as catalogue_module
+from mplang.catalogue import Catalogue
+from mplang.compiler import IMAGE_FORMAT, BuildResult
+from mplang.encode import Encoder
+from mplang.modbus import (
+    MAX_WRITE_REGISTERS,
+    DeviceException,
+    DeviceLink,
+    Endpoint,
+    LinkError,
+    LinkLost,
+    LinkTimeout,
+    backoff,
+)
+
+STATE_REGISTER = 100  # input: 0 ready, 1 MP download, 2 ISR download
+CAUSE_REGISTER = 102  # input: cause of the last ILLEGAL FUNCTION
+STATUS_FIRST, STATUS_COUNT = 110, 5  # input: MP no, ISR no, command, 0-based line, error
+WORD_ORDER_REGISTER = 14  # holding: 0 MSW first, 1 LSW first
+ILLEGAL_FUNCTION, DEVICE_BUSY = 0x01, 0x06
+DPRAM_FULL = 0xC1  # register-102 cause that means "busy": the frame was not taken
+STATES = {0: "ready", 1: "MP download", 2: "ISR download"}
+BUSY_PAUSE_FIRST_S, BUSY_PAUSE_MAX_S = 0.01, 0.5  # the FIFO drains in milliseconds
+
+OUTCOMES = ("verified", "no-device", "rejected", "unverified", "interrupted")
+"""`FlashReport.outcome`: every program verified; the device cannot be reached; the device
+refused a program (or cannot take the image); the device did not confirm a download; the link
+failed beyond the retries, the device stayed busy, or the run was cancelled."""
+
+
+class ImageError(ValueError):
+    """An image JSON that cannot be flashed; the message starts with the place."""
+
+
+class Refused(Exception):
+    """The device refused a frame (any Modbus exception but busy); `cause` is input register
+    102 for ILLEGAL FUNCTION, else None."""
+
+    def __init__(self, exception: DeviceException, cause: int | None, reason: str) -> None:
+        super().__init__(reason)
+        self.code = exception.code
+        self.cause = cause
+
+
+class FlashFailure(Exception):
+    """Ends a flash run; `outcome` is one of OUTCOMES, `where` a source file:line or None."""
+
+    def __init__(self, outcome: str, message: str, where: str | None = None) -> None:
+        super().__init__(message)
+        self.outcome = outcome
+        self.where = where
+
+
+# ------------------------------------------------------------------------------ the image
+@dataclass
+class FlashProgram:
+    """One program to download: its frames (create ... close) and, per frame, the source
+    line it came from (None where unknown, e.g. an image written by another tool)."""
+
+    kind: str
+    slot: int
+    name: str | None
+    source: str | None
+    frames: list[list[int]]
+    lines: list[int | None]
+
+    @property
+    def label(self) -> str:
+        return f"{self.kind.upper()}{self.slot}" + (f" {self.name}" if self.name else "")
+
+    def where(self, index: int) -> str | None:
+        """`file:line` of frame `index`, as far as the image knows it."""
+        line = self.lines[index] if 0 <= index < len(self.lines) else None
+        if self.source is None:
+            return None
+        return f"{self.source}:{line}" if line is not None else self.source
+
+    def frame_at(self, slot_line: int, catalogue: Catalogue) -> int:
+        """The index of the frame that occupies the device's 0-based `slot_line` (commands
+        marked x2/x3/x4 take several lines); the close frame for lines past the last one."""
+        first = 0
+        for index in range(1, len(self.frames) - 1):
+            command = catalogue.by_code.get(self.frames[index][0])
+            cost = command.line_cost if command is not None else 1
+            if first <= slot_line < first + cost:
+                return index
+            first += cost
+        return len(self.frames) - 1
+
+
+@dataclass
+class FlashImage:
+    word_order: int
+    programs: list[FlashProgram]
+    build_id: str | None = None
+
+
+def image_from_build(build: BuildResult) -> FlashImage:
+    """The download plan of a successful build, with every frame's source line."""
+    if not build.ok:
+        raise ValueError("a build with errors cannot be flashed")
+    programs: list[FlashProgram] = []
+    for p in build.programs:
+        lines: list[int | None] = list(p.frame_lines)
+        programs.append(FlashProgram(p.program.kind, p.placement.slot, p.program.name,
+                                     p.program.source, [list(f) for f in p.frames], lines))
+    return FlashImage(build.word_order, programs, build.build_id())
+
+
+def _is_int(value: object) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def image_from_json(data: object, name: str, catalogue: Catalogue | None = None) -> FlashImage:
+    """Check an image (spec section 2) as `mpc build` writes it and turn it into a download
+    plan. Raises ImageError naming the place (`name: programs[2].frames[5][1]: ...`)."""
+    catalogue = catalogue or catalogue_module.load()
+    profile = catalogue.profile
+
+    def fail(where: str, message: str) -> ImageError:
+        return ImageError(f"{name}: {where}: {message}" if where else f"{name}: {message}")
+
+    if not isinstance(data, dict):
+        raise fail("", "an image is a JSON object")
+    if data.get("format") != IMAGE_FORMAT:
+        raise fail("format", f"expected \"{IMAGE_FORMAT}\", found {data.get('format')!r}")
+    target = data.get("target")
+    if not isinstance(target, dict) or target.get("word_order") not in (0, 1) \
+            or not _is_int(target.get("word_order")):
+        raise fail("target.word_order", "must be 0 or 1")
+    word_order = int(target["word_order"])
+    encoder = Encoder(catalogue, word_order)
+    raw_programs = data.get("programs")
+    if not isinstance(raw_programs, list) or not raw_programs:
+        raise fail("programs", "must be a non-empty list of programs")
+    build_id = data.get("build_id")
+    programs: list[FlashProgram] = []
+    seen: dict[tuple[str, int], int] = {}
+    for n, raw in enumerate(raw_programs):
+        at = f"programs[{n}]"
+        if not isinstance(raw, dict):
+            raise fail(at, "must be an object")
+        kind, slot = raw.get("kind"), raw.get("slot")
+        if not isinstance(kind, str) or kind not in ("mp", "isr"):
+            raise fail(f"{at}.kind", f"must be \"mp\" or \"isr\", found {kind!r}")
+        if not isinstance(slot, int) or isinstance(slot, bool) or \
+                profile.budget(kind, slot) is None:
+            raise fail(f"{at}.slot", f"{slot!r} is not a {kind.upper()} slot of the device")
+        if (kind, slot) in seen:
+            raise fail(at, f"{kind.upper()}{slot} is also programs[{seen[(kind, slot)]}]")
+        seen[(kind, slot)] = n
+        label = raw.get("name")
+        source = raw.get("source")
+        for key, value in (("name", label), ("source", source)):
+            if value is not None and not isinstance(value, str):
+                raise fail(f"{at}.{key}", "must be a string or null")
+        frames = raw.get("frames")
+        if not isinstance(frames, list) or len(frames) < 2:
+            raise fail(f"{at}.frames", "must be a list of frames, create and close included")
+        for k, frame in enumerate(frames):
+            where = f"{at}.frames[{k}]"
+            if not isinstance(frame, list) or not 1 <= len(frame) <= MAX_WRITE_REGISTERS:
+                raise fail(where, f"must be a list of 1..{MAX_WRITE_REGISTERS} registers")
+            for w, word in enumerate(frame):
+                if not _is_int(word) or not 0 <= word <= 0xFFFF:
+                    raise fail(f"{where}[{w}]", f"{word!r} is not a 16-bit register value")
+        create, close = encoder.create_frame(kind, slot), encoder.close_frame(kind)
+        if frames[0] != create:
+            raise fail(f"{at}.frames[0]", f"must be the create frame {create} of "
+                       f"{kind.upper()}{slot}")
+        if frames[-1] != close:
+            raise fail(f"{at}.frames[{len(frames) - 1}]", f"must be the close frame {close}")
+        for k in range(1, len(frames) - 1):
+            if frames[k][0] == close[0]:
+                # the rest would reach the device as real-time commands, and run
+                raise fail(f"{at}.frames[{k}]", "a close frame before the last frame")
+        lines = raw.get("frame_lines")
+        if lines is None:
+            lines = [None] * len(frames)
+        elif not isinstance(lines, list) or len(lines) != len(frames) or \
+                not all(v is None or (_is_int(v) and v > 0) for v in lines):
+            raise fail(f"{at}.frame_lines", "must list one source line (or null) per frame")
+        programs.append(FlashProgram(kind, slot, label, source, frames, lines))
+    return FlashImage(word_order, programs, build_id if isinstance(build_id, str) else None)
+
+
+def load_image(path: Path, catalogue: Catalogue | None = None) -> FlashImage:
+    """Read and check an image JSON file. OSError if unreadable, ImageError if not an image."""
+    text = path.read_bytes().decode("utf-8", errors="replace")
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise ImageError(f"{path}:{exc.lineno}:{exc.colno}: not JSON: {exc.msg}") from None
+    return image_from_json(data, str(path), catalogue)
+
+
+def render_plan(image: FlashImage, catalogue: Catalogue | None = None) -> str:
+    """`mpc flash --dry-run`: every frame that would be written, in order, in hex, with the
+    command name and the source line; nothing is sent."""
+    catalogue = catalogue or catalogue_module.load()
+    total = sum(len(p.frames) for p in image.programs)
+    out = [f"; mpc flash --dry-run: {len(image.programs)} programs, {total} frames, FC16 at "
+           f"holding register 8000, word order {image.word_order}"
+           + (f", build {image.build_id}" if image.build_id else "")]
+    for program in image.programs:
+        out.append("")
+        out.append(f"{program.label}  ({program.where(0) or 'source unknown'})  "
+                   f"{len(program.frames)} frames")
+        for index, frame in enumerate(program.frames):
+            command = catalogue.by_code.get(frame[0])
+            name = command.short_name if command is not None else "?"
+            words = " ".join(f"{w:04X}" for w in frame)
+            out.append(f"  {index:>4}  {name:<20} {words:<44} {program.where(index) or ''}"
+                       .rstrip())
+    return "\n".join(out) + "\n"
+
+
+def plan_json(image: FlashImage) -> dict[str, object]:
+    """`mpc flash --dry-run --json`: the same plan as data."""
+    return {"dry_run": True, "word_order": image.word_order, "build_id": image.build_id,
+            "programs": [{"kind": p.kind, "slot": p.slot, "name": p.name, "source": p.source,
+                          "frame_lines": p.lines, "frames": p.frames}
+                         for p in image.programs]}
+
+
+# ----------------------------------------------------------------------------- results
+@dataclass
+class ProgramResult:
+    """What happened to one program. `status`: "verified"; "rejected" (the device refused
+    it); "unverified" (downloaded, not confirmed); "interrupted" (the link or the user cut
+    the download); "pending" (never sent, because an earlier program failed)."""
+
+    kind: str
+    slot: int
+    name: str | None
+    source: str | None
+    frames: int
+    status: str = "pending"
+    downloads: int = 0  # times the create frame was sent
+    busy_waits: int = 0
+    seconds: float = 0.0
+    error: str | None = None
+    where: str | None = None
+    download_status: list[int] | None = None  # input registers 110-114 after the close
+
+    @property
+    def label(self) -> str:
+        return f"{self.kind.upper()}{self.slot}" + (f" {self.name}" if self.name else "")
+
+    def to_json(self) -> dict[str, object]:
+        return {"kind": self.kind, "slot": self.slot, "name": self.name,
+                "source": self.source, "frames": self.frames, "status": self.status,
+                "downloads": self.downloads, "busy_waits": self.busy_waits,
+                "seconds": round(self.seconds, 4), "error": self.error, "where": self.where,
+                "download_status": self.download_status}
+
+
+@dataclass
+class FlashReport:
+    device: str
+    word_order: int
+    build_id: str | None
+    programs: list[ProgramResult]
+    outcome: str = "verified"
+    error: str | None = None
+    where: str | None = None
+    notes: list[str] = field(default_factory=list)
+    seconds: float = 0.0
+
+    @property
+    def ok(self) -> bool:
+        return self.outcome == "verified" and all(p.status == "verified"
+                                                  for p in self.programs)
+
+    def to_json(self) -> dict[str, object]:
+        return {"ok": self.ok, "outcome": self.outcome, "device": self.device,
+                "word_order": self.word_order, "build_id": self.build_id,
+                "error": self.error, "where": self.where, "notes": self.notes,
+                "seconds": round(self.seconds, 4),
+                "programs": [p.to_json() for p in self.programs]}
+
+
+@dataclass(frozen=True)
+class FlashOptions:
+    set_word_order: bool = False
+    """Write the image's word order to holding register 14 when the device's differs.
+    Default: refuse, because the register changes how every client reads 32-bit values."""
+    rebuild: Callable[[int], FlashImage] | None = None
+    """Build the image again for the device's word order when it differs (sources given
+    without an explicit word order); takes precedence over `set_word_order`."""
+    busy_timeout: float = 10.0
+    """Seconds one frame may keep meeting a busy device before flashing gives up."""
+
+
+def _results(image: FlashImage) -> list[ProgramResult]:
+    return [ProgramResult(p.kind, p.slot, p.name, p.source, len(p.frames))
+            for p in image.programs]
+
+
+# ----------------------------------------------------------------------------- flashing
+class Flasher:
+    """One flash run over one `DeviceLink`. `report` is kept current, so a caller that
+    cancels the run (Ctrl-C) still knows what was verified."""
+
+    def __init__(self, image: FlashImage, link: DeviceLink,
+                 options: FlashOptions = FlashOptions(),
+                 progress: Callable[[str], None] | None = None,
+                 catalogue: Catalogue | None = None) -> None:
+        self.image = image
+        self.link = link
+        self.options = options
+        self.progress = progress or (lambda _text: None)
+        self.catalogue = catalogue or catalogue_module.load()
+        self.profile = self.catalogue.profile
+        self.report = FlashReport(link.endpoint.describe(), image.word_order, image.build_id,
+                                  _results(image))
+        self._current: ProgramResult | None = None
+
+    def _note(self, text: str) -> None:
+        self.report.notes.append(text)
+        self.progress(f"note: {text}")
+
+    async def run(self) -> FlashReport:
+        start = time.monotonic()
+        frames = sum(len(p.frames) for p in self.image.programs)
+        self.progress(f"{self.report.device}: {len(self.image.programs)} program(s), "
+                      f"{frames} frames")
+        try:
+            await self._connect()
+            for program, result in zip(self.image.programs, self.report.programs,
+                                       strict=True):
+                self._current = result
+                await self._program(program, result)
+                self._current = None
+        except FlashFailure as failure:
+            self._fail(failure.outcome, str(failure), failure.where)
+        except Refused as refusal:
+            self._fail("rejected", f"the device refused a frame needed to make it ready: "
+                       f"{refusal}")
+        except DeviceException as exc:
+            self._fail("rejected", f"the device refused a request: {exc}")
+        except LinkError as exc:
+            self._fail("interrupted", f"the link failed: {exc}")
+        except asyncio.CancelledError:
+            self._fail("interrupted", "interrupted before every program was verified")
+            raise
+        finally:
+            self.link.close()
+            self.report.seconds = time.monotonic() - start
+        return self.report
+
+    def _fail(self, outcome: str, message: str, where: str | None = None) -> None:
+        self.report.outcome, self.report.error, self.report.where = outcome, message, where
+        current = self._current
+        if current is not None and current.status == "pending":
+            current.status = {"rejected": "rejected", "unverified": "unverified"}.get(
+                outcome, "interrupted")
+            current.error, current.where = message, where
+
+    # ---------------------------------------------------------------- connection
+    async def _connect(self) -> None:
+        """Open the link and settle the word order; any link failure here means there is
+        no device to talk to."""
+        try:
+            await self.link.open()
+            (device_order,) = await self.link.read_holding(WORD_ORDER_REGISTER, 1)
+        except LinkError as exc:
+            raise FlashFailure("no-device", str(exc)) from None
+        except DeviceException as exc:
+            raise FlashFailure("no-device", f"{self.link.endpoint.describe()} does not answer "
+                               f"as an M8194H: reading holding register "
+                               f"{WORD_ORDER_REGISTER} gives {exc}") from None
+        wanted = self.image.word_order
+        if device_order == wanted:
+            return
+        if self.options.rebuild is not None and device_order in (0, 1):
+            self.image = self.options.rebuild(device_order)
+            self.report.word_order = self.image.word_order
+            self.report.build_id = self.image.build_id
+            self.report.programs = _results(self.image)
+            self._note(f"the device's word order (holding register {WORD_ORDER_REGISTER}) is "
+                       f"{device_order}: built for it")
+            return
+        if not self.options.set_word_order:
+            raise FlashFailure("rejected", f"the device's word order (holding register "
+                               f"{WORD_ORDER_REGISTER}) is {device_order}, the image's "
+                               f"{wanted}: build with --word-order {device_order}, or let "
+                               f"mpc flash set the device's with --set-word-order")
+        await self.link.write_holding(WORD_ORDER_REGISTER, [wanted])
+        (now,) = await self.link.read_holding(WORD_ORDER_REGISTER, 1)
+        if now != wanted:
+            raise FlashFailure("unverified", f"holding register {WORD_ORDER_REGISTER} reads "
+                               f"{now} after writing {wanted}")
+        self._note(f"set the device's word order (holding register {WORD_ORDER_REGISTER}) "
+                   f"from {device_order} to {wanted}")
+
+    # ------------------------------------------------------------------ programs
+    async def _program(self, program: FlashProgram, result: ProgramResult) -> None:
+        start = time.monotonic()
+        failures = 0
+        while True:
+            try:
+                await self._make_ready(program)
+                result.downloads += 1
+                for index in range(len(program.frames)):
+                    await self._send(program, result, index)
+                await self._verify(program, result)
+                break
+            except (LinkTimeout, LinkLost) as exc:
+                failures += 1
+                if failures > self.link.endpoint.retries:
+                    raise FlashFailure("interrupted", f"{program.label}: {exc}; gave up after "
+                                       f"{failures} downloads") from None
+                self._note(f"{program.label}: {exc}: downloading it again from its create "
+                           "frame")
+                await asyncio.sleep(backoff(failures, self.link.endpoint.timeout))
+        result.status = "verified"
+        result.seconds = time.monotonic() - start
+        extra = [f"{result.downloads} downloads"] if result.downloads > 1 else []
+        extra += [f"{result.busy_waits} busy waits"] if result.busy_waits else []
+        self.progress(f"{program.label}: {len(program.frames)} frames verified "
+                      f"({result.seconds * 1000:.0f} ms{', ' if extra else ''}"
+                      f"{', '.join(extra)})")
+
+    async def _make_ready(self, program: FlashProgram) -> None:
+        """Bring a device left in a download state back to ready (step 1 of the module
+        docstring)."""
+        (state,) = await self.link.read_input(STATE_REGISTER, 1)
+        if state == 0:
+            return
+        if state not in (1, 2):
+            raise FlashFailure("rejected", f"input register {STATE_REGISTER} reads {state}, "
+                               "not a state of the M8194H (0 ready, 1/2 MP/ISR download)")
+        kind = "mp" if state == 1 else "isr"
+        encoder = Encoder(self.catalogue, self.image.word_order)
+        await self._write(encoder.close_frame(kind), None)
+        registers = await self.link.read_input(STATE_REGISTER, STATUS_FIRST + STATUS_COUNT
+                                               - STATE_REGISTER)
+        if registers[0] != 0:
+            raise FlashFailure("rejected", f"the device stays in {STATES.get(registers[0])} "
+                               "state after a close frame")
+        mp_no, isr_no, _command, _line, error = registers[STATUS_FIRST - STATE_REGISTER:]
+        slot = mp_no if kind == "mp" else isr_no
+        self._note(f"the device was in {STATES[state]} state (a download cut short): closed "
+                   f"it{f' ({kind.upper()}{slot})' if slot else ''}")
+        if slot and error == 0 and (kind, slot) != (program.kind, program.slot):
+            await self._empty(kind, slot)
+
+    async def _empty(self, kind: str, slot: int) -> None:
+        """Download an empty program into a slot a cut-short download left a truncated
+        program in: an empty program returns at once when called, a truncated one may not."""
+        encoder = Encoder(self.catalogue, self.image.word_order)
+        await self._write(encoder.create_frame(kind, slot), None)
+        await self._write(encoder.close_frame(kind), None)
+        self._note(f"{kind.upper()}{slot} held a truncated program: emptied it")
+
+    async def _write(self, frame: list[int], result: ProgramResult | None) -> None:
+        """One frame; a busy device (exception 0x06, or cause 0xC1 DPRAM full) gets the same
+        frame again after growing pauses. Any other refusal raises Refused, with the cause in
+        words."""
+        waited = 0.0
+        attempt = 0
+        while True:
+            try:
+                await self.link.write_frame(frame)
+                return
+            except DeviceException as exc:
+                cause = None
+                if exc.code == ILLEGAL_FUNCTION:
+                    (cause,) = await self.link.read_input(CAUSE_REGISTER, 1)
+                if exc.code != DEVICE_BUSY and cause != DPRAM_FULL:
+                    reason = exc.name if cause is None else (
+                        f"{exc.name}, cause {cause:#04x} ("
+                        f"{self.profile.illegal_function_causes.get(cause, 'unknown cause')})")
+                    raise Refused(exc, cause, reason) from None
+                attempt += 1
+                pause = backoff(attempt, BUSY_PAUSE_MAX_S, BUSY_PAUSE_FIRST_S)
+                if waited + pause > self.options.busy_timeout:
+                    raise FlashFailure("interrupted", f"the device stayed busy for "
+                                       f"{waited:.1f} s") from None
+                if result is not None:
+                    result.busy_waits += 1
+                await asyncio.sleep(pause)
+                waited += pause
+
+    async def _send(self, program: FlashProgram, result: ProgramResult, index: int) -> None:
+        frame = program.frames[index]
+        try:
+            await self._write(frame, result)
+        except Refused as refusal:
+            if index > 0:
+                await self._abandon(program)
+            raise FlashFailure("rejected", f"{program.label}: the device refused frame "
+                               f"{index} ({self._describe(frame)}): {refusal}",
+                               program.where(index)) from None
+
+    async def _abandon(self, program: FlashProgram) -> None:
+        """After a refused frame: end the download and empty the slot, so the device is
+        ready and holds no truncated program. Failures here are noted, not raised: the
+        refusal is what the user must see."""
+        encoder = Encoder(self.catalogue, self.image.word_order)
+        try:
+            (state,) = await self.link.read_input(STATE_REGISTER, 1)
+            if state in (1, 2):
+                await self._write(encoder.close_frame("mp" if state == 1 else "isr"), None)
+            await self._empty(program.kind, program.slot)
+        except (LinkError, DeviceException, Refused, FlashFailure) as exc:
+            self._note(f"{program.label}: could not tidy up after the refusal: {exc}")
+
+    async def _verify(self, program: FlashProgram, result: ProgramResult) -> None:
+        registers = await self.link.read_input(STATE_REGISTER, STATUS_FIRST + STATUS_COUNT
+                                               - STATE_REGISTER)
+        state = registers[0]
+        status = registers[STATUS_FIRST - STATE_REGISTER:]
+        result.download_status = status
+        mp_no, isr_no, command, line, error = status
+        expected = (program.slot, 0) if program.kind == "mp" else (0, program.slot)
+        if state != 0:
+            raise FlashFailure("unverified", f"{program.label}: the device is in "
+                               f"{STATES.get(state, state)} state after the close frame",
+                               program.where(len(program.frames) - 1))
+        if (mp_no, isr_no) != expected:
+            raise FlashFailure("unverified", f"{program.label}: the download status "
+                               f"(input registers 110-114) is for MP{mp_no}/ISR{isr_no}, "
+                               "not for this program")
+        if error:
+            index = program.frame_at(line, self.catalogue)
+            known = self.catalogue.by_code.get(command)
+            name = known.short_name if known is not None else f"command {command:#06x}"
+            reason = self.profile.download_errors.get(error, "unknown download error")
+            raise FlashFailure("rejected", f"{program.label}: the device refused the program: "
+                               f"download error {error:#04x} ({reason}) at slot line {line} "
+                               f"({name})", program.where(index))
+
+    def _describe(self, frame: list[int]) -> str:
+        command = self.catalogue.by_code.get(frame[0])
+        words = " ".join(f"{w:04X}" for w in frame)
+        return f"{command.short_name} {words}" if command is not None else words
+
+
+async def flash(image: FlashImage, endpoint: Endpoint, options: FlashOptions = FlashOptions(),
+                progress: Callable[[str], None] | None = None) -> FlashReport:
+    """Download every program of `image` into the device at `endpoint` and verify each."""
+    return await Flasher(image, DeviceLink(endpoint), options, progress).run()
