@@ -34,8 +34,12 @@ Conventions and simplifications
   lasts ``2*sqrt(dv/K)`` and covers ``(v0+v1)*sqrt(dv/K)``.  The deceleration ramp
   uses L (mode 3) or K (mode 1).  Short moves lower the peak speed so that the
   two ramps exactly cover the distance (closed-form cubic, Newton-polished).
-* Offset pulses AO / VAO (l.5351, l.6369) are stored but not applied: every fixed
-  move ends exactly on its target with no low-speed creep.
+* Offset pulses AO / VAO (7.1.8, l.5351; l.6369; power-on 8): a fixed move (single axis
+  or interpolation) plans its ramps over the distance less the offset and runs the offset
+  pulses at the start speed after the deceleration, "compensation [of] the pulses when the
+  deceleration speed does not reach the initial speed" (l.5351); the move still ends
+  exactly on its target.  A negative offset (which would cut the deceleration short) and
+  offsets in continuous-interpolation chains are not applied.
 * The end of a move snaps the logical position (LP) to the exact integer target.
   While moving, LP is the path position rounded to the nearest pulse.
 * EP (encoder) is LP plus a per-axis offset (an ideal encoder).  SET_EP changes the
@@ -269,6 +273,7 @@ class _Plan:
     dec: float
     s_curve: bool
     constant: bool = False
+    offset: float = 0.0  # AO / VAO: pulses kept back from the deceleration, run at SV
 
 
 def _point_to_point(dist: float, plan: _Plan) -> _Profile:
@@ -281,6 +286,12 @@ def _point_to_point(dist: float, plan: _Plan) -> _Profile:
     if plan.constant or sv >= v:
         prof = _Profile(0.0, v)
         prof.add(dist / v, 0.0, 0.0)
+        prof.length = dist
+        return prof
+    creep = min(plan.offset, dist) if plan.offset > 0.0 and sv > 0.0 else 0.0
+    if creep:
+        prof = _point_to_point(dist - creep, _Plan(sv, v, plan.acc, plan.dec, plan.s_curve))
+        prof.add(creep / sv, 0.0, 0.0)
         prof.length = dist
         return prof
     acc, dec, sc = plan.acc, plan.dec, plan.s_curve
@@ -440,8 +451,9 @@ def _single_plan(st: _AxisSettings) -> _Plan:
     mode = st.mode
     if mode in (1, 3):
         return _Plan(sv, v, float(max(st.k, 1)), float(max(st.l if mode == 3 else st.k, 1)),
-                     True)
-    return _Plan(sv, v, float(max(st.a, 1)), float(max(st.d if mode == 2 else st.a, 1)), False)
+                     True, offset=float(st.ao))
+    return _Plan(sv, v, float(max(st.a, 1)), float(max(st.d if mode == 2 else st.a, 1)), False,
+                 offset=float(st.ao))
 
 
 class MotionModel:
@@ -565,13 +577,14 @@ class MotionModel:
         kind = _VECTOR_KIND[vs.mode]
         if kind == "const":
             return _Plan(v, v, 1.0, 1.0, False, constant=True)
+        offset = float(vs.vao)
         if kind == "symT":
-            return _Plan(sv, v, float(max(vs.va, 1)), float(max(vs.va, 1)), False)
+            return _Plan(sv, v, float(max(vs.va, 1)), float(max(vs.va, 1)), False, offset=offset)
         if kind == "asymT":
-            return _Plan(sv, v, float(max(vs.va, 1)), float(max(vs.vd, 1)), False)
+            return _Plan(sv, v, float(max(vs.va, 1)), float(max(vs.vd, 1)), False, offset=offset)
         if kind == "symS":
-            return _Plan(sv, v, float(max(vs.vk, 1)), float(max(vs.vk, 1)), True)
-        return _Plan(sv, v, float(max(vs.vk, 1)), float(max(vs.vl, 1)), True)
+            return _Plan(sv, v, float(max(vs.vk, 1)), float(max(vs.vk, 1)), True, offset=offset)
+        return _Plan(sv, v, float(max(vs.vk, 1)), float(max(vs.vl, 1)), True, offset=offset)
 
     # ------------------------------------------------------------------ motion
     def fixed_move(self, axis_mask: int, pulses: int, now: float) -> None:

@@ -607,9 +607,10 @@ def test_drive_factors_c_sta_c_end_d_end_and_disable_int() -> None:
     assert m.next_interrupt(0.0) is None  # ENABLE_INT not given yet
     m.io.enable_int(0.0)
     end = m.idle_at(X, 0.0)
-    assert end == pytest.approx(0.18 + (10_000 - 990) / 10_000)
+    # 8 offset pulses (the power-on AO) run at SV after the deceleration
+    assert end == pytest.approx(0.18 + (10_000 - 8 - 990) / 10_000 + 0.008)
     got = m.take_interrupts(end)
-    assert got == [(pytest.approx(0.09), 16), (pytest.approx(end - 0.09), 15),
+    assert got == [(pytest.approx(0.09), 16), (pytest.approx(end - 0.008 - 0.09), 15),
                    (pytest.approx(end), 17)]
     m.io.disable_int(end)
     m.fixed_move(X, 10_000, end)

@@ -33,15 +33,17 @@ def _samples(t0: float, t1: float, n: int = 60) -> list[float]:
 def test_t_curve_time_matches_formula() -> None:
     m = _model(0)
     m.fixed_move(X, 100_000, 0.0)
-    # ramp 1000 -> 10000 at 100000: 0.09 s over (1e8 - 1e6) / 2e5 = 495 pulses, twice
-    expected = 0.09 + (100_000 - 2 * 495) / 10_000 + 0.09
+    # ramp 1000 -> 10000 at 100000: 0.09 s over (1e8 - 1e6) / 2e5 = 495 pulses, twice; the
+    # power-on offset of 8 pulses is run at the start speed after the deceleration
+    expected = 0.09 + (100_000 - 8 - 2 * 495) / 10_000 + 0.09 + 8 / 1000
     end = m.idle_at(X, 0.0)
     assert end == pytest.approx(expected)
     assert m.next_event(0.0) == pytest.approx(expected)
     assert m.lp(X, 0.05) == 175  # 1000*0.05 + 100000*0.05**2/2
     assert m.cv(X, 5.0) == pytest.approx(10_000)
     assert m.ca(X, 0.01) == pytest.approx(100_000)
-    assert m.ca(X, expected - 0.01) == pytest.approx(-100_000)
+    assert m.ca(X, expected - 0.008 - 0.01) == pytest.approx(-100_000)
+    assert m.cv(X, expected - 0.004) == pytest.approx(1000)  # the offset pulses
     assert m.lp(X, expected) == 100_000
     assert not m.busy(X, expected)
 
@@ -49,13 +51,45 @@ def test_t_curve_time_matches_formula() -> None:
 def test_t_curve_triangle() -> None:
     m = _model(2)  # A=100000, D=50000
     m.fixed_move(X, 600, 0.0)
-    peak = math.sqrt(1000**2 + 2 * 600 * 100_000 * 50_000 / 150_000)
+    peak = math.sqrt(1000**2 + 2 * (600 - 8) * 100_000 * 50_000 / 150_000)
     assert peak < 10_000
-    expected = (peak - 1000) / 100_000 + (peak - 1000) / 50_000
+    expected = (peak - 1000) / 100_000 + (peak - 1000) / 50_000 + 8 / 1000
     end = m.idle_at(X, 0.0)
     assert end == pytest.approx(expected)
-    assert max(m.cv(X, t) for t in _samples(0.0, end)) == pytest.approx(peak, rel=1e-3)
+    assert max(m.cv(X, t) for t in _samples(0.0, end)) == pytest.approx(peak, rel=5e-3)
     assert m.lp(X, end) == 600
+
+
+@pytest.mark.parametrize("mode", [0, 1])
+def test_offset_pulses_run_at_the_start_speed_after_the_deceleration(mode: int) -> None:
+    """SET_AO (7.1.8): the deceleration ends `ao` pulses early and the rest runs at SV; the
+    move still ends exactly on its target. AO 0 leaves the plain profile."""
+    plain = _model(mode)
+    plain.set_ao(X, 0)
+    plain.fixed_move(X, 20_000, 0.0)
+    base = plain.idle_at(X, 0.0)
+    m = _model(mode)
+    m.set_ao(X, 300)
+    m.fixed_move(X, 20_000, 0.0)
+    end = m.idle_at(X, 0.0)
+    assert base is not None and end is not None and end > base
+    assert m.lp(X, end - 0.3) == pytest.approx(19_700, abs=1)  # 300 pulses at SV: 0.3 s
+    assert m.cv(X, end - 0.25) == pytest.approx(1000)
+    assert m.lp(X, end) == 20_000
+
+
+def test_vector_offset_pulses_end_a_line_at_the_vector_start_speed() -> None:
+    m = _model(0)
+    m.axis_assign(X, Y, 0)
+    m.set_vector_mode(1)
+    m.set_vsv(500)
+    m.set_vv(5000)
+    m.set_vao(200)
+    m.line((3000, 4000), 0.0)  # 5000 pulses of path, the last 200 at 500/s: 0.4 s
+    end = m.idle_at(X | Y, 0.0)
+    assert end is not None
+    assert (m.lp(X, end - 0.4), m.lp(Y, end - 0.4)) == (2880, 3840)
+    assert (m.lp(X, end), m.lp(Y, end)) == (3000, 4000)
 
 
 def test_speed_is_quantised() -> None:
@@ -241,6 +275,7 @@ def test_arc_direction_radius_and_end(clockwise: bool) -> None:
     m.set_vsv(100)
     m.set_vv(3000)
     m.set_va(5000)
+    m.set_vao(0)  # no offset pulses: the profile is the plain symmetric T-curve
     # start (0, 0), centre (10000, 0): radius 10000; finish (10000, 10000) is the top
     m.arc((10_000, 0), (10_000, 10_000), clockwise, 0.0)
     end = m.idle_at(X | Y, 0.0)
