@@ -156,6 +156,23 @@ def with_common(func: F) -> F:
     return func
 
 
+serial_line_options = [
+    click.option("--baud", type=click.IntRange(min=50), default=115200, show_default=True,
+                 help="Serial line speed."),
+    click.option("--parity", type=click.Choice(["N", "E", "O"]), default="N",
+                 show_default=True, help="Serial line parity."),
+    click.option("--stopbits", type=click.Choice(["1", "2"]), default="1", show_default=True,
+                 help="Serial line stop bits."),
+]
+
+
+def with_serial_line(func: F) -> F:
+    """The RTU line settings `mpc sim` and `mpc flash` share."""
+    for option in reversed(serial_line_options):
+        func = option(func)
+    return func
+
+
 def build_options(target: str, word_order: str | None, temp_vars: range,
                   allow_outside_includes: bool) -> Options:
     return Options(word_order=None if word_order is None else int(word_order), target=target,
@@ -301,9 +318,7 @@ def parse_host_port(_ctx: click.Context, _param: click.Parameter,
               "terminal pair and prints the end to open.")
 @click.option("--unit", type=click.IntRange(1, 247), default=1, show_default=True,
               help="RTU slave address.")
-@click.option("--baud", type=click.IntRange(min=50), default=115200, show_default=True)
-@click.option("--parity", type=click.Choice(["N", "E", "O"]), default="N", show_default=True)
-@click.option("--stopbits", type=click.Choice(["1", "2"]), default="1", show_default=True)
+@with_serial_line
 @click.option("--speed", type=click.FloatRange(min=0.0001, max=10000), default=1.0,
               show_default=True, help="Simulated seconds per wall second.")
 @click.option("--memory", type=click.Path(dir_okay=False, path_type=Path), default=None,
@@ -401,9 +416,7 @@ def parse_device_address(_ctx: click.Context, _param: click.Parameter,
               help="The serial port of a Modbus RTU device (RS-M8194H).")
 @click.option("--unit", type=click.IntRange(1, 247), default=1, show_default=True,
               help="Modbus unit id: the RTU slave address (the ET-M8194H answers as 1).")
-@click.option("--baud", type=click.IntRange(min=50), default=115200, show_default=True)
-@click.option("--parity", type=click.Choice(["N", "E", "O"]), default="N", show_default=True)
-@click.option("--stopbits", type=click.Choice(["1", "2"]), default="1", show_default=True)
+@with_serial_line
 @click.option("--timeout", type=click.FloatRange(min=0.01, max=60), default=1.0,
               show_default=True, help="Seconds to wait for each answer.")
 @click.option("--retries", type=click.IntRange(0, 100), default=3, show_default=True,

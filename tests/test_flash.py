@@ -17,6 +17,7 @@ from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
+from simproc import start_sim
 
 from mplang.cli import (
     EXIT_INTERRUPTED,
@@ -486,20 +487,8 @@ def mpc(*args: str, timeout: float = 30) -> subprocess.CompletedProcess[str]:
                           text=True, timeout=timeout, cwd=ROOT)
 
 
-def start_sim() -> tuple[subprocess.Popen[str], int]:
-    proc = subprocess.Popen([sys.executable, "-m", "mplang", "sim", "--tcp", "127.0.0.1:0",
-                             "--duration", "20"], stdout=subprocess.PIPE,
-                            stderr=subprocess.STDOUT, text=True)
-    assert proc.stdout is not None
-    for line in proc.stdout:
-        if "Modbus TCP on" in line:
-            return proc, int(line.rsplit(":", 1)[1].split()[0])
-    proc.wait(10)
-    raise AssertionError(f"mpc sim did not start (exit {proc.returncode})")
-
-
 def test_cli_flashes_samples_rejects_bad_input_and_reports_no_device(tmp_path: Path) -> None:
-    proc, port = start_sim()
+    proc, port = start_sim("--duration", "20")
     try:
         ok = mpc("flash", "samples/*.mp", "--tcp", f"127.0.0.1:{port}", "--json")
         assert ok.returncode == EXIT_OK, ok.stderr

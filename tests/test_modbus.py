@@ -15,6 +15,7 @@ from pathlib import Path
 import pytest
 from pymodbus.client import AsyncModbusSerialClient, AsyncModbusTcpClient
 from pymodbus.exceptions import ModbusException
+from simproc import start_sim
 
 from mplang.compiler import compile_source
 from mplang.modbus import DeviceFace, SimClock, serve_rtu, serve_tcp, stop
@@ -203,18 +204,6 @@ def test_mbpoll_reads_over_rtu() -> None:
 
 
 # ----------------------------------------------------------------------- mpc sim (CLI)
-
-
-def start_sim(*args: str) -> tuple[subprocess.Popen[str], int]:
-    proc = subprocess.Popen([sys.executable, "-m", "mplang", "sim", "--tcp", "127.0.0.1:0",
-                             *args], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                            text=True)
-    assert proc.stdout is not None
-    for line in proc.stdout:
-        if "Modbus TCP on" in line:
-            return proc, int(line.rsplit(":", 1)[1].split()[0])
-    proc.wait(10)
-    raise AssertionError(f"mpc sim did not start (exit {proc.returncode})")
 
 
 def test_mpc_sim_keeps_macro_memory_across_a_restart(tmp_path: Path) -> None:

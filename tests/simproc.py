@@ -1,0 +1,19 @@
+"""Start `mpc sim` as a subprocess on a free loopback port (shared by the CLI tests)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+
+def start_sim(*args: str) -> tuple[subprocess.Popen[str], int]:
+    """Run `mpc sim --tcp 127.0.0.1:0 ARGS...`; return the process and the port it prints."""
+    proc = subprocess.Popen([sys.executable, "-m", "mplang", "sim", "--tcp", "127.0.0.1:0",
+                             *args], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                            text=True)
+    assert proc.stdout is not None
+    for line in proc.stdout:
+        if "Modbus TCP on" in line:
+            return proc, int(line.rsplit(":", 1)[1].split()[0])
+    proc.wait(10)
+    raise AssertionError(f"mpc sim did not start (exit {proc.returncode})")
