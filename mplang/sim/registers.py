@@ -12,6 +12,7 @@ docs/simulator.md; one is the U axis's DI signals at 280-287 rather than the pri
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 from mplang.sim.axis_io import AxisReport
@@ -97,12 +98,24 @@ class RegisterMap:
         return stack[-1].table.slot if stack else 0
 
     # ------------------------------------------------------------ input registers
-    def input_registers(self) -> list[int]:
-        """The whole input register table (FC4), as of the controller's present time."""
-        vc = self.vc
-        regs = [0] * INPUT_SPAN
-        regs[0:16] = [g & 0xFFFF for g in vc.frnet]
-        motion, now = vc.motion, vc.clock
+    # Each filler writes its own addresses of a full-size table; a read calls only the
+    # fillers whose addresses it overlaps, so polling positions does not compute the rest.
+    def _input_fillers(self) -> list[tuple[tuple[range, ...], Callable[[list[int]], None]]]:
+        return [
+            ((range(0, 16),), self._in_frnet),
+            ((range(16, 24), range(25, 26), range(58, 70), range(88, 96)), self._in_axes),
+            ((range(24, 25),), self._in_running),
+            ((range(26, 58), range(160, 168)), self._in_motion),
+            ((range(70, 71), range(130, 140)), self._in_io),
+            ((range(71, 72),), self._in_fifo),
+            ((range(81, 86),), self._in_identity),
+            ((range(100, 103), range(110, 120)), self._in_states),
+        ]
+
+    def _in_frnet(self, regs: list[int]) -> None:
+        regs[0:16] = [g & 0xFFFF for g in self.vc.frnet]
+
+    def _in_axes(self, regs: list[int]) -> None:
         for i, report in enumerate(self._reports()):
             regs[16 + i] = report.di_status & 0xFFFF
             regs[20 + i] = report.error_code & 0xFFFF
@@ -111,34 +124,64 @@ class RegisterMap:
             regs[88 + i] = report.di_signal & 0xFFFF
             regs[92 + i] = report.home_state & 0xFFFF
             regs[25] |= 1 if report.emergency else 0
-        regs[70] = motion.io.error_state(now)
-        regs[130:140] = [mask & 0xFFFF for mask in motion.io.triggered_factors(now)]
+
+    def _in_running(self, regs: list[int]) -> None:
         regs[24] = self._running_number()
+
+    def _in_motion(self, regs: list[int]) -> None:
         regs[26:34] = self._axes_pairs("lp")
         regs[34:42] = self._axes_pairs("ep")
         regs[42:50] = self._axes_pairs("cv")
         regs[50:58] = self._axes_pairs("ca")
-        regs[71] = vc.fifo_capacity - len(vc.fifo)
+        regs[160:168] = regs[26:34]  # the absolute logical position is LP
+
+    def _in_io(self, regs: list[int]) -> None:
+        io, now = self.vc.motion.io, self.vc.clock
+        regs[70] = io.error_state(now)
+        regs[130:140] = [mask & 0xFFFF for mask in io.triggered_factors(now)]
+
+    def _in_fifo(self, regs: list[int]) -> None:
+        regs[71] = self.vc.fifo_capacity - len(self.vc.fifo)
+
+    def _in_identity(self, regs: list[int]) -> None:
         regs[81] = int(self.identity["module_id"])
         regs[82:84] = self._pair(int(self.identity["rsm_firmware"]))
         regs[84:86] = self._pair(int(self.identity["i8094h_firmware"]))
+
+    def _in_states(self, regs: list[int]) -> None:
+        vc = self.vc
         regs[100] = {"ready": 0, "mp": 1, "isr": 2}[vc.state]
         regs[101] = vc.chip_state
         regs[102] = vc.illegal_cause
         regs[110:115] = list(vc.download_status)
         regs[115:120] = list(vc.execution_error)
-        regs[160:168] = self._axes_pairs("lp")
-        return regs
 
     def read_input(self, address: int, count: int) -> list[int]:
-        if address < 0 or address + count > INPUT_SPAN:
+        """FC4, as of the controller's present time."""
+        end = address + count
+        if address < 0 or end > INPUT_SPAN:
             raise Refusal(ILLEGAL_ADDRESS, reason=f"input registers end at {INPUT_SPAN - 1}")
-        _check_pairs(INPUT_PAIRS, address, address + count)
-        return self.input_registers()[address:address + count]
+        _check_pairs(INPUT_PAIRS, address, end)
+        regs = [0] * INPUT_SPAN
+        for spans, fill in self._input_fillers():
+            if any(span.start < end and address < span.stop for span in spans):
+                fill(regs)
+        return regs[address:end]
 
     # ---------------------------------------------------------- holding registers
-    def holding_registers(self) -> list[int]:
-        """Holding registers 0..1323 (FC3)."""
+    def read_holding(self, address: int, count: int) -> list[int]:
+        """FC3; only the areas the request overlaps are computed."""
+        end = address + count
+        if address >= 0 and end <= HOLDING_SPAN:
+            _check_pairs(HOLDING_PAIRS, address, end)
+            return self._holding(address, end)
+        if address >= SUBFUNCTION_FIRST and end <= SUBFUNCTION_LAST + 1:
+            return [0] * count  # the sub-function window is write-only: it reads as zeros
+        if address >= SIM_DI_FIRST and end <= SIM_DI_LAST + 1:
+            return self.vc.frnet[8 + address - SIM_DI_FIRST:8 + end - SIM_DI_FIRST]
+        raise Refusal(ILLEGAL_ADDRESS, reason=f"no holding register {address}..{end - 1}")
+
+    def _holding(self, address: int, end: int) -> list[int]:
         vc = self.vc
         regs = [0] * HOLDING_SPAN
         regs[0:8] = vc.frnet[0:8]
@@ -146,27 +189,19 @@ class RegisterMap:
             vc.stack[0].table.kind == "mp" else 0
         regs[9] = self.frnet_event
         regs[self.word_order_register] = vc.word_order
-        regs[82:90] = self._axes_pairs("lp")
-        regs[90:98] = self._axes_pairs("lp")
-        regs[98:106] = self._axes_pairs("ep")
-        regs[106:114] = self._axes_pairs("cv")
-        regs[114:122] = self._axes_pairs("ca")
-        for n, value in enumerate(vc.bvars):
-            regs[self.bvar_base + n] = value & 0xFF
-        for n, value in enumerate(vc.vars):
-            regs[self.var_base + 2 * n:self.var_base + 2 * n + 2] = self._pair(value)
-        return regs
-
-    def read_holding(self, address: int, count: int) -> list[int]:
-        if address >= 0 and address + count <= HOLDING_SPAN:
-            _check_pairs(HOLDING_PAIRS, address, address + count)
-            return self.holding_registers()[address:address + count]
-        if address >= SUBFUNCTION_FIRST and address + count <= SUBFUNCTION_LAST + 1:
-            return [0] * count  # the sub-function window is write-only: it reads as zeros
-        if address >= SIM_DI_FIRST and address + count <= SIM_DI_LAST + 1:
-            return self.vc.frnet[8 + address - SIM_DI_FIRST:8 + address - SIM_DI_FIRST + count]
-        last = address + count - 1
-        raise Refusal(ILLEGAL_ADDRESS, reason=f"no holding register {address}..{last}")
+        if address < 122 and end > 82:
+            regs[82:90] = self._axes_pairs("lp")
+            regs[90:98] = regs[82:90]
+            regs[98:106] = self._axes_pairs("ep")
+            regs[106:114] = self._axes_pairs("cv")
+            regs[114:122] = self._axes_pairs("ca")
+        for n in range(max(address - self.bvar_base, 0),
+                       min(end - self.bvar_base, len(vc.bvars))):
+            regs[self.bvar_base + n] = vc.bvars[n] & 0xFF
+        for n in range(max((address - self.var_base) // 2, 0),
+                       min((end - self.var_base + 1) // 2, len(vc.vars))):
+            regs[self.var_base + 2 * n:self.var_base + 2 * n + 2] = self._pair(vc.vars[n])
+        return regs[address:end]
 
     def write_holding(self, address: int, values: list[int]) -> None:
         """FC6/FC16. Writes spanning several areas are taken area by area, in order."""
