@@ -9,7 +9,7 @@ from __future__ import annotations
 import re
 import tomllib
 from dataclasses import dataclass, field
-from functools import cache
+from functools import cache, cached_property
 from importlib import resources
 from typing import Any
 
@@ -47,14 +47,15 @@ class Command:
     lines: dict[str, int] = field(default_factory=dict)
     choice: str = ""
 
-    @property
+    @cached_property
     def is_macro(self) -> bool:
         """Stored in a macro table (MP and/or ISR), as opposed to sent in real time."""
         return bool(self.scope & {"mp", "isr"})
 
-    @property
+    @cached_property
     def short_name(self) -> str:
-        """The mplang name: vendor prefix and the MACRO marker removed."""
+        """The mplang name: vendor prefix and the MACRO marker removed (computed once: the
+        assembler, the device's validation and the interpreter all look it up)."""
         return short_name(self.name)
 
 

@@ -353,6 +353,10 @@ class Flasher:
                                   _results(image))
         self._current: ProgramResult | None = None
 
+    def _encoder(self) -> Encoder:
+        """Create and close frames in the image's word order (a rebuild may change it)."""
+        return Encoder(self.catalogue, self.image.word_order)
+
     def _note(self, text: str) -> None:
         self.report.notes.append(text)
         self.progress(f"note: {text}")
@@ -469,8 +473,7 @@ class Flasher:
             raise FlashFailure("rejected", f"input register {STATE_REGISTER} reads {state}, "
                                "not a state of the M8194H (0 ready, 1/2 MP/ISR download)")
         kind = "mp" if state == 1 else "isr"
-        encoder = Encoder(self.catalogue, self.image.word_order)
-        await self._write(encoder.close_frame(kind), None)
+        await self._write(self._encoder().close_frame(kind), None)
         registers = await self.link.read_input(STATE_REGISTER, STATUS_FIRST + STATUS_COUNT
                                                - STATE_REGISTER)
         if registers[0] != 0:
@@ -486,7 +489,7 @@ class Flasher:
     async def _empty(self, kind: str, slot: int) -> None:
         """Download an empty program into a slot a cut-short download left a truncated
         program in: an empty program returns at once when called, a truncated one may not."""
-        encoder = Encoder(self.catalogue, self.image.word_order)
+        encoder = self._encoder()
         await self._write(encoder.create_frame(kind, slot), None)
         await self._write(encoder.close_frame(kind), None)
         self._note(f"{kind.upper()}{slot} held a truncated program: emptied it")
@@ -535,11 +538,10 @@ class Flasher:
         """After a refused frame: end the download and empty the slot, so the device is
         ready and holds no truncated program. Failures here are noted, not raised: the
         refusal is what the user must see."""
-        encoder = Encoder(self.catalogue, self.image.word_order)
         try:
             (state,) = await self.link.read_input(STATE_REGISTER, 1)
             if state in (1, 2):
-                await self._write(encoder.close_frame("mp" if state == 1 else "isr"), None)
+                await self._write(self._encoder().close_frame("mp" if state == 1 else "isr"), None)
             await self._empty(program.kind, program.slot)
         except (LinkError, DeviceException, Refused, FlashFailure) as exc:
             self._note(f"{program.label}: could not tidy up after the refusal: {exc}")

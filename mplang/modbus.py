@@ -462,18 +462,22 @@ class DeviceLink:
 
     async def read_input(self, address: int, count: int) -> list[int]:
         """FC4: `count` input registers from `address` (repeated after link failures)."""
-        unit = self.endpoint.unit
-        reply = await self._repeating(
-            lambda c: c.read_input_registers(address, count=count, device_id=unit),
-            READ_INPUT, address, lambda r: len(r.registers) >= count)
-        return [int(v) for v in reply.registers[:count]]
+        return await self._read(READ_INPUT, address, count)
 
     async def read_holding(self, address: int, count: int) -> list[int]:
         """FC3: `count` holding registers from `address` (repeated after link failures)."""
+        return await self._read(READ_HOLDING, address, count)
+
+    async def _read(self, function_code: int, address: int, count: int) -> list[int]:
         unit = self.endpoint.unit
-        reply = await self._repeating(
-            lambda c: c.read_holding_registers(address, count=count, device_id=unit),
-            READ_HOLDING, address, lambda r: len(r.registers) >= count)
+
+        def request(c: Client) -> Awaitable[ModbusPDU]:
+            read = c.read_input_registers if function_code == READ_INPUT else \
+                c.read_holding_registers
+            return read(address, count=count, device_id=unit)
+
+        reply = await self._repeating(request, function_code, address,
+                                      lambda r: len(r.registers) >= count)
         return [int(v) for v in reply.registers[:count]]
 
     async def write_holding(self, address: int, values: list[int]) -> None:
