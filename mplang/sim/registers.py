@@ -185,7 +185,8 @@ class RegisterMap:
         vc = self.vc
         regs = [0] * HOLDING_SPAN
         regs[0:8] = vc.frnet[0:8]
-        regs[self.call_register] = self._running_number() if vc.stack and \
+        # the MP called (by register 8 or MP_CALL), even while an ISR runs above it
+        regs[self.call_register] = vc.stack[0].table.slot if vc.stack and \
             vc.stack[0].table.kind == "mp" else 0
         regs[9] = self.frnet_event
         regs[self.word_order_register] = vc.word_order

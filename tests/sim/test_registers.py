@@ -73,6 +73,7 @@ def test_call_register_runs_the_program_and_vars_read_back_in_both_word_orders()
     regs.write_holding(8, [21])
     assert regs.read_input(101, 1) == [8]  # an MP is executing
     assert regs.read_input(24, 1) == [21]  # the running program's number
+    assert regs.read_holding(8, 1) == [21]
     vc.advance(vc.clock + 0.01)
     assert regs.read_input(101, 1) == [9]  # execution finished
     assert regs.read_holding(302, 2) == [0xFFFF, 0xFFFE]  # MSW first by default
@@ -193,3 +194,15 @@ def test_axis_status_tables_follow_the_motion_model() -> None:
     signals = regs.read_discrete(256, 32)
     assert signals[24:32] == [bool((reports[3].di_signal >> n) & 1) for n in range(8)]
     assert regs.read_coils(128, 4) == [r.servo_on for r in reports]
+
+
+def test_call_register_keeps_the_called_mp_while_an_isr_runs_above_it() -> None:
+    vc, regs = fresh()
+    download(regs, "MP 21\n TIMER 1000\nEND MP\nISR 3\n VAR1 = 1\n VAR2 = 2\n VAR3 = 3\n"
+                   "END ISR\n")
+    regs.write_holding(8, [21])
+    vc.advance(0.01)
+    vc.request_isr(3)
+    vc.advance(vc.clock + 0.00015)  # the ISR has run one of its three lines
+    assert regs.read_input(24, 1) == [3]  # input 24: the program running now
+    assert regs.read_holding(8, 1) == [21]  # holding 8: the MP that was called
