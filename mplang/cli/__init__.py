@@ -1,0 +1,71 @@
+"""`mpc`: the command line, a thin shell over the library (`mplang.compiler`, `mplang.flash`, ...).
+
+Every command lives in its own module of `mplang.cli.commands` and defines `command`; the group
+finds them there (module `import_` is command `import`), so adding a command touches no other
+file, and a command's heavy imports (pymodbus, matplotlib, pygls) load only when it runs.
+
+Exit codes (also in docs/cli.md):
+  0 success            1 errors in the sources     2 bad command-line usage
+  3 input files missing or unreadable               4 output cannot be written
+  5 the program failed or did not finish on the virtual controller
+  6 a Modbus endpoint cannot be opened (port in use, no such serial device)
+  7 mpc flash: the device cannot be reached (refused, no answer, no such serial port)
+  8 mpc flash: the device refused a program, or cannot take the image (word order)
+  9 mpc flash: the device did not confirm a download (download-status registers)
+  10 mpc flash: interrupted: the link failed beyond --retries, the device stayed busy, or
+     Ctrl-C / SIGTERM; programs after the last verified one may be missing
+  70 internal error (a bug in mpc: please report it with the input)
+"""
+
+from __future__ import annotations
+
+import importlib
+import pkgutil
+
+import click
+
+from mplang import __version__
+from mplang.cli import commands
+from mplang.cli.common import (
+    EXIT_INTERNAL,
+    EXIT_INTERRUPTED,
+    EXIT_NO_DEVICE,
+    EXIT_NO_INPUT,
+    EXIT_OK,
+    EXIT_OUTPUT,
+    EXIT_REJECTED,
+    EXIT_RUN_FAILED,
+    EXIT_SOURCE_ERRORS,
+    EXIT_TRANSPORT,
+    EXIT_UNVERIFIED,
+    EXIT_USAGE,
+)
+
+__all__ = ["EXIT_INTERNAL", "EXIT_INTERRUPTED", "EXIT_NO_DEVICE", "EXIT_NO_INPUT", "EXIT_OK",
+           "EXIT_OUTPUT", "EXIT_REJECTED", "EXIT_RUN_FAILED", "EXIT_SOURCE_ERRORS",
+           "EXIT_TRANSPORT", "EXIT_UNVERIFIED", "EXIT_USAGE", "main"]
+
+
+def _module_name(command_name: str) -> str:
+    return f"{command_name}_" if command_name in ("import",) else command_name
+
+
+class CommandPackage(click.Group):
+    """A click group whose commands are the modules of `mplang.cli.commands`."""
+
+    def list_commands(self, ctx: click.Context) -> list[str]:
+        return sorted(info.name.rstrip("_") for info in pkgutil.iter_modules(commands.__path__)
+                      if not info.name.startswith("_"))
+
+    def get_command(self, ctx: click.Context, cmd_name: str) -> click.Command | None:
+        if cmd_name not in self.list_commands(ctx):
+            return None
+        module = importlib.import_module(f"{commands.__name__}.{_module_name(cmd_name)}")
+        command: click.Command = module.command
+        return command
+
+
+@click.group(cls=CommandPackage, context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(__version__, prog_name="mpc")
+def main() -> None:
+    """mpc: compile, check, run and download M8194H macro programs (.mp)."""

@@ -1,0 +1,1 @@
+"""One module per `mpc` command, each defining `command` (see `mplang.cli`)."""

@@ -1,0 +1,46 @@
+"""`mpc build`: compile sources into an image JSON, a listing, hex frames or a link map."""
+
+from __future__ import annotations
+
+import sys
+
+import click
+
+from mplang.cli.common import (
+    build_options,
+    expand_inputs,
+    guarded,
+    report,
+    with_common,
+    write_output,
+)
+from mplang.compiler import compile_paths
+
+
+@click.command("build", short_help="Compile sources into one download image.")
+@click.argument("files", nargs=-1, required=True)
+@click.option("-o", "--output", default=None, metavar="OUT",
+              help="Write the result here ('-' or absent: standard output).")
+@click.option("--format", "fmt", type=click.Choice(["json", "listing", "hex", "map"]),
+              default="json", show_default=True, help="Image JSON, human listing, hex "
+              "frames, or the link map.")
+@with_common
+@guarded
+def command(files: tuple[str, ...], output: str | None, fmt: str, target: str,
+          word_order: str | None, temp_vars: range, allow_outside_includes: bool,
+          werror: bool) -> None:
+    """Compile FILE... (files, directories or globs) together into one download image."""
+    from mplang import output as render
+
+    result = compile_paths(expand_inputs(files),
+                           build_options(target, word_order, temp_vars, allow_outside_includes))
+    code = report(result, werror)
+    if code:
+        sys.exit(code)
+    text = {
+        "json": lambda: render.render_json(result),
+        "listing": lambda: render.render_listing(result, result.sources),
+        "hex": lambda: render.render_hex(result),
+        "map": lambda: render.render_link_map(result),
+    }[fmt]()
+    write_output(text, output)

@@ -1,0 +1,48 @@
+"""`mpc lint`: the compiler's checks alone, as text, JSON or SARIF."""
+
+from __future__ import annotations
+
+import sys
+
+import click
+
+from mplang.cli.common import (
+    EXIT_SOURCE_ERRORS,
+    build_options,
+    expand_inputs,
+    guarded,
+    with_common,
+    write_output,
+)
+from mplang.compiler import compile_paths
+from mplang.diagnostics import Severity
+
+
+@click.command("lint")
+@click.argument("files", nargs=-1, required=True)
+@click.option("--format", "fmt", type=click.Choice(["text", "json", "sarif"]), default="text",
+              show_default=True, help="gcc-style lines, a JSON list, or SARIF 2.1.0.")
+@click.option("-o", "--output", default=None, metavar="OUT", help="Write the report here.")
+@with_common
+@guarded
+def command(files: tuple[str, ...], fmt: str, output: str | None, target: str,
+         word_order: str | None, temp_vars: range, allow_outside_includes: bool,
+         werror: bool) -> None:
+    """Check FILE... without producing an image. Exit 1 if any error is found."""
+    from mplang import output as render
+
+    result = compile_paths(expand_inputs(files),
+                           build_options(target, word_order, temp_vars, allow_outside_includes))
+    diagnostics = result.diagnostics
+    if fmt == "text":
+        text = render.render_text(diagnostics)
+        if output is None:
+            click.echo(text, nl=False, err=False)
+        else:
+            write_output(text, output)
+    else:
+        write_output(render.render_sarif(diagnostics) if fmt == "sarif"
+                     else render.render_diagnostics_json(diagnostics), output)
+    errors = sum(1 for d in diagnostics if d.severity is Severity.ERROR)
+    if errors or (werror and diagnostics):
+        sys.exit(EXIT_SOURCE_ERRORS)
