@@ -1,0 +1,1 @@
+"""`mpc lsp`: the language server for .mp files (pygls, over stdio)."""
