@@ -14,6 +14,8 @@ Exit codes (also in docs/cli.md):
   9 mpc flash: the device did not confirm a download (download-status registers)
   10 mpc flash: interrupted: the link failed beyond --retries, the device stayed busy, or
      Ctrl-C / SIGTERM; programs after the last verified one may be missing
+  11 mpc flash --fleet: devices failed in different ways (the table says which and how)
+  12 mpc fmt --check: some files are not formatted
   70 internal error (a bug in mpc: please report it with the input)
 """
 
@@ -27,6 +29,7 @@ import click
 from mplang import __version__
 from mplang.cli import commands
 from mplang.cli.common import (
+    EXIT_FLEET_MIXED,
     EXIT_INTERNAL,
     EXIT_INTERRUPTED,
     EXIT_NO_DEVICE,
@@ -39,11 +42,14 @@ from mplang.cli.common import (
     EXIT_TRANSPORT,
     EXIT_UNVERIFIED,
     EXIT_USAGE,
+    EXIT_WOULD_REFORMAT,
 )
 
-__all__ = ["EXIT_INTERNAL", "EXIT_INTERRUPTED", "EXIT_NO_DEVICE", "EXIT_NO_INPUT", "EXIT_OK",
+__all__ = ["EXIT_FLEET_MIXED", "EXIT_INTERNAL", "EXIT_INTERRUPTED", "EXIT_NO_DEVICE",
+           "EXIT_NO_INPUT", "EXIT_OK",
            "EXIT_OUTPUT", "EXIT_REJECTED", "EXIT_RUN_FAILED", "EXIT_SOURCE_ERRORS",
-           "EXIT_TRANSPORT", "EXIT_UNVERIFIED", "EXIT_USAGE", "main"]
+           "EXIT_TRANSPORT", "EXIT_UNVERIFIED", "EXIT_USAGE", "EXIT_WOULD_REFORMAT",
+           "main"]
 
 
 def _module_name(command_name: str) -> str:
