@@ -15,7 +15,7 @@ from mplang.encode import Encoder
 from mplang.frontend.sources import load_sources
 from mplang.frontend.structure import build_unit
 from mplang.ir import LoweredProgram, MacroLine, ProgramRef
-from mplang.link import Placement, link, resolve
+from mplang.link import Placement, SlotPin, link, resolve
 from mplang.lower import ConstError, ProgramLowerer, Scope
 
 IMAGE_FORMAT = "mplang-image/1"
@@ -31,6 +31,7 @@ class Options:
     target: str = "et"  # "et" (ET-M8194H, TCP) or "rs" (RS-M8194H, RTU)
     temps: range = DEFAULT_TEMPS
     allow_outside_includes: bool = False
+    pins: tuple[SlotPin, ...] = ()  # slot pins of a project file (mpc.toml [slots])
 
 
 @dataclass
@@ -153,7 +154,7 @@ def _finish(unit: object, catalogue: Catalogue, sink: DiagnosticSink,
     names = {p.name.upper(): p for p in unit.programs if p.name}
     lowered = [ProgramLowerer(scope, program, options.temps, options.target, names)
                .lower_program() for program in unit.programs]
-    placements = link(lowered, profile, sink)
+    placements = link(lowered, profile, sink, options.pins)
     result = BuildResult(sink.sorted(), word_order=word_order, target=options.target)
     if not result.ok:
         return result

@@ -22,18 +22,35 @@ Failures, and what is done about them:
   unknown, so the program is downloaded again from its create frame (step 1 closes the
   half-open download first), up to `retries` times. Reads are simply repeated (DeviceLink).
 
-Success means every program was verified. `flash` returns a `FlashReport` with one
-`ProgramResult` per program whatever happens; its `outcome` tells the CLI which exit code.
+Success means every program was verified (or, flashing incrementally, recorded as already on
+the device). `flash` returns a `FlashReport` with one `ProgramResult` per program whatever
+happens; its `outcome` tells the CLI which exit code.
+
+Incremental flashing (`FlashRecord`): after each verified program, a local record keeps the
+program's content hash under the device's address, with the device's identity (input registers
+81-85: module id and both firmware versions) and its download status (110-114) as the last
+verification left it. The next run trusts the record only if identity, word order and download
+status still match and the device is ready: any download by another tool since changes 110-114.
+Then programs whose hash is recorded are not written. A program's entry is removed before its
+download starts, so a cut-short download is never taken for a recorded one.
+
+Fleets (`flash_fleet`): one `Flasher` per device, concurrently; devices that share a serial port
+(one RS-485 bus) take turns, because one line carries one request at a time.
 """
 
 from __future__ import annotations
 
 import asyncio
+import hashlib
 import json
+import os
+import tempfile
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from datetime import UTC, datetime
 from pathlib import Path
+from typing import Any
 
 from mplang import catalogue as catalogue_module
 from mplang.catalogue import Catalogue
@@ -53,6 +70,8 @@ from mplang.modbus import (
 STATE_REGISTER = 100  # input: 0 ready, 1 MP download, 2 ISR download
 CAUSE_REGISTER = 102  # input: cause of the last ILLEGAL FUNCTION
 STATUS_FIRST, STATUS_COUNT = 110, 5  # input: MP no, ISR no, command, 0-based line, error
+IDENTITY_FIRST, IDENTITY_COUNT = 81, 5  # input: module id, RSM firmware, i-8094H firmware
+RECORD_FORMAT = "mpc-flash-record/1"
 WORD_ORDER_REGISTER = 14  # holding: 0 MSW first, 1 LSW first
 ILLEGAL_FUNCTION, DEVICE_BUSY = 0x01, 0x06
 DPRAM_FULL = 0xC1  # register-102 cause that means "busy": the frame was not taken
@@ -104,6 +123,15 @@ class FlashProgram:
     @property
     def label(self) -> str:
         return f"{self.kind.upper()}{self.slot}" + (f" {self.name}" if self.name else "")
+
+    @property
+    def slot_label(self) -> str:
+        return f"{self.kind.upper()}{self.slot}"
+
+    def content_hash(self, word_order: int) -> str:
+        """What the device would hold: the same frames, the same hash."""
+        text = json.dumps([word_order, self.kind, self.slot, self.frames])
+        return hashlib.sha256(text.encode()).hexdigest()[:20]
 
     def where(self, index: int) -> str | None:
         """`file:line` of frame `index`, as far as the image knows it."""
@@ -231,9 +259,12 @@ def load_image(path: Path, catalogue: Catalogue | None = None) -> FlashImage:
     return image_from_json(data, str(path), catalogue)
 
 
-def render_plan(image: FlashImage, catalogue: Catalogue | None = None) -> str:
+def render_plan(image: FlashImage, catalogue: Catalogue | None = None,
+                recorded: frozenset[str] = frozenset()) -> str:
     """`mpc flash --dry-run`: every frame that would be written, in order, in hex, with the
-    command name and the source line; nothing is sent."""
+    command name and the source line; nothing is sent. Programs in `recorded` (labels such as
+    "MP3") are marked: the record says the device holds them, so a real run skips them if the
+    device still matches the record."""
     catalogue = catalogue or catalogue_module.load()
     total = sum(len(p.frames) for p in image.programs)
     out = [f"; mpc flash --dry-run: {len(image.programs)} programs, {total} frames, FC16 at "
@@ -241,8 +272,11 @@ def render_plan(image: FlashImage, catalogue: Catalogue | None = None) -> str:
            + (f", build {image.build_id}" if image.build_id else "")]
     for program in image.programs:
         out.append("")
+        slot = f"{program.kind.upper()}{program.slot}"
+        mark = "  [recorded on the device: skipped if it still matches]" \
+            if slot in recorded else ""
         out.append(f"{program.label}  ({program.where(0) or 'source unknown'})  "
-                   f"{len(program.frames)} frames")
+                   f"{len(program.frames)} frames{mark}")
         for index, frame in enumerate(program.frames):
             command = catalogue.by_code.get(frame[0])
             name = command.short_name if command is not None else "?"
@@ -252,20 +286,77 @@ def render_plan(image: FlashImage, catalogue: Catalogue | None = None) -> str:
     return "\n".join(out) + "\n"
 
 
-def plan_json(image: FlashImage) -> dict[str, object]:
+def plan_json(image: FlashImage, recorded: frozenset[str] = frozenset()) -> dict[str, object]:
     """`mpc flash --dry-run --json`: the same plan as data."""
     return {"dry_run": True, "word_order": image.word_order, "build_id": image.build_id,
             "programs": [{"kind": p.kind, "slot": p.slot, "name": p.name, "source": p.source,
+                          "recorded": f"{p.kind.upper()}{p.slot}" in recorded,
                           "frame_lines": p.lines, "frames": p.frames}
                          for p in image.programs]}
+
+
+# ------------------------------------------------------------------------- the record
+def default_record_path() -> Path:
+    """Without a project: the user's state directory (XDG), one record for every device."""
+    state = os.environ.get("XDG_STATE_HOME") or str(Path.home() / ".local" / "state")
+    return Path(state) / "mpc" / "flash-record.json"
+
+
+class FlashRecord:
+    """What mpc last verified in which device: a JSON file, `{"format", "devices": {address:
+    {"identity", "word_order", "last_status", "slots": {"MP3": {"hash", "name", "source",
+    "build_id", "at"}}}}}`. Written (atomically) after every change, so an interrupted run
+    keeps what it verified. A record that cannot be read is replaced, with a note: flashing
+    everything is always correct, only slower."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        self.devices: dict[str, dict[str, Any]] = {}
+        self.problem: str | None = None
+        try:
+            data = json.loads(path.read_text(encoding="utf-8"))
+        except FileNotFoundError:
+            return
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+            self.problem = f"the flash record {path} cannot be read ({exc}): starting afresh"
+            return
+        devices = data.get("devices") if isinstance(data, dict) else None
+        if not isinstance(data, dict) or data.get("format") != RECORD_FORMAT or \
+                not isinstance(devices, dict):
+            self.problem = f"{path} is not an mpc flash record: starting afresh"
+            return
+        self.devices = {key: entry for key, entry in devices.items()
+                        if isinstance(entry, dict) and isinstance(entry.get("slots"), dict)}
+
+    def entry(self, address: str) -> dict[str, Any] | None:
+        return self.devices.get(address)
+
+    def recorded_slots(self, address: str) -> frozenset[str]:
+        entry = self.devices.get(address)
+        return frozenset(entry["slots"]) if entry else frozenset()
+
+    def save(self) -> None:
+        """Write the file atomically (a crash leaves the old or the new record, never half)."""
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        text = json.dumps({"format": RECORD_FORMAT, "devices": self.devices}, indent=1,
+                          sort_keys=True)
+        handle, temporary = tempfile.mkstemp(prefix=".flash-record.", dir=self.path.parent)
+        try:
+            with os.fdopen(handle, "w", encoding="utf-8") as out:
+                out.write(text + "\n")
+            os.replace(temporary, self.path)
+        except BaseException:
+            Path(temporary).unlink(missing_ok=True)
+            raise
 
 
 # ----------------------------------------------------------------------------- results
 @dataclass
 class ProgramResult:
-    """What happened to one program. `status`: "verified"; "rejected" (the device refused
-    it); "unverified" (downloaded, not confirmed); "interrupted" (the link or the user cut
-    the download); "pending" (never sent, because an earlier program failed)."""
+    """What happened to one program. `status`: "verified"; "unchanged" (the record says the
+    device holds exactly this program: nothing written); "rejected" (the device refused it);
+    "unverified" (downloaded, not confirmed); "interrupted" (the link or the user cut the
+    download); "pending" (never sent, because an earlier program failed)."""
 
     kind: str
     slot: int
@@ -303,17 +394,23 @@ class FlashReport:
     where: str | None = None
     notes: list[str] = field(default_factory=list)
     seconds: float = 0.0
+    frames_planned: int = 0  # frames of the programs to write (known once connected)
+    frames_written: int = 0  # frames the device accepted so far (progress displays poll it)
 
     @property
     def ok(self) -> bool:
-        return self.outcome == "verified" and all(p.status == "verified"
+        return self.outcome == "verified" and all(p.status in ("verified", "unchanged")
                                                   for p in self.programs)
+
+    def count(self, status: str) -> int:
+        return sum(1 for p in self.programs if p.status == status)
 
     def to_json(self) -> dict[str, object]:
         return {"ok": self.ok, "outcome": self.outcome, "device": self.device,
                 "word_order": self.word_order, "build_id": self.build_id,
                 "error": self.error, "where": self.where, "notes": self.notes,
-                "seconds": round(self.seconds, 4),
+                "seconds": round(self.seconds, 4), "written": self.count("verified"),
+                "unchanged": self.count("unchanged"), "frames_written": self.frames_written,
                 "programs": [p.to_json() for p in self.programs]}
 
 
@@ -327,6 +424,12 @@ class FlashOptions:
     without an explicit word order); takes precedence over `set_word_order`."""
     busy_timeout: float = 10.0
     """Seconds one frame may keep meeting a busy device before flashing gives up."""
+    record: FlashRecord | None = None
+    """Flash incrementally against this record (None: write every program, record nothing)."""
+    address: str | None = None
+    """The device's key in the record [default: the endpoint's description]."""
+    force: bool = False
+    """Write every program even if the record says the device holds it (and record them)."""
 
 
 def _results(image: FlashImage) -> list[ProgramResult]:
@@ -352,6 +455,8 @@ class Flasher:
         self.report = FlashReport(link.endpoint.describe(), image.word_order, image.build_id,
                                   _results(image))
         self._current: ProgramResult | None = None
+        self.address = options.address or link.endpoint.describe()
+        self._entry: dict[str, Any] | None = None  # this device's record, once trusted
 
     def _encoder(self) -> Encoder:
         """Create and close frames in the image's word order (a rebuild may change it)."""
@@ -368,8 +473,19 @@ class Flasher:
                       f"{frames} frames")
         try:
             await self._connect()
+            unchanged = await self._consult_record()
+            self.report.frames_planned = sum(len(p.frames) for p in self.image.programs
+                                             if p.slot_label not in unchanged)
+            if unchanged:
+                labels = [p.slot_label for p in self.image.programs
+                          if p.slot_label in unchanged]
+                self.progress(f"{len(labels)} program(s) unchanged since the recorded flash, "
+                              f"not written: {', '.join(labels)}")
             for program, result in zip(self.image.programs, self.report.programs,
                                        strict=True):
+                if program.slot_label in unchanged:
+                    result.status = "unchanged"
+                    continue
                 self._current = result
                 await self._program(program, result)
                 self._current = None
@@ -435,10 +551,71 @@ class Flasher:
         self._note(f"set the device's word order (holding register {WORD_ORDER_REGISTER}) "
                    f"from {device_order} to {wanted}")
 
+    # -------------------------------------------------------------------- record
+    async def _consult_record(self) -> frozenset[str]:
+        """The slots the device holds exactly as the image wants them, by the record; empty
+        if there is no record, `force`, or the device no longer matches its record."""
+        record = self.options.record
+        if record is None:
+            return frozenset()
+        if record.problem:
+            self._note(record.problem)
+            record.problem = None
+        identity = await self.link.read_input(IDENTITY_FIRST, IDENTITY_COUNT)
+        registers = await self.link.read_input(STATE_REGISTER, STATUS_FIRST + STATUS_COUNT
+                                               - STATE_REGISTER)
+        state, status = registers[0], registers[STATUS_FIRST - STATE_REGISTER:]
+        old = record.entry(self.address)
+        fresh: dict[str, Any] = {"identity": identity, "word_order": self.image.word_order,
+                                 "last_status": status, "slots": {}}
+        trusted = False
+        if old is None:
+            pass
+        elif old.get("identity") != identity:
+            self._note(f"the device at {self.address} is not the one recorded (module id and "
+                       "firmware, input registers 81-85, differ): writing every program")
+        elif old.get("word_order") != self.image.word_order:
+            self._note("the word order changed since the recorded flash: writing every program")
+        elif state != 0 or old.get("last_status") != status:
+            self._note("the device's download status (input registers 110-114) changed since "
+                       "the recorded flash (another download?): writing every program")
+        else:
+            trusted = True
+            fresh["slots"] = dict(old["slots"])
+        self._entry = fresh
+        record.devices[self.address] = fresh
+        record.save()
+        if not trusted or self.options.force:
+            return frozenset()
+        slots = fresh["slots"]
+        return frozenset(
+            p.slot_label for p in self.image.programs
+            if isinstance(slots.get(p.slot_label), dict)
+            and slots[p.slot_label].get("hash") == p.content_hash(self.image.word_order))
+
+    def _forget(self, slot_label: str) -> None:
+        """Before a slot is written: the record may no longer vouch for it."""
+        record = self.options.record
+        if record is not None and self._entry is not None and \
+                self._entry["slots"].pop(slot_label, None) is not None:
+            record.save()
+
+    def _remember(self, program: FlashProgram, status: list[int]) -> None:
+        record = self.options.record
+        if record is None or self._entry is None:
+            return
+        self._entry["slots"][program.slot_label] = {
+            "hash": program.content_hash(self.image.word_order), "name": program.name,
+            "source": program.source, "build_id": self.image.build_id,
+            "at": datetime.now(UTC).isoformat(timespec="seconds")}
+        self._entry["last_status"] = status
+        record.save()
+
     # ------------------------------------------------------------------ programs
     async def _program(self, program: FlashProgram, result: ProgramResult) -> None:
         start = time.monotonic()
         failures = 0
+        self._forget(program.slot_label)
         while True:
             try:
                 await self._make_ready(program)
@@ -457,6 +634,8 @@ class Flasher:
                 await asyncio.sleep(backoff(failures, self.link.endpoint.timeout))
         result.status = "verified"
         result.seconds = time.monotonic() - start
+        if result.download_status is not None:
+            self._remember(program, result.download_status)
         extra = [f"{result.downloads} downloads"] if result.downloads > 1 else []
         extra += [f"{result.busy_waits} busy waits"] if result.busy_waits else []
         self.progress(f"{program.label}: {len(program.frames)} frames verified "
@@ -490,6 +669,7 @@ class Flasher:
         """Download an empty program into a slot a cut-short download left a truncated
         program in: an empty program returns at once when called, a truncated one may not."""
         encoder = self._encoder()
+        self._forget(f"{kind.upper()}{slot}")
         await self._write(encoder.create_frame(kind, slot), None)
         await self._write(encoder.close_frame(kind), None)
         self._note(f"{kind.upper()}{slot} held a truncated program: emptied it")
@@ -527,6 +707,7 @@ class Flasher:
         frame = program.frames[index]
         try:
             await self._write(frame, result)
+            self.report.frames_written += 1
         except Refused as refusal:
             if index > 0:
                 await self._abandon(program)
@@ -581,3 +762,81 @@ async def flash(image: FlashImage, endpoint: Endpoint, options: FlashOptions = F
                 progress: Callable[[str], None] | None = None) -> FlashReport:
     """Download every program of `image` into the device at `endpoint` and verify each."""
     return await Flasher(image, DeviceLink(endpoint), options, progress).run()
+
+
+# -------------------------------------------------------------------------------- fleets
+@dataclass
+class FleetDevice:
+    """One device of a fleet: its name (from the fleet file), image, endpoint and options."""
+
+    name: str
+    image: FlashImage
+    endpoint: Endpoint
+    options: FlashOptions = FlashOptions()
+
+
+def _bus(endpoint: Endpoint) -> str | None:
+    """Devices on the same serial port share one bus and must take turns."""
+    return os.path.realpath(endpoint.serial) if endpoint.serial is not None else None
+
+
+class Fleet:
+    """Flash many devices at once: one Flasher per device, all started together, except that
+    devices on one serial bus go one after another. A device that fails (or a bug met while
+    flashing it) ends that device's run only. `flashers` exist from the start, so a display
+    can poll their reports while `run` goes on."""
+
+    def __init__(self, devices: Sequence[FleetDevice],
+                 progress: Callable[[str, str], None] | None = None,
+                 catalogue: Catalogue | None = None) -> None:
+        catalogue = catalogue or catalogue_module.load()
+        self.devices = list(devices)
+        say: Callable[[str, str], None] = progress or (lambda _name, _text: None)
+
+        def teller(name: str) -> Callable[[str], None]:
+            return lambda text: say(name, text)
+
+        self.flashers = [Flasher(device.image, DeviceLink(device.endpoint), device.options,
+                                 teller(device.name), catalogue) for device in self.devices]
+
+    @property
+    def reports(self) -> list[FlashReport]:
+        return [flasher.report for flasher in self.flashers]
+
+    async def _one(self, flasher: Flasher) -> None:
+        try:
+            await flasher.run()
+        except asyncio.CancelledError:
+            raise
+        except Exception as exc:  # a bug must not take the other devices down with it
+            flasher.report.outcome = "interrupted"
+            flasher.report.error = f"internal error in mpc: {type(exc).__name__}: {exc}"
+
+    async def _in_turn(self, flashers: list[Flasher]) -> None:
+        for flasher in flashers:
+            await self._one(flasher)
+
+    async def run(self) -> list[FlashReport]:
+        lanes: dict[object, list[Flasher]] = {}
+        for index, (device, flasher) in enumerate(zip(self.devices, self.flashers,
+                                                      strict=True)):
+            lanes.setdefault(_bus(device.endpoint) or index, []).append(flasher)
+        tasks = [asyncio.ensure_future(self._in_turn(lane)) for lane in lanes.values()]
+        try:
+            await asyncio.gather(*tasks)
+        except asyncio.CancelledError:
+            for task in tasks:
+                task.cancel()
+            await asyncio.gather(*tasks, return_exceptions=True)
+            for report in self.reports:
+                if report.outcome == "verified" and not report.ok:
+                    report.outcome = "interrupted"
+                    report.error = report.error or "interrupted before this device was flashed"
+            raise
+        return self.reports
+
+
+async def flash_fleet(devices: Sequence[FleetDevice],
+                      progress: Callable[[str, str], None] | None = None) -> list[FlashReport]:
+    """Flash every device of `devices` (see `Fleet`); one report per device, in order."""
+    return await Fleet(devices, progress).run()

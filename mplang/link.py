@@ -1,8 +1,10 @@
 """The linker: slots for every program, budgets, and the static call graph.
 
-Programs with a number keep it. Unnumbered ones go, in source order, to the smallest free
-slot of their kind whose budget fits (ties: the lowest number), so the same sources always
-give the same placement.
+Programs with a number keep it. A slot pin (the `[slots]` table of `mpc.toml`) gives an
+unnumbered program its slot from outside the source, so that it stays put when other programs
+grow (and an incremental flash rewrites only what changed). The remaining unnumbered ones go, in
+source order, to the smallest free slot of their kind whose budget fits (ties: the lowest
+number), so the same sources always give the same placement.
 """
 
 from __future__ import annotations
@@ -10,8 +12,18 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from mplang.catalogue import Profile
-from mplang.diagnostics import DiagnosticSink
+from mplang.diagnostics import DiagnosticSink, Span
 from mplang.ir import CallSite, LoweredProgram, ProgramRef
+
+
+@dataclass(frozen=True)
+class SlotPin:
+    """`name = "MP3"` in a project's `[slots]` table; `span` is that line of mpc.toml."""
+
+    name: str
+    kind: str
+    slot: int
+    span: Span
 
 
 @dataclass
@@ -39,8 +51,8 @@ def _fitting_hint(profile: Profile, kind: str, needed: int) -> str:
             f"({best.lines} lines), drop the number to let the linker choose, or split it")
 
 
-def link(programs: list[LoweredProgram], profile: Profile,
-         sink: DiagnosticSink) -> list[Placement]:
+def link(programs: list[LoweredProgram], profile: Profile, sink: DiagnosticSink,
+         pins: tuple[SlotPin, ...] = ()) -> list[Placement]:
     close = profile.close_counts_as_line
     taken: dict[tuple[str, int], LoweredProgram] = {}
     placements: list[Placement] = []
@@ -53,6 +65,7 @@ def link(programs: list[LoweredProgram], profile: Profile,
                          "exists", related=((names[key].span, "first definition"),))
             else:
                 names[key] = program
+    _apply_pins(pins, names, profile, sink)
     for program in programs:
         if program.slot is None:
             continue
@@ -94,6 +107,38 @@ def link(programs: list[LoweredProgram], profile: Profile,
         placements.append(Placement(program, slot, used, budget, auto=True))
     _check_calls(placements, names, profile, sink)
     return placements
+
+
+def _apply_pins(pins: tuple[SlotPin, ...], names: dict[str, LoweredProgram],
+                profile: Profile, sink: DiagnosticSink) -> None:
+    """Give pinned programs their slot, as if the source had numbered them."""
+    for pin in pins:
+        label = f"{pin.kind.upper()}{pin.slot}"
+        program = names.get(pin.name.upper())
+        if program is None:
+            sink.add("W109", pin.span, f"the slot pin {pin.name} = {label} names no program "
+                     "of this build", hint="remove the pin, or add the file that defines "
+                     f"{pin.name} to the sources")
+            continue
+        if program.kind != pin.kind:
+            sink.add("E506", pin.span, f"{pin.name} is an {program.kind.upper()}, but its pin "
+                     f"is the {pin.kind.upper()} slot {label}",
+                     related=((program.span, f"{pin.name} is defined here"),),
+                     hint=f"pin it to an {program.kind.upper()} slot")
+            continue
+        if profile.budget(pin.kind, pin.slot) is None:
+            top = max(profile.slot_numbers(pin.kind))
+            sink.add("E501", pin.span, f"{label} does not exist: slots are "
+                     f"{pin.kind.upper()}1..{pin.kind.upper()}{top}")
+            continue
+        if program.slot is not None:
+            if program.slot != pin.slot:
+                sink.add("E506", pin.span, f"{pin.name} is pinned to {label}, but its source "
+                         f"numbers it {program.kind.upper()}{program.slot}",
+                         related=((program.span, "numbered here"),),
+                         hint="keep one of the two: the number in the source or the pin")
+            continue
+        program.slot = pin.slot
 
 
 def resolve(ref: ProgramRef, names: dict[str, LoweredProgram]) -> int | None:

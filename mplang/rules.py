@@ -227,6 +227,11 @@ _RULES = [
     Rule("E505", "duplicate-program-name", E, "Two programs have the same name.",
          "Program names are global to a build (CALL name must be unambiguous).",
          "Rename one of them."),
+    Rule("E506", "slot-pin-conflict", E,
+         "A slot pin in mpc.toml contradicts the program it pins.",
+         "A pin (`name = \"MP3\"` in the project's [slots] table) must name a slot of the "
+         "program's kind, and may not disagree with a number written in the source.",
+         "Keep either the number in the source or the pin, and pin MPs to MP slots."),
     # --------------------------------------------------------------------- warnings
     Rule("W101", "unreachable-code", W, "Code after GOTO, EXIT or TERMINATE that nothing reaches.",
          "Statements after an unconditional jump in the same block never run.",
@@ -252,6 +257,9 @@ _RULES = [
          "FRNET_OUT sends a variable as its holding-register address 300 + 2n, so an output "
          "pattern 300..1322 (even) looks exactly like VARn on the wire.",
          "Put the pattern in a variable first: VARn = pattern, then FRNET_OUT group, VARn."),
+    Rule("W109", "unused-slot-pin", W, "A slot pin in mpc.toml names no program of the build.",
+         "The pin has no effect; perhaps the program was renamed or its file left out.",
+         "Remove the pin or fix the name."),
     Rule("W107", "undocumented-variable", W,
          "A variable passed where the manual does not document variables.",
          "The manual documents VARn operands only for some parameters; the 32-bit "

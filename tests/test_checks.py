@@ -2,7 +2,9 @@
 
 Each input states what it must produce with lines `# expect: CODE LINE` (or
 `# expect: CODE LINE:COL`); the test asserts exactly those diagnostics, no more, no fewer.
-Inputs may INCLUDE helper files from tests/data/checks/include/.
+Inputs may INCLUDE helper files from tests/data/checks/include/. Rules about the project file
+have a folder `<CODE>_project/` with an mpc.toml (holding the `# expect:` lines, about its own
+lines) and the sources it lists.
 """
 
 from __future__ import annotations
@@ -13,12 +15,14 @@ from pathlib import Path
 import pytest
 
 from mplang.compiler import Options, compile_paths
+from mplang.project import load_project
 from mplang.rules import RULES
 
 CHECKS = Path(__file__).parent / "data" / "checks"
 EXPECT = re.compile(r"#\s*expect:\s*([EW]\d{3})\s+(\d+)(?::(\d+))?")
 OPTIONS = re.compile(r"#\s*options:\s*(.*)")
 CASES = sorted(CHECKS.glob("*.mp"))
+PROJECTS = sorted(CHECKS.glob("*_project/mpc.toml"))
 
 
 def expected(path: Path) -> set[tuple[str, int, int | None]]:
@@ -51,6 +55,17 @@ def test_check_input(path: Path) -> None:
     assert not missing and not extra, f"missing {missing}, extra {extra}\n{rendered}"
 
 
+@pytest.mark.parametrize("path", PROJECTS, ids=[p.parent.name for p in PROJECTS])
+def test_check_project(path: Path) -> None:
+    project = load_project(path)
+    result = compile_paths(list(project.sources), Options(pins=project.pins))
+    want = {(code, line) for code, line, _ in expected(path)}
+    assert want, f"{path} declares no '# expect:' lines"
+    got = {(d.code, d.span.line) for d in result.diagnostics if d.span.file == str(path)}
+    others = [d.render() for d in result.diagnostics if d.span.file != str(path)]
+    assert got == want and not others, "\n".join(d.render() for d in result.diagnostics)
+
+
 def test_every_rule_has_a_failing_input() -> None:
-    covered = {code for path in CASES for code, _, _ in expected(path)}
+    covered = {code for path in [*CASES, *PROJECTS] for code, _, _ in expected(path)}
     assert sorted(set(RULES) - covered) == []

@@ -496,7 +496,7 @@ def test_cli_flashes_samples_rejects_bad_input_and_reports_no_device(tmp_path: P
         assert summary["ok"] and len(summary["programs"]) == 18
         assert {p["status"] for p in summary["programs"]} == {"verified"}
         assert ok.stderr.count(" frames verified (") == 18
-        assert "18 program(s) verified on Modbus TCP" in ok.stderr
+        assert "18 program(s) written and verified on Modbus TCP" in ok.stderr
 
         tampered = json.loads(render_json(build_of(ARCS)))
         frames = tampered["programs"][0]["frames"]
@@ -543,7 +543,7 @@ def test_cli_interrupted_by_sigterm_exits_with_its_own_code() -> None:
         proc.send_signal(signal.SIGTERM)
         out, err = proc.communicate(timeout=10)
     assert proc.returncode == EXIT_INTERRUPTED, err
-    assert "interrupted" in err and "0 of 2 program(s) verified" in err
+    assert "interrupted" in err and "0 of 2 program(s) written and verified" in err
     assert "Traceback" not in out + err
 
 

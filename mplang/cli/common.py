@@ -5,14 +5,17 @@ expansion, and the compiler and serial-line options."""
 from __future__ import annotations
 
 import glob
+import os
 import sys
 from collections.abc import Callable
+from dataclasses import dataclass, replace
 from functools import wraps
 from pathlib import Path
 from typing import Any, TypeVar
 
 import click
 
+from mplang import project as project_module
 from mplang.compiler import DEFAULT_TEMPS, BuildResult, Options
 from mplang.diagnostics import Severity
 
@@ -97,13 +100,9 @@ def parse_temps(_ctx: click.Context, _param: click.Parameter, value: str | None)
     if value is None:
         return DEFAULT_TEMPS
     try:
-        low_text, high_text = value.replace("VAR", "").replace("var", "").split("-")
-        low, high = int(low_text), int(high_text)
-    except ValueError:
-        raise click.BadParameter("write the pool as FIRST-LAST, e.g. 496-511") from None
-    if not 0 <= low <= high <= 511:
-        raise click.BadParameter("the pool must lie within VAR0..VAR511")
-    return range(low, high + 1)
+        return project_module.parse_temps(value)
+    except ValueError as exc:
+        raise click.BadParameter(str(exc)) from None
 
 
 def write_output(text: str, output: str | None) -> None:
@@ -190,18 +189,79 @@ def parse_device_address(_ctx: click.Context, _param: click.Parameter,
     """HOST[:PORT] with the Modbus TCP port 502 by default; IPv6 as [ADDR]:PORT or bare."""
     if value is None:
         return None
-    host, port_text = value, "502"
-    if value.startswith("["):
-        host, _, rest = value[1:].partition("]")
-        if rest:
-            port_text = rest.removeprefix(":")
-    elif value.count(":") == 1:
-        host, port_text = value.split(":")
     try:
-        port = int(port_text)
-    except ValueError:
-        raise click.BadParameter(f"{value!r}: write HOST or HOST:PORT, e.g. 192.168.0.16:502"
-                                 ) from None
-    if not host or not 1 <= port <= 65535:
-        raise click.BadParameter(f"{value!r}: write HOST or HOST:PORT with a port in 1..65535")
-    return host, port
+        return project_module.parse_address(value)
+    except ValueError as exc:
+        raise click.BadParameter(str(exc)) from None
+
+
+project_option = click.option(
+    "--project", "project_file", type=click.Path(dir_okay=False, path_type=Path), default=None,
+    help="Project file to use [default: mpc.toml here or in a parent directory, read only when "
+    "no FILE is given].")
+
+
+@dataclass(frozen=True)
+class BuildSetup:
+    """What to compile and how: the command line merged over the project file."""
+
+    paths: list[Path]
+    options: Options
+    werror: bool
+    project: project_module.Project | None
+
+
+def load_project_file(path: Path) -> project_module.Project:
+    try:
+        return project_module.load_project(path)
+    except project_module.ProjectError as exc:
+        raise InputError(str(exc)) from None
+
+
+def build_setup(ctx: click.Context, files: tuple[str, ...], project_file: Path | None,
+                target: str, word_order: str | None, temp_vars: range,
+                allow_outside_includes: bool, werror: bool,
+                need_sources: bool = True) -> BuildSetup:
+    """The sources and options of a build. FILE... wins; without it, the project file
+    (`--project`, or mpc.toml found from here up) gives the sources; options given on the
+    command line win over the file's."""
+    project: project_module.Project | None = None
+    if project_file is not None:
+        project = load_project_file(project_file)
+    elif not files:
+        found = project_module.find_project(Path.cwd())
+        if found is not None:  # named as seen from here, in messages and images
+            project = load_project_file(Path(os.path.relpath(found)))
+    if files:
+        paths = expand_inputs(files)
+    elif project is not None and project.sources:
+        paths = [Path(os.path.relpath(p)) for p in project.sources]
+    elif project is not None:
+        if need_sources:
+            raise click.UsageError(f"{project.path}: [project] lists no sources; give FILE...")
+        paths = []
+    elif need_sources:
+        raise click.UsageError("give FILE... (.mp sources), or run where an mpc.toml lists "
+                               "them (docs/project.md)")
+    else:
+        paths = []
+    options = build_options(target, word_order, temp_vars, allow_outside_includes)
+    if project is None:
+        return BuildSetup(paths, options, werror, None)
+
+    def given(name: str) -> bool:
+        source = ctx.get_parameter_source(name)
+        return source is not None and source is not click.core.ParameterSource.DEFAULT
+
+    options = replace(
+        options,
+        target=target if given("target") or project.target is None else project.target,
+        word_order=options.word_order if given("word_order") else project.word_order,
+        temps=temp_vars if given("temp_vars") or project.temp_vars is None
+        else project.temp_vars,
+        allow_outside_includes=allow_outside_includes
+        if given("allow_outside_includes") or project.allow_outside_includes is None
+        else project.allow_outside_includes,
+        pins=project.pins)
+    werror = werror if given("werror") or project.werror is None else project.werror
+    return BuildSetup(paths, options, werror, project)

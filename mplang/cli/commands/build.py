@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import sys
+from pathlib import Path
 
 import click
 
 from mplang.cli.common import (
-    build_options,
-    expand_inputs,
+    build_setup,
     guarded,
+    project_option,
     report,
     with_common,
     write_output,
@@ -18,23 +19,27 @@ from mplang.compiler import compile_paths
 
 
 @click.command("build", short_help="Compile sources into one download image.")
-@click.argument("files", nargs=-1, required=True)
+@click.argument("files", nargs=-1)
 @click.option("-o", "--output", default=None, metavar="OUT",
               help="Write the result here ('-' or absent: standard output).")
 @click.option("--format", "fmt", type=click.Choice(["json", "listing", "hex", "map"]),
               default="json", show_default=True, help="Image JSON, human listing, hex "
               "frames, or the link map.")
+@project_option
 @with_common
+@click.pass_context
 @guarded
-def command(files: tuple[str, ...], output: str | None, fmt: str, target: str,
-          word_order: str | None, temp_vars: range, allow_outside_includes: bool,
-          werror: bool) -> None:
-    """Compile FILE... (files, directories or globs) together into one download image."""
+def command(ctx: click.Context, files: tuple[str, ...], output: str | None, fmt: str,
+            project_file: Path | None, target: str, word_order: str | None, temp_vars: range,
+            allow_outside_includes: bool, werror: bool) -> None:
+    """Compile FILE... (files, directories or globs; without them, the sources of mpc.toml)
+    together into one download image."""
     from mplang import output as render
 
-    result = compile_paths(expand_inputs(files),
-                           build_options(target, word_order, temp_vars, allow_outside_includes))
-    code = report(result, werror)
+    setup = build_setup(ctx, files, project_file, target, word_order, temp_vars,
+                        allow_outside_includes, werror)
+    result = compile_paths(setup.paths, setup.options)
+    code = report(result, setup.werror)
     if code:
         sys.exit(code)
     text = {

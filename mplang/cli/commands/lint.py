@@ -3,14 +3,15 @@
 from __future__ import annotations
 
 import sys
+from pathlib import Path
 
 import click
 
 from mplang.cli.common import (
     EXIT_SOURCE_ERRORS,
-    build_options,
-    expand_inputs,
+    build_setup,
     guarded,
+    project_option,
     with_common,
     write_output,
 )
@@ -19,20 +20,25 @@ from mplang.diagnostics import Severity
 
 
 @click.command("lint")
-@click.argument("files", nargs=-1, required=True)
+@click.argument("files", nargs=-1)
 @click.option("--format", "fmt", type=click.Choice(["text", "json", "sarif"]), default="text",
               show_default=True, help="gcc-style lines, a JSON list, or SARIF 2.1.0.")
 @click.option("-o", "--output", default=None, metavar="OUT", help="Write the report here.")
+@project_option
 @with_common
+@click.pass_context
 @guarded
-def command(files: tuple[str, ...], fmt: str, output: str | None, target: str,
-         word_order: str | None, temp_vars: range, allow_outside_includes: bool,
-         werror: bool) -> None:
-    """Check FILE... without producing an image. Exit 1 if any error is found."""
+def command(ctx: click.Context, files: tuple[str, ...], fmt: str, output: str | None,
+            project_file: Path | None, target: str, word_order: str | None, temp_vars: range,
+            allow_outside_includes: bool, werror: bool) -> None:
+    """Check FILE... (without them, the sources of mpc.toml) without producing an image.
+    Exit 1 if any error is found."""
     from mplang import output as render
 
-    result = compile_paths(expand_inputs(files),
-                           build_options(target, word_order, temp_vars, allow_outside_includes))
+    setup = build_setup(ctx, files, project_file, target, word_order, temp_vars,
+                        allow_outside_includes, werror)
+    werror = setup.werror
+    result = compile_paths(setup.paths, setup.options)
     diagnostics = result.diagnostics
     if fmt == "text":
         text = render.render_text(diagnostics)

@@ -1,0 +1,86 @@
+"""What `mpc flash` shows while it works: a progress bar with frames/s on a terminal, plain lines
+(one per event, nothing redrawn) when standard error is a file or a pipe, as in a CI log.
+
+The display polls the flash reports (`FlashReport.frames_written`, `frames_planned`) instead of
+being called for each frame, so flashing never waits for the terminal.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import sys
+import time
+from collections.abc import Callable
+from typing import TextIO
+
+from mplang.flash import FlashReport
+
+REDRAW_S = 0.1
+BAR_WIDTH = 24
+
+
+def frames_per_second(frames: int, seconds: float) -> float:
+    return frames / seconds if seconds > 0 else 0.0
+
+
+def bar(done: int, total: int, width: int = BAR_WIDTH) -> str:
+    filled = width if total <= 0 else min(width, done * width // total)
+    return "[" + "#" * filled + "." * (width - filled) + "]"
+
+
+class FlashDisplay:
+    """Lines and, on a terminal, one bar line kept at the bottom and redrawn in place."""
+
+    def __init__(self, reports: Callable[[], list[FlashReport]], stream: TextIO | None = None,
+                 tty: bool | None = None, prefix: str = "mpc flash") -> None:
+        self.reports = reports
+        self.stream = stream if stream is not None else sys.stderr
+        self.tty = self.stream.isatty() if tty is None else tty
+        self.prefix = prefix
+        self.started = time.monotonic()
+        self._bar_shown = False
+
+    def say(self, text: str) -> None:
+        """An event worth a line of its own (a program verified, a note, an error)."""
+        self._clear()
+        self.stream.write(f"{self.prefix}: {text}\n")
+        self._draw()
+
+    def status_line(self) -> str:
+        reports = self.reports()
+        planned = sum(r.frames_planned for r in reports)
+        written = sum(r.frames_written for r in reports)
+        rate = frames_per_second(written, time.monotonic() - self.started)
+        text = f"{bar(written, planned)} {min(written, planned)}/{planned} frames " \
+               f"{rate:7.0f} frames/s"
+        if len(reports) > 1:
+            finished = sum(1 for r in reports if r.seconds > 0)
+            text += f"  {finished}/{len(reports)} devices done"
+        return text
+
+    def _clear(self) -> None:
+        if self.tty and self._bar_shown:
+            self.stream.write("\r\x1b[2K")
+            self._bar_shown = False
+
+    def _draw(self) -> None:
+        if self.tty:
+            self.stream.write("\r\x1b[2K" + self.status_line())
+            self._bar_shown = True
+            self.stream.flush()
+
+    async def run(self) -> None:
+        """Redraw the bar until cancelled (only on a terminal; elsewhere there is no bar)."""
+        if not self.tty:
+            return
+        while True:
+            self._draw()
+            await asyncio.sleep(REDRAW_S)
+
+    def finish(self) -> None:
+        """Leave the final bar on its own line."""
+        if self.tty:
+            self._draw()
+            self.stream.write("\n")
+            self._bar_shown = False
+            self.stream.flush()

@@ -1,0 +1,62 @@
+"""The flash display: a bar with frames/s on a terminal, plain lines elsewhere."""
+
+from __future__ import annotations
+
+import asyncio
+import io
+
+from mplang.cli.progress import FlashDisplay, bar, frames_per_second
+from mplang.flash import FlashReport
+
+
+def reports(written: int, planned: int, devices: int = 1) -> list[FlashReport]:
+    out = []
+    for _ in range(devices):
+        report = FlashReport("dev", 0, None, [])
+        report.frames_written, report.frames_planned = written, planned
+        out.append(report)
+    return out
+
+
+def test_bar_and_rate() -> None:
+    assert bar(0, 100, 10) == "[..........]"
+    assert bar(50, 100, 10) == "[#####.....]"
+    assert bar(150, 100, 10) == "[##########]"  # re-downloads may write more than planned
+    assert bar(0, 0, 4) == "[####]"  # nothing to write: done
+    assert frames_per_second(500, 0.5) == 1000 and frames_per_second(3, 0) == 0
+
+
+def test_plain_lines_when_not_a_terminal() -> None:
+    out = io.StringIO()
+    display = FlashDisplay(lambda: reports(10, 20), out, tty=False)
+    display.say("MP1: 10 frames verified")
+
+    async def briefly() -> None:
+        await asyncio.wait_for(display.run(), 1)  # returns at once: nothing to redraw
+
+    asyncio.run(briefly())
+    display.finish()
+    assert out.getvalue() == "mpc flash: MP1: 10 frames verified\n"
+
+
+def test_terminal_bar_is_redrawn_in_place_below_the_lines() -> None:
+    out = io.StringIO()
+    state = reports(30, 120, devices=2)
+    state[0].seconds = 1.0  # one device finished
+    display = FlashDisplay(lambda: state, out, tty=True)
+    display.say("first")
+
+    async def a_few_redraws() -> None:
+        task = asyncio.ensure_future(display.run())
+        await asyncio.sleep(0.25)
+        task.cancel()
+        await asyncio.gather(task, return_exceptions=True)
+
+    asyncio.run(a_few_redraws())
+    display.say("second")
+    display.finish()
+    text = out.getvalue()
+    assert text.count("\r\x1b[2K") >= 3  # every redraw clears the bar line first
+    assert "mpc flash: first\n" in text and "mpc flash: second\n" in text
+    assert "60/240 frames" in text and "frames/s" in text and "1/2 devices done" in text
+    assert text.endswith("\n") and "\r\x1b[2Kmpc flash: second" in text
