@@ -19,7 +19,6 @@ from mplang.modbus import DeviceFace, Endpoint, serve_rtu, serve_tcp, stop
 from mplang.sim.ptylink import PtyLink
 
 
-
 def free_port() -> int:
     """A loopback port nobody listens on (bound, then released)."""
     with socket.socket() as probe:
