@@ -265,6 +265,8 @@ _RULES = [
          "The manual documents VARn operands only for some parameters; the 32-bit "
          "encoding is accepted, but the firmware's handling is not described.",
          "Prefer a constant, or test on the device."),
+    # ------------------------------------------ FATEK FBs-PLC positioning programs (E6xx/W6xx)
+    # ------------------------------------------------------ CSIM RS232 command set (E7xx/W7xx)
 ]
 
 RULES: dict[str, Rule] = {rule.code: rule for rule in _RULES}
