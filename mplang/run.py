@@ -7,6 +7,7 @@ from dataclasses import dataclass
 
 from mplang.compiler import BuildResult
 from mplang.sim.controller import RunResult, VirtualController
+from mplang.trace import Trace, run_traced
 
 
 class RunSetupError(ValueError):
@@ -22,6 +23,7 @@ class RunReport:
     controller: VirtualController
     result: RunResult
     called: str
+    trace: Trace | None = None
 
     def to_json(self) -> dict[str, object]:
         snapshot = self.controller.snapshot()
@@ -53,7 +55,10 @@ def pick_program(build: BuildResult, call: str | None, first_file: str | None) -
 
 
 def run_build(build: BuildResult, call: str | None = None, first_file: str | None = None,
-              max_time: float = 3600.0) -> RunReport:
+              max_time: float = 3600.0, trace_period: float | None = None) -> RunReport:
+    """Load the build into a fresh virtual controller and run one MP to its end. With
+    `trace_period` (seconds) every axis is also sampled over the run (`RunReport.trace`);
+    the run itself comes out the same either way."""
     controller = VirtualController(word_order=build.word_order)
     for image in build.programs:
         error = controller.load_frames(image.program.kind, image.placement.slot, image.frames)
@@ -64,4 +69,7 @@ def run_build(build: BuildResult, call: str | None = None, first_file: str | Non
                                 f"{error.line}")
     slot = pick_program(build, call, first_file)
     controller.call(slot)
-    return RunReport(controller, controller.run(max_time=max_time), f"MP{slot}")
+    if trace_period is None:
+        return RunReport(controller, controller.run(max_time=max_time), f"MP{slot}")
+    result, trace = run_traced(controller, trace_period, max_time=max_time)
+    return RunReport(controller, result, f"MP{slot}", trace)

@@ -804,6 +804,19 @@ class MotionModel:
         i = _axis_index(axis)
         return self.lp(axis, now) + self._ax[i].ep_off
 
+    def sample(self, index: int, now: float) -> tuple[int, int, float]:
+        """LP, EP and signed velocity (pulses/s, negative while LP decreases) of axis 0..3,
+        for traces: CV gives the speed without its sign; this is the running motion's speed
+        along its path times the path's direction for this axis."""
+        lp = self.lp(1 << index, now)  # settles the model at `now`
+        state = self._ax[index]
+        motion = state.motion
+        if motion is None:
+            return lp, lp + state.ep_off, 0.0
+        travelled, speed, _acceleration = motion.prof.state(now - motion.t0)
+        return lp, lp + state.ep_off, speed * motion.path.deriv(motion.axes.index(index),
+                                                                  travelled)
+
     def _kinematics(self, axis: int, now: float) -> tuple[float, float]:
         i = _axis_index(axis)
         self.settle(now)

@@ -1,4 +1,5 @@
-"""`mpc run`: build, load into a fresh virtual controller, call one program."""
+"""`mpc run`: build, load into a fresh virtual controller, call one program; `--trace` also
+writes every axis's position and velocity over the run as CSV."""
 
 from __future__ import annotations
 
@@ -9,47 +10,83 @@ import click
 
 from mplang.cli.common import (
     EXIT_RUN_FAILED,
-    build_options,
-    expand_inputs,
+    OutputError,
+    build_setup,
     guarded,
+    project_option,
     report,
     with_common,
 )
 from mplang.compiler import compile_paths
 
 
+def check_trace_place(trace_file: str) -> None:
+    """Refuse, before the run, a trace file that cannot be a file: '-', a directory, or a
+    place in a directory that does not exist."""
+    path = Path(trace_file)
+    if trace_file == "-":
+        raise click.BadParameter("the trace goes to a file, not standard output",
+                                 param_hint="--trace")
+    if path.is_dir():
+        raise OutputError(f"cannot write {trace_file}: it is a directory")
+    if not path.parent.is_dir():
+        raise OutputError(f"cannot write {trace_file}: no directory {path.parent}")
+
+
 @click.command("run", short_help="Run one program on a fresh virtual controller.")
-@click.argument("files", nargs=-1, required=True)
+@click.argument("files", nargs=-1)
 @click.option("--call", "call", default=None, metavar="MPn|NAME",
               help="Program to call [default: the first MP of the first file].")
 @click.option("--json", "as_json", is_flag=True, help="Print variables, axes, time and error "
               "as JSON.")
 @click.option("--max-time", type=click.FloatRange(min=0.001), default=3600.0, show_default=True,
               help="Give up after this much simulated time (seconds).")
+@click.option("--trace", "trace_file", default=None, metavar="FILE.csv",
+              help="Also write time, and LP, EP and velocity of every axis, as CSV.")
+@click.option("--trace-period", type=click.FloatRange(min=0.00001), default=None,
+              metavar="SECONDS", help="Sampling period of --trace in simulated time "
+              "[default: 0.001; motion ends are sampled too].")
+@project_option
 @with_common
+@click.pass_context
 @guarded
-def command(files: tuple[str, ...], call: str | None, as_json: bool, max_time: float, target: str,
-        word_order: str | None, temp_vars: range, allow_outside_includes: bool,
-        werror: bool) -> None:
+def command(ctx: click.Context, files: tuple[str, ...], call: str | None, as_json: bool,
+            max_time: float, trace_file: str | None, trace_period: float | None,
+            project_file: Path | None, target: str, word_order: str | None,
+            temp_vars: range, allow_outside_includes: bool, werror: bool) -> None:
     """Build FILE..., load every program into a fresh virtual controller and run one."""
     import json
 
     from mplang.run import NoSuchProgram, RunSetupError, run_build
+    from mplang.trace import DEFAULT_PERIOD
 
-    paths = expand_inputs(files)
-    result = compile_paths(paths, build_options(target, word_order, temp_vars,
-                                                allow_outside_includes))
-    code = report(result, werror)
+    if trace_period is not None and trace_file is None:
+        raise click.UsageError("--trace-period needs --trace FILE.csv")
+    setup = build_setup(ctx, files, project_file, target, word_order, temp_vars,
+                        allow_outside_includes, werror)
+    paths = setup.paths
+    if trace_file is not None:
+        check_trace_place(trace_file)
+    result = compile_paths(paths, setup.options)
+    code = report(result, setup.werror)
     if code:
         sys.exit(code)
     first = next((s for s in result.sources if Path(s).resolve() == paths[0].resolve()), None)
     try:
-        outcome = run_build(result, call, first, max_time=max_time)
+        outcome = run_build(result, call, first, max_time=max_time,
+                            trace_period=None if trace_file is None
+                            else DEFAULT_PERIOD if trace_period is None else trace_period)
     except NoSuchProgram as exc:
         raise click.BadParameter(str(exc), param_hint="--call") from None
     except RunSetupError as exc:
         click.echo(f"mpc: {exc}", err=True)
         sys.exit(EXIT_RUN_FAILED)
+    if trace_file is not None and outcome.trace is not None:
+        try:
+            with open(trace_file, "w", encoding="utf-8", newline="") as stream:
+                outcome.trace.write_csv(stream)
+        except OSError as exc:
+            raise OutputError(f"cannot write {trace_file}: {exc.strerror or exc}") from None
     summary = outcome.to_json()
     if as_json:
         click.echo(json.dumps(summary, indent=1))
@@ -60,6 +97,8 @@ def command(files: tuple[str, ...], call: str | None, as_json: bool, max_time: f
             click.echo(f"  {name} = {value}")
         for name, pos in summary["axes"].items():  # type: ignore[attr-defined]
             click.echo(f"  {name}: lp {pos['lp']}, ep {pos['ep']}")
+        if outcome.trace is not None:
+            click.echo(f"  trace: {len(outcome.trace)} samples written to {trace_file}")
         if outcome.result.error:
             click.echo(f"error: {outcome.result.error}", err=True)
     if not outcome.result.finished:

@@ -1,0 +1,116 @@
+"""`mpc plot`: run one program on a fresh virtual controller and draw its tool path and the
+position and velocity of every moving axis against time (PNG or SVG)."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import click
+
+from mplang.cli.common import (
+    EXIT_RUN_FAILED,
+    OutputError,
+    build_setup,
+    guarded,
+    project_option,
+    report,
+    with_common,
+)
+from mplang.compiler import BuildResult, compile_paths
+
+IMAGE_SUFFIXES = {".png": "png", ".svg": "svg"}
+
+
+def image_format(output: str) -> str:
+    """png or svg, from the output file's suffix; anything else is a usage error."""
+    fmt = IMAGE_SUFFIXES.get(Path(output).suffix.lower())
+    if fmt is None:
+        raise click.BadParameter(f"{output!r}: name a file ending in .png or .svg",
+                                 param_hint="'-o' / '--output'")
+    return fmt
+
+
+def check_output_place(output: Path) -> None:
+    """Refuse, before a possibly long simulation, an output whose directory is missing or
+    that names a directory."""
+    if output.is_dir():
+        raise OutputError(f"cannot write {output}: it is a directory")
+    if not output.parent.is_dir():
+        raise OutputError(f"cannot write {output}: no directory {output.parent}")
+
+
+def program_title(build: BuildResult, called: str) -> str:
+    """`MP131 home_then_square (samples/home_then_square.mp)` for the called slot."""
+    slot = int(called.removeprefix("MP"))
+    for image in build.programs:
+        if image.program.kind == "mp" and image.placement.slot == slot:
+            name = f" {image.program.name}" if image.program.name else ""
+            return f"{called}{name} ({image.program.source})"
+    return called
+
+
+@click.command("plot", short_help="Plot the simulated tool path and axis motion (PNG/SVG).")
+@click.argument("files", nargs=-1)
+@click.option("--call", "call", default=None, metavar="MPn|NAME",
+              help="Program to call [default: the first MP of the first file].")
+@click.option("-o", "--output", required=True, metavar="OUT.png|OUT.svg",
+              help="Image to write; the format follows the suffix.")
+@click.option("--width", type=click.IntRange(300, 8000), default=1200, show_default=True,
+              help="Image width in pixels.")
+@click.option("--height", type=click.IntRange(300, 8000), default=900, show_default=True,
+              help="Image height in pixels.")
+@click.option("--trace-period", type=click.FloatRange(min=0.00001), default=0.001,
+              show_default=True, metavar="SECONDS",
+              help="Sample the axes this often (simulated time; motion ends are sampled too).")
+@click.option("--max-time", type=click.FloatRange(min=0.001), default=3600.0, show_default=True,
+              help="Give up after this much simulated time (seconds).")
+@project_option
+@with_common
+@click.pass_context
+@guarded
+def command(ctx: click.Context, files: tuple[str, ...], call: str | None, output: str,
+            width: int, height: int, trace_period: float, max_time: float,
+            project_file: Path | None, target: str, word_order: str | None,
+            temp_vars: range, allow_outside_includes: bool, werror: bool) -> None:
+    """Build FILE..., run one program on a fresh virtual controller and plot what the axes
+    did: the XY path (XZ and YZ too when Z moves) and position and velocity against time.
+    A program that fails or does not finish is plotted up to that point, and exits 5."""
+    from mplang.plot import PlotRequest, render
+    from mplang.run import NoSuchProgram, RunSetupError, run_build
+
+    fmt = image_format(output)
+    setup = build_setup(ctx, files, project_file, target, word_order, temp_vars,
+                        allow_outside_includes, werror)
+    paths = setup.paths
+    check_output_place(Path(output))
+    result = compile_paths(paths, setup.options)
+    code = report(result, setup.werror)
+    if code:
+        sys.exit(code)
+    first = next((s for s in result.sources if Path(s).resolve() == paths[0].resolve()), None)
+    try:
+        outcome = run_build(result, call, first, max_time=max_time, trace_period=trace_period)
+    except NoSuchProgram as exc:
+        raise click.BadParameter(str(exc), param_hint="--call") from None
+    except RunSetupError as exc:
+        click.echo(f"mpc: {exc}", err=True)
+        sys.exit(EXIT_RUN_FAILED)
+    trace = outcome.trace
+    assert trace is not None  # asked for with trace_period
+    run = outcome.result
+    state = "finished" if run.finished else "FAILED"
+    title = (f"{program_title(result, outcome.called)}\n{state} after {run.time_s:.3f} s "
+             f"simulated, sampled every {trace_period * 1000:g} ms")
+    if run.error:
+        title += f"\n{run.error}"
+    image = render(trace, PlotRequest(title, fmt, width, height))
+    try:
+        Path(output).write_bytes(image)
+    except OSError as exc:
+        raise OutputError(f"cannot write {output}: {exc.strerror or exc}") from None
+    click.echo(f"{outcome.called}: {state} after {round(run.time_s * 1000, 3)} ms simulated; "
+               f"{len(trace)} samples plotted to {output}")
+    if not run.finished:
+        click.echo(f"error: {run.error}", err=True)
+        sys.exit(EXIT_RUN_FAILED)
