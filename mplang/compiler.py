@@ -16,7 +16,7 @@ from mplang.frontend.sources import load_sources
 from mplang.frontend.structure import build_unit
 from mplang.ir import LoweredProgram, MacroLine, ProgramRef
 from mplang.link import Placement, SlotPin, link, resolve
-from mplang.lower import ConstError, ProgramLowerer, Scope
+from mplang.lower import DEFAULT_VAR_POOL, ConstError, ProgramLowerer, Scope, Variable
 
 IMAGE_FORMAT = "mplang-image/1"
 # `# mpc: ignore[W107]` (or `# mpc: ignore` for every warning) on a line silences warnings
@@ -32,6 +32,7 @@ class Options:
     temps: range = DEFAULT_TEMPS
     allow_outside_includes: bool = False
     pins: tuple[SlotPin, ...] = ()  # slot pins of a project file (mpc.toml [slots])
+    var_pool: range = DEFAULT_VAR_POOL  # where unpinned `VAR name` declarations go
 
 
 @dataclass
@@ -83,6 +84,7 @@ class BuildResult:
     word_order: int = 0
     target: str = "et"
     sources: dict[str, list[str]] = field(default_factory=dict)  # display name -> lines
+    variables: list[Variable] = field(default_factory=list)  # `VAR name` declarations
 
     @property
     def ok(self) -> bool:
@@ -145,7 +147,7 @@ def _finish(unit: object, catalogue: Catalogue, sink: DiagnosticSink,
     assert isinstance(unit, ast.Unit)
     profile = catalogue.profile
     word_order = profile.word_order_default if options.word_order is None else options.word_order
-    scope = Scope(catalogue, sink)
+    scope = Scope(catalogue, sink, options.var_pool, options.temps)
     try:
         scope.declare(unit)
     except ConstError as err:
@@ -155,7 +157,8 @@ def _finish(unit: object, catalogue: Catalogue, sink: DiagnosticSink,
     lowered = [ProgramLowerer(scope, program, options.temps, options.target, names)
                .lower_program() for program in unit.programs]
     placements = link(lowered, profile, sink, options.pins)
-    result = BuildResult(sink.sorted(), word_order=word_order, target=options.target)
+    result = BuildResult(sink.sorted(), word_order=word_order, target=options.target,
+                         variables=sorted(scope.variables, key=lambda v: v.index))
     if not result.ok:
         return result
     by_name = {p.name.upper(): p for p in lowered if p.name}

@@ -21,7 +21,7 @@ from mplang.ir import BVarRef, CallSite, LoweredProgram, MacroLine, Operand, Pro
 VAR_RE = re.compile(r"VAR(\d+)", re.IGNORECASE)
 BVAR_RE = re.compile(r"BVAR(\d+)", re.IGNORECASE)
 PROGRAM_RE = re.compile(r"(MP|ISR)(\d+)", re.IGNORECASE)
-KEYWORDS = {"CONST", "ALIAS", "INCLUDE", "MP", "ISR", "END", "FOR", "NEXT", "EXIT", "IF",
+KEYWORDS = {"CONST", "ALIAS", "VAR", "INCLUDE", "MP", "ISR", "END", "FOR", "NEXT", "EXIT", "IF",
             "THEN", "ELSE", "LABEL", "GOTO", "CALL", "TERMINATE"}
 CONTROL_COMMANDS = {"SET_VAR", "VAR_CALCULATE"}
 
@@ -67,16 +67,34 @@ class ConstError(Exception):
         self.code = code
 
 
+DEFAULT_VAR_POOL = range(400, 500)
+
+
+@dataclass(frozen=True)
+class Variable:
+    """A `VAR name` declaration as placed: the host finds it at holding register 300 + 2n."""
+
+    name: str
+    index: int
+    pinned: bool
+    span: Span
+
+
 @dataclass
 class Scope:
-    """Build-wide names: constants (evaluated lazily, cycles reported) and aliases."""
+    """Build-wide names: constants (evaluated lazily, cycles reported), aliases, and the
+    declared variables (`VAR name [@ VARn]`), which become aliases once placed."""
 
     catalogue: Catalogue
     sink: DiagnosticSink
+    var_pool: range = DEFAULT_VAR_POOL
+    temps: range = range(0)
     const_exprs: dict[str, ast.Const] = field(default_factory=dict)
     const_values: dict[str, int | None] = field(default_factory=dict)
     aliases: dict[str, int] = field(default_factory=dict)
     alias_spans: dict[str, Span] = field(default_factory=dict)
+    variables: list[Variable] = field(default_factory=list)
+    declared_indices: set[int] = field(default_factory=set)
     _evaluating: set[str] = field(default_factory=set)
 
     def reserved(self, name: str) -> str | None:
@@ -96,9 +114,25 @@ class Scope:
             return "a comparison constant"
         return None
 
+    def _variable_index(self, text: str, span: Span, what: str) -> int | None:
+        """The n of a VARn operand of ALIAS / VAR @, checked (None, reported, if bad)."""
+        match = VAR_RE.fullmatch(text)
+        if not match:
+            self.sink.add("E207", span, f"{what} must name a variable VARn, not {text!r}")
+            return None
+        index = int(match.group(1))
+        if index >= self.catalogue.profile.var("count"):
+            last = self.catalogue.profile.var("count") - 1
+            self.sink.add("E204", span, f"{text} does not exist: variables are VAR0..VAR{last}")
+            return None
+        return index
+
     def declare(self, unit: ast.Unit) -> None:
         seen: dict[str, Span] = {}
-        decls: list[ast.Const | ast.Alias] = [*unit.consts, *unit.aliases]
+        decls: list[ast.Const | ast.Alias | ast.VarDecl] = [*unit.consts, *unit.aliases,
+                                                             *unit.variables]
+        pinned: dict[int, ast.VarDecl] = {}
+        unplaced: list[ast.VarDecl] = []
         for decl in decls:
             key = decl.name.upper()
             why = self.reserved(decl.name)
@@ -113,22 +147,63 @@ class Scope:
             seen[key] = decl.name_span
             if isinstance(decl, ast.Const):
                 self.const_exprs[key] = decl
+            elif isinstance(decl, ast.Alias):
+                index = self._variable_index(decl.target, decl.target_span,
+                                             f"ALIAS {decl.name}")
+                if index is not None:
+                    self.aliases[key] = index
+                    self.alias_spans[key] = decl.name_span
+            elif decl.pin is None:
+                unplaced.append(decl)
             else:
-                match = VAR_RE.fullmatch(decl.target)
-                if not match:
-                    self.sink.add("E207", decl.target_span, f"ALIAS {decl.name} must name a "
-                                  f"variable VARn, not {decl.target!r}")
+                assert decl.pin_span is not None
+                index = self._variable_index(decl.pin, decl.pin_span, f"VAR {decl.name} @")
+                if index is None:
                     continue
-                index = int(match.group(1))
-                if index >= self.catalogue.profile.var("count"):
-                    last = self.catalogue.profile.var("count") - 1
-                    self.sink.add("E204", decl.target_span, f"{decl.target} does not exist: "
-                                  f"variables are VAR0..VAR{last}")
+                if index in pinned:
+                    other = pinned[index]
+                    self.sink.add("E209", decl.pin_span, f"VAR {decl.name} and VAR "
+                                  f"{other.name} are both pinned to VAR{index}",
+                                  related=((other.name_span, f"{other.name} is pinned here"),),
+                                  hint="pin each variable to its own VARn, or use ALIAS for a "
+                                  "second name of the same variable")
+                    self.aliases[key] = index  # no follow-on "unknown name" errors
                     continue
-                self.aliases[key] = index
-                self.alias_spans[key] = decl.name_span
+                if index in self.temps:
+                    self.sink.add("W104", decl.pin_span, f"VAR{index} is in the pool of "
+                                  "expression temporaries: its value changes behind your back",
+                                  hint="pin it elsewhere, or move the pool with --temp-vars")
+                pinned[index] = decl
+                self._place(decl, index, pinned=True)
+        if unplaced:
+            self._allocate(unit, unplaced)
         for key in self.const_exprs:
             self.const(key)
+
+    def _place(self, decl: ast.VarDecl, index: int, pinned: bool) -> None:
+        key = decl.name.upper()
+        self.aliases[key] = index
+        self.alias_spans[key] = decl.name_span
+        self.variables.append(Variable(decl.name, index, pinned, decl.name_span))
+        self.declared_indices.add(index)
+
+    def _allocate(self, unit: ast.Unit, unplaced: list[ast.VarDecl]) -> None:
+        """Unpinned variables get the lowest free VARn of the pool, in declaration order:
+        free means named by nothing in the build (VARn, ALIAS, a pin) and not a temporary."""
+        used = set(self.aliases.values()) | _named_variables(unit)
+        free = (n for n in self.var_pool if n not in used and n not in self.temps)
+        for decl in unplaced:
+            index = next(free, None)
+            if index is None:
+                first, last = self.var_pool.start, self.var_pool.stop - 1
+                self.sink.add("E208", decl.name_span, f"no free variable left for VAR "
+                              f"{decl.name}: the pool VAR{first}..VAR{last} is used up",
+                              hint="widen var-pool in mpc.toml, or pin some variables "
+                              "with VAR name @ VARn")
+                # the build has failed; naming some VAR avoids "unknown name" follow-ons
+                self.aliases[decl.name.upper()] = self.var_pool.start
+                continue
+            self._place(decl, index, pinned=False)
 
     def const(self, key: str) -> int | None:
         """Value of a CONST (None if it could not be evaluated; reported once)."""
@@ -191,6 +266,33 @@ class Scope:
         return int(match.group(1)) if match else None
 
 
+def _named_variables(unit: ast.Unit) -> set[int]:
+    """Every VARn written literally anywhere in the programs of the build."""
+    found: set[int] = set()
+
+    def visit(node: object) -> None:
+        if isinstance(node, ast.Name):
+            match = VAR_RE.fullmatch(node.name)
+        elif isinstance(node, ast.Assign):
+            match = VAR_RE.fullmatch(node.target)
+        else:
+            match = None
+        if match:
+            found.add(int(match.group(1)))
+        if isinstance(node, list):
+            for item in node:
+                visit(item)
+        elif hasattr(node, "__dataclass_fields__"):
+            for name in node.__dataclass_fields__:
+                value = getattr(node, name)
+                if isinstance(value, list) or hasattr(value, "__dataclass_fields__"):
+                    visit(value)
+
+    for program in unit.programs:
+        visit(program.body)
+    return found
+
+
 def did_you_mean(name: str, candidates: list[str]) -> str:
     close = difflib.get_close_matches(name.upper(), candidates, n=1, cutoff=0.6)
     return f"did you mean {close[0]}?" if close else ""
@@ -236,7 +338,9 @@ class ProgramLowerer:
 
     # ------------------------------------------------------------------ variables
     def note_read(self, ref: VarRef, span: Span) -> None:
-        if ref.index in self.temps:
+        """W103, except for temporaries and for declared `VAR name` variables: declaring one
+        says that the host (or another program) sets it."""
+        if ref.index in self.temps or ref.index in self.scope.declared_indices:
             return
         if ref.index not in self.written and ref.index not in self.warned_reads:
             self.warned_reads.add(ref.index)

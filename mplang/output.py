@@ -7,9 +7,12 @@ import json
 from typing import Any
 
 from mplang import __version__
+from mplang import catalogue as catalogue_module
 from mplang.compiler import BuildResult
 from mplang.diagnostics import Diagnostic
 from mplang.rules import RULES
+
+VARIABLES_FORMAT = "mplang-variables/1"
 
 
 def _hex(frame: list[int]) -> str:
@@ -147,3 +150,82 @@ def render_sarif(diagnostics: list[Diagnostic]) -> str:
                   "results": results}],
     }
     return json.dumps(sarif, indent=1) + "\n"
+
+
+# ------------------------------------------------------------------ variable maps
+def _holding_base() -> int:
+    """VARn lives at holding register base + 2n (device.toml [variables] holding_base)."""
+    return int(catalogue_module.load().profile.var("holding_base"))
+
+
+def _variable_rows(result: BuildResult) -> list[dict[str, Any]]:
+    base = _holding_base()
+    return [{"name": v.name, "var": v.index, "register": base + 2 * v.index,
+             "pinned": v.pinned, "source": f"{v.span.file}:{v.span.line}"}
+            for v in result.variables]
+
+
+def render_variables_json(result: BuildResult) -> str:
+    """`--format vars`: the declared variables, for host programs and HMIs."""
+    return json.dumps({"format": VARIABLES_FORMAT, "build_id": result.build_id(),
+                       "word_order": result.word_order, "holding_base": _holding_base(),
+                       "variables": _variable_rows(result)}, indent=2) + "\n"
+
+
+def render_variables_c(result: BuildResult) -> str:
+    """`--format vars-h`: a C header, for host programs written against the vendor DLL."""
+    out = [f"/* Variable map of mplang build {result.build_id()}: written by mpc build "
+           "--format vars-h. Do not edit. */",
+           "#ifndef MPC_VARIABLES_H", "#define MPC_VARIABLES_H", "",
+           "/* VARn is the signed 32-bit value in holding registers MPC_REG_x and MPC_REG_x + 1;",
+           "   MPC_WORD_ORDER 0: the first of them holds the high word, 1: the low word. */",
+           f"#define MPC_WORD_ORDER {result.word_order}",
+           f"#define MPC_HOLDING_BASE {_holding_base()}", ""]
+    for row in _variable_rows(result):
+        name = row["name"].upper()
+        out.append(f"#define MPC_VAR_{name} {row['var']}  /* {row['source']}"
+                   f"{', pinned' if row['pinned'] else ''} */")
+        out.append(f"#define MPC_REG_{name} {row['register']}")
+    out += ["", "#endif /* MPC_VARIABLES_H */"]
+    return "\n".join(out) + "\n"
+
+
+def render_variables_python(result: BuildResult) -> str:
+    """`--format vars-py`: a Python module with the map and the 32-bit word split."""
+    rows = _variable_rows(result)
+    names = ",\n".join(f"    {row['name']!r}: {row['var']}" for row in rows)
+    constants = "\n".join(f"{row['name'].upper()} = {row['var']}  # {row['source']}"
+                          for row in rows)
+    return f'''"""Variable map of mplang build {result.build_id()}: written by `mpc build --format
+vars-py`. Do not edit. VARn is a signed 32-bit value in holding registers HOLDING_BASE + 2n
+and the next one, in the device's word order (holding register 14)."""
+
+WORD_ORDER = {result.word_order}
+HOLDING_BASE = {_holding_base()}
+VARIABLES = {{
+{names}{"," if rows else ""}
+}}
+
+{constants}
+
+
+def register(name: str) -> int:
+    """The first holding register of a variable, by name."""
+    return HOLDING_BASE + 2 * VARIABLES[name]
+
+
+def to_registers(value: int) -> list[int]:
+    """A signed 32-bit value as the two registers to write (FC16), in the word order."""
+    if not -2**31 <= value < 2**31:
+        raise ValueError(f"{{value}} does not fit a 32-bit variable")
+    raw = value & 0xFFFFFFFF
+    high, low = raw >> 16, raw & 0xFFFF
+    return [high, low] if WORD_ORDER == 0 else [low, high]
+
+
+def from_registers(words: list[int]) -> int:
+    """The signed 32-bit value of the two registers read (FC3) from `register(name)`."""
+    high, low = (words[0], words[1]) if WORD_ORDER == 0 else (words[1], words[0])
+    raw = (high << 16) | low
+    return raw - 2**32 if raw >= 2**31 else raw
+'''

@@ -26,7 +26,7 @@ DEFAULT_RECORD = ".mpc/flash-record.json"
 TARGET_KEYS = frozenset({"tcp", "serial", "unit", "baud", "parity", "stopbits", "timeout",
                          "retries", "sources", "image", "word-order"})
 SECTIONS = frozenset({"project", "slots", "targets", "flash", "fmt"})
-PROJECT_KEYS = frozenset({"sources", "target", "word-order", "temp-vars",
+PROJECT_KEYS = frozenset({"sources", "target", "word-order", "temp-vars", "var-pool",
                           "allow-outside-includes", "werror"})
 FLASH_KEYS = frozenset({"record", "timeout", "retries", "set-word-order"})
 SLOT_TEXT = re.compile(r"(MP|ISR)\s*(\d+)", re.IGNORECASE)
@@ -79,6 +79,7 @@ class Project:
     target: str | None = None  # "et" / "rs": the controller variant
     word_order: int | None = None
     temp_vars: range | None = None
+    var_pool: range | None = None
     allow_outside_includes: bool | None = None
     werror: bool | None = None
     pins: tuple[SlotPin, ...] = ()
@@ -221,7 +222,8 @@ def _table(data: Mapping[str, Any], name: str, where: _Locator) -> Mapping[str, 
 
 
 def parse_temps(text: str) -> range:
-    """`FIRST-LAST` (e.g. `496-511`, `VAR496-VAR511`): the VAR pool for temporaries."""
+    """`FIRST-LAST` (e.g. `496-511`, `VAR496-VAR511`): a range of VARs (the pool of
+    temporaries, or of declared variables)."""
     try:
         low_text, high_text = text.upper().replace("VAR", "").split("-")
         low, high = int(low_text), int(high_text)
@@ -348,6 +350,12 @@ def load_project(path: Path) -> Project:
             temps = parse_temps(str(project["temp-vars"]))
         except ValueError as exc:
             raise where.error("project", "temp-vars", str(exc)) from None
+    pool: range | None = None
+    if "var-pool" in project:
+        try:
+            pool = parse_temps(str(project["var-pool"]))
+        except ValueError as exc:
+            raise where.error("project", "var-pool", str(exc)) from None
     flash = _table(data, "flash", where)
     _check_keys(flash, FLASH_KEYS, "flash", where)
     record = flash.get("record", DEFAULT_RECORD)
@@ -359,6 +367,7 @@ def load_project(path: Path) -> Project:
         word_order=None if "word-order" not in project else
         _int(project["word-order"], 0, 1, "project", "word-order", where),
         temp_vars=temps,
+        var_pool=pool,
         allow_outside_includes=None if "allow-outside-includes" not in project else
         _bool(project["allow-outside-includes"], "project", "allow-outside-includes", where),
         werror=None if "werror" not in project else

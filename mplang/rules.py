@@ -71,6 +71,14 @@ _RULES = [
          "CONST values and folded operands must be integers computable at compile time, "
          "without division by zero or circular definitions.",
          "Fix the expression."),
+    Rule("E208", "var-pool-exhausted", E, "No free variable is left for a VAR declaration.",
+         "Unpinned `VAR name` declarations take the lowest VARn of the pool (mpc.toml "
+         "[project] var-pool, default VAR400..VAR499) that nothing in the build names.",
+         "Widen the pool, or pin some variables with `VAR name @ VARn`."),
+    Rule("E209", "variable-clash", E, "Two VAR declarations are pinned to the same VARn.",
+         "A declared variable is storage of its own for the host to read and write; two "
+         "names on one VARn would overwrite each other.",
+         "Pin each to its own VARn; for a second name of one variable use ALIAS."),
     Rule("E207", "alias-target", E, "An ALIAS does not name a variable.",
          "ALIAS gives a name to a device variable VARn.", "Write ALIAS name = VARn."),
     # ---------------------------------------------------------------------- E3: structure

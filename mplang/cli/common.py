@@ -262,6 +262,7 @@ def build_setup(ctx: click.Context, files: tuple[str, ...], project_file: Path |
         allow_outside_includes=allow_outside_includes
         if given("allow_outside_includes") or project.allow_outside_includes is None
         else project.allow_outside_includes,
-        pins=project.pins)
+        pins=project.pins,
+        var_pool=options.var_pool if project.var_pool is None else project.var_pool)
     werror = werror if given("werror") or project.werror is None else project.werror
     return BuildSetup(paths, options, werror, project)

@@ -79,6 +79,17 @@ class Alias:
 
 
 @dataclass
+class VarDecl:
+    """`VAR name` (the compiler picks a VARn) or `VAR name @ VARn` (pinned, for the host)."""
+
+    name: str
+    pin: str | None
+    span: Span
+    name_span: Span
+    pin_span: Span | None
+
+
+@dataclass
 class Include:
     path: str
     span: Span
@@ -172,7 +183,7 @@ class Command:
 
 
 Statement = (
-    Const | Alias | Include | ProgramHeader | End | ForStmt | Next | ExitFor | Exit | IfStmt
+    Const | Alias | VarDecl | Include | ProgramHeader | End | ForStmt | Next | ExitFor | Exit | IfStmt
     | Else | LabelStmt | Goto | CallStmt | Terminate | Assign | Command
 )
 
@@ -219,4 +230,5 @@ class Unit:
 
     consts: list[Const] = field(default_factory=list)
     aliases: list[Alias] = field(default_factory=list)
+    variables: list[VarDecl] = field(default_factory=list)
     programs: list[Program] = field(default_factory=list)

@@ -23,7 +23,7 @@ TOKEN_WORDS = {
     "NAME": "a name", "INT": "a number", "STRING": "a string", "CMP": "a comparison",
     "_NL": "end of line", "$END": "end of line", "LPAR": "'('", "RPAR": "')'",
     "COMMA": "','", "EQUAL": "'='", "PLUS": "'+'", "MINUS": "'-'", "STAR": "'*'",
-    "SLASH": "'/'", "AMP": "'&'", "BAR": "'|'", "THEN": "THEN",
+    "SLASH": "'/'", "AMP": "'&'", "BAR": "'|'", "THEN": "THEN", "AT": "'@'",
 }
 
 
@@ -99,6 +99,11 @@ class _Builder(Transformer[Token, Any]):
     def alias_decl(self, kw: Token, name: Token, target: Token) -> ast.Alias:
         return ast.Alias(str(name), str(target), self._span(kw), self._span(name),
                          self._span(target))
+
+    def var_decl(self, kw: Token, name: Token, _at: Token | None, pin: Token | None
+                 ) -> ast.VarDecl:
+        return ast.VarDecl(str(name), str(pin) if pin else None, self._span(kw),
+                           self._span(name), self._span(pin) if pin else None)
 
     def include(self, kw: Token, path: Token) -> ast.Include:
         return ast.Include(str(path)[1:-1], self._span(kw))

@@ -123,14 +123,16 @@ def _build_file(statements: list[ast.Statement], file: str, unit: ast.Unit,
     for raw in statements:
         statement = _normalise(raw)
         match statement:
-            case ast.Const() | ast.Alias():
+            case ast.Const() | ast.Alias() | ast.VarDecl():
                 if in_program():
-                    sink.add("E301", statement.span, "CONST and ALIAS must stand at the top "
-                             "level, outside MP/ISR blocks")
+                    sink.add("E301", statement.span, "CONST, ALIAS and VAR must stand at the "
+                             "top level, outside MP/ISR blocks")
                 elif isinstance(statement, ast.Const):
                     unit.consts.append(statement)
-                else:
+                elif isinstance(statement, ast.Alias):
                     unit.aliases.append(statement)
+                else:
+                    unit.variables.append(statement)
             case ast.Include():
                 pass  # handled while loading sources
             case ast.ProgramHeader():

@@ -22,9 +22,11 @@ from mplang.compiler import compile_paths
 @click.argument("files", nargs=-1)
 @click.option("-o", "--output", default=None, metavar="OUT",
               help="Write the result here ('-' or absent: standard output).")
-@click.option("--format", "fmt", type=click.Choice(["json", "listing", "hex", "map"]),
+@click.option("--format", "fmt", type=click.Choice(["json", "listing", "hex", "map", "vars",
+                                                   "vars-h", "vars-py"]),
               default="json", show_default=True, help="Image JSON, human listing, hex "
-              "frames, or the link map.")
+              "frames, the link map, or the map of declared variables (JSON, C header, "
+              "Python module).")
 @project_option
 @with_common
 @click.pass_context
@@ -47,5 +49,8 @@ def command(ctx: click.Context, files: tuple[str, ...], output: str | None, fmt:
         "listing": lambda: render.render_listing(result, result.sources),
         "hex": lambda: render.render_hex(result),
         "map": lambda: render.render_link_map(result),
+        "vars": lambda: render.render_variables_json(result),
+        "vars-h": lambda: render.render_variables_c(result),
+        "vars-py": lambda: render.render_variables_python(result),
     }[fmt]()
     write_output(text, output)
