@@ -21,8 +21,8 @@ from mplang.ir import BVarRef, CallSite, LoweredProgram, MacroLine, Operand, Pro
 VAR_RE = re.compile(r"VAR(\d+)", re.IGNORECASE)
 BVAR_RE = re.compile(r"BVAR(\d+)", re.IGNORECASE)
 PROGRAM_RE = re.compile(r"(MP|ISR)(\d+)", re.IGNORECASE)
-KEYWORDS = {"CONST", "ALIAS", "VAR", "INCLUDE", "MP", "ISR", "END", "FOR", "NEXT", "EXIT", "IF",
-            "THEN", "ELSE", "LABEL", "GOTO", "CALL", "TERMINATE"}
+KEYWORDS = {"CONST", "ALIAS", "VAR", "WHILE", "REPEAT", "INCLUDE", "MP", "ISR", "END", "FOR",
+            "NEXT", "EXIT", "IF", "THEN", "ELSE", "LABEL", "GOTO", "CALL", "TERMINATE"}
 CONTROL_COMMANDS = {"SET_VAR", "VAR_CALCULATE"}
 
 
@@ -300,7 +300,7 @@ def did_you_mean(name: str, candidates: list[str]) -> str:
 
 @dataclass
 class _Block:
-    kind: str  # "for" | "if"
+    kind: str  # "for" | "if" | "while" (lowered to an IF)
 
 
 class ProgramLowerer:
@@ -322,6 +322,7 @@ class ProgramLowerer:
                                   program.span, program.end_span)
         self.blocks: list[_Block] = []
         self.labels: dict[str, int] = {}
+        self.spare_labels: list[int] = []  # label numbers no LABEL of the source takes
         self.written: set[int] = set()
         self.warned_reads: set[int] = set()
 
@@ -781,6 +782,10 @@ class ProgramLowerer:
                 self.lower_for(node)
             case ast.IfBlock():
                 self.lower_if(node)
+            case ast.WhileBlock():
+                self.lower_while(node)
+            case ast.RepeatBlock():
+                self.lower_repeat(node)
             case ast.Assign():
                 self.lower_assign(node)
             case ast.Command():
@@ -807,7 +812,8 @@ class ProgramLowerer:
                 return True
         return False
 
-    def lower_for(self, node: ast.ForBlock) -> None:
+    def lower_for(self, node: ast.ForBlock, counter: VarRef | None = None) -> None:
+        """FOR count ... NEXT; `counter`: a temporary already holding the count (REPEAT)."""
         if self.kind == "isr":
             self.sink.add("E313", node.span, "FOR loops are not allowed in an ISR")
             self.lower_block(node.body)
@@ -823,7 +829,7 @@ class ProgramLowerer:
             folded = None
         if folded is not None and folded <= 0:
             self.sink.add("W102", node.count.span, f"FOR {folded} never runs its body")
-        count = self.value_operand(node.count)
+        count = self.value_operand(node.count) if counter is None else counter
         if isinstance(count, VarRef):
             self.note_write(count)  # the device counts the variable down to zero
         if count is not None:
@@ -835,8 +841,10 @@ class ProgramLowerer:
         if isinstance(count, VarRef):
             self.give_temp(count)
 
-    def lower_if(self, node: ast.IfBlock) -> None:
-        depth = sum(1 for b in self.blocks if b.kind == "if") + 1
+    def lower_if(self, node: ast.IfBlock, body: list[ast.Node] | None = None,
+                 loop_label: int | None = None) -> None:
+        """IF ... [ELSE ...] END_IF; for a WHILE (`loop_label`), `body` then GOTO back."""
+        depth = sum(1 for b in self.blocks if b.kind in ("if", "while")) + 1
         if depth > self.profile.limit("if_depth"):
             self.sink.add("E310", node.span, f"IF nested {depth} deep; the device allows "
                           f"{self.profile.limit('if_depth')} (one outer and "
@@ -851,6 +859,13 @@ class ProgramLowerer:
         for used in (left, right):
             if isinstance(used, VarRef):
                 self.give_temp(used)
+        if loop_label is not None:
+            self.blocks.append(_Block("while"))
+            self.lower_block(body or [])
+            self.blocks.pop()
+            self.emit("GOTO", (loop_label,), node.end_span)
+            self.emit("END_IF", (), node.end_span)
+            return
         self.blocks.append(_Block("if"))
         self.lower_block(node.then)
         if node.otherwise is not None:
@@ -859,6 +874,46 @@ class ProgramLowerer:
             self.lower_block(node.otherwise)
         self.blocks.pop()
         self.emit("END_IF", (), node.end_span)
+
+    def lower_while(self, node: ast.WhileBlock) -> None:
+        """LABEL top / IF cond / body / GOTO top / END_IF: the condition is computed after
+        the label, so every round tests it afresh; one label, no counter."""
+        problem = None
+        if self.kind == "isr":
+            problem = "an ISR has no labels, and a WHILE loop needs one"
+        elif self.blocks:
+            inner = self.blocks[-1].kind.upper()
+            problem = (f"WHILE inside {'an' if inner == 'IF' else 'a'} {inner} block: its "
+                       "LABEL would stand inside a block, which the device refuses")
+        elif not self.spare_labels:
+            self.sink.add("E329", node.span, f"WHILE needs one of the program's "
+                          f"{self.profile.limit('labels_per_program')} labels, and they are "
+                          "all taken", hint="free a LABEL, or move the loop into a program "
+                          "of its own and CALL it")
+            self.lower_block(node.body)
+            return
+        if problem is not None:
+            self.sink.add("E328", node.span, problem, hint="move the loop to the top level of "
+                          "an MP (a called MP of its own works inside any block), or use FOR "
+                          "with EXIT FOR")
+            self.lower_block(node.body)
+            return
+        label = self.spare_labels.pop(0)
+        self.emit("LABEL", (label,), node.span)
+        self.lower_if(ast.IfBlock(node.left, node.op, node.right, [], None, node.span, None,
+                                  node.end_span), body=node.body, loop_label=label)
+
+    def lower_repeat(self, node: ast.RepeatBlock) -> None:
+        """A FOR; a count that is a variable of the user's is copied first, because the
+        device counts FOR's variable down to zero."""
+        copy: VarRef | None = None
+        if isinstance(node.count, ast.Name) and self.kind == "mp" and \
+                self.scope.variable(node.count.name) is not None:
+            copy = self.take_temp(node.span)
+            if copy is not None:
+                self.lower_into(node.count, copy)
+        self.lower_for(ast.ForBlock(node.count, node.body, node.span, node.end_span),
+                       counter=copy)
 
     def lower_assign(self, node: ast.Assign) -> None:
         index = self.scope.variable(node.target)
@@ -908,6 +963,7 @@ class ProgramLowerer:
                 self.labels[key] = number
         free = [n for n in range(self.profile.limit("labels_per_program"))
                 if n not in self.labels.values()]
+        self.spare_labels = free  # what named labels leave is for WHILE loops
         for key, span in defined.items():
             if key.isdigit():
                 continue
@@ -924,7 +980,8 @@ class ProgramLowerer:
             return
         for block in self.blocks:
             code = "E324" if block.kind == "for" else "E323"
-            self.sink.add(code, node.span, f"LABEL inside {block.kind.upper()} block",
+            self.sink.add(code, node.span, f"LABEL inside {block.kind.upper()} block"
+                          + (" (its body is inside an IF)" if block.kind == "while" else ""),
                           hint="labels must stand outside FOR and IF blocks; jumping out of "
                           "a block is fine")
             return
@@ -1001,3 +1058,5 @@ def _statements(body: list[ast.Node]) -> Iterator[ast.Node]:
         elif isinstance(node, ast.IfBlock):
             yield from _statements(node.then)
             yield from _statements(node.otherwise or [])
+        elif isinstance(node, ast.WhileBlock | ast.RepeatBlock):
+            yield from _statements(node.body)

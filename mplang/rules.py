@@ -124,6 +124,21 @@ _RULES = [
          "ISRs must finish quickly; the device accepts no MP_FOR in an ISR table.",
          "Move the loop into an MP.", "ERR_MP_INSIDE_ISR (register 102 cause 0x05)"),
     # ------------------------------------------------------------------------- labels
+    Rule("E314", "loop-not-closed", E, "WHILE without END WHILE, or REPEAT without END REPEAT.",
+         "Every WHILE and REPEAT must be closed inside the same program.",
+         "Add END WHILE / END REPEAT."),
+    Rule("E315", "end-loop-without-loop", E, "END WHILE or END REPEAT without its loop.",
+         "An END WHILE / END REPEAT must close an open WHILE / REPEAT.",
+         "Remove it, or add its WHILE / REPEAT."),
+    Rule("E328", "while-placement", E, "A WHILE loop where the device cannot have its label.",
+         "WHILE lowers to LABEL, IF, the body, GOTO and END IF. The device allows labels only "
+         "outside FOR and IF blocks and not in an ISR, so a WHILE must stand at the top level "
+         "of an MP.",
+         "Put the loop at the top level of an MP: an MP of its own, CALLed from inside the "
+         "block, works anywhere; or use FOR with EXIT FOR."),
+    Rule("E329", "loop-needs-label", E, "A WHILE loop finds no free label.",
+         "Each WHILE takes one of the program's four labels (LABEL 0..3).",
+         "Free a label, or move the loop into an MP of its own and CALL it."),
     Rule("E321", "too-many-labels", E, "More than four labels in one program.",
          "Each macro table has four labels, numbered 0 to 3.",
          "Reuse labels, or split the program into called MPs."),

@@ -105,12 +105,26 @@ class ProgramHeader:
 
 @dataclass
 class End:
-    what: str  # "mp" | "isr" | "if" | "for"
+    what: str  # "mp" | "isr" | "if" | "for" | "while" | "repeat"
     span: Span
 
 
 @dataclass
 class ForStmt:
+    count: Expr
+    span: Span
+
+
+@dataclass
+class WhileStmt:
+    left: Expr
+    op: str
+    right: Expr
+    span: Span
+
+
+@dataclass
+class RepeatStmt:
     count: Expr
     span: Span
 
@@ -183,7 +197,8 @@ class Command:
 
 
 Statement = (
-    Const | Alias | VarDecl | Include | ProgramHeader | End | ForStmt | Next | ExitFor | Exit | IfStmt
+    Const | Alias | VarDecl | Include | ProgramHeader | End | ForStmt | WhileStmt
+    | RepeatStmt | Next | ExitFor | Exit | IfStmt
     | Else | LabelStmt | Goto | CallStmt | Terminate | Assign | Command
 )
 
@@ -210,7 +225,29 @@ class IfBlock:
     end_span: Span
 
 
-Node = ForBlock | IfBlock | Statement
+@dataclass
+class WhileBlock:
+    """`WHILE a CMP b ... END WHILE`: lowered to LABEL, IF, the body, GOTO, END_IF."""
+
+    left: Expr
+    op: str
+    right: Expr
+    body: list[Node]
+    span: Span
+    end_span: Span
+
+
+@dataclass
+class RepeatBlock:
+    """`REPEAT n ... END REPEAT`: a FOR that leaves a count variable as it was."""
+
+    count: Expr
+    body: list[Node]
+    span: Span
+    end_span: Span
+
+
+Node = ForBlock | IfBlock | WhileBlock | RepeatBlock | Statement
 
 
 @dataclass

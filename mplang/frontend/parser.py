@@ -119,6 +119,13 @@ class _Builder(Transformer[Token, Any]):
     def for_stmt(self, kw: Token, count: ast.Expr) -> ast.ForStmt:
         return ast.ForStmt(count, self._span(kw))
 
+    def while_stmt(self, kw: Token, left: ast.Expr, op: Token, right: ast.Expr
+                   ) -> ast.WhileStmt:
+        return ast.WhileStmt(left, str(op), right, self._span(kw))
+
+    def repeat_stmt(self, kw: Token, count: ast.Expr) -> ast.RepeatStmt:
+        return ast.RepeatStmt(count, self._span(kw))
+
     def next_stmt(self, kw: Token) -> ast.Next:
         return ast.Next(self._span(kw))
 

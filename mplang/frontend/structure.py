@@ -14,14 +14,16 @@ from mplang.diagnostics import DiagnosticSink, Span
 from mplang.frontend import ast
 from mplang.frontend.sources import SourceSet
 
-BLOCK_WORD = {"mp": "END MP", "isr": "END ISR", "for": "NEXT", "if": "END IF"}
+BLOCK_WORD = {"mp": "END MP", "isr": "END ISR", "for": "NEXT", "if": "END IF",
+              "while": "END WHILE", "repeat": "END REPEAT"}
+STRAY_CLOSE = {"for": "E304", "if": "E308", "while": "E315", "repeat": "E315"}
 
 
 @dataclass
 class _Open:
     """A block being built: the program, a FOR or an IF (with its two branches)."""
 
-    kind: str  # "mp" | "isr" | "for" | "if"
+    kind: str  # "mp" | "isr" | "for" | "if" | "while" | "repeat"
     head: ast.Statement
     body: list[ast.Node] = field(default_factory=list)
     otherwise: list[ast.Node] | None = None
@@ -83,17 +85,25 @@ def _build_file(statements: list[ast.Statement], file: str, unit: ast.Unit,
                                          header.span, end_span, file))
 
     def unclosed(block: _Open, at: Span) -> None:
-        code = {"for": "E305", "if": "E309", "mp": "E302", "isr": "E302"}[block.kind]
-        what = {"for": "FOR", "if": "IF", "mp": "MP", "isr": "ISR"}[block.kind]
+        code = {"for": "E305", "if": "E309", "mp": "E302", "isr": "E302", "while": "E314",
+                "repeat": "E314"}[block.kind]
+        what = block.kind.upper()
         sink.add(code, block.head.span, f"{what} is not closed by {BLOCK_WORD[block.kind]}",
                  hint=f"add {BLOCK_WORD[block.kind]} before line {at.line}"
-                 if block.kind in ("for", "if") else f"add {BLOCK_WORD[block.kind]}")
+                 if block.kind not in ("mp", "isr") else f"add {BLOCK_WORD[block.kind]}")
 
     def close_inner(block: _Open, end_span: Span) -> None:
         node: ast.Node
         if block.kind == "for":
             assert isinstance(block.head, ast.ForStmt)
             node = ast.ForBlock(block.head.count, block.body, block.head.span, end_span)
+        elif block.kind == "while":
+            assert isinstance(block.head, ast.WhileStmt)
+            node = ast.WhileBlock(block.head.left, block.head.op, block.head.right, block.body,
+                                  block.head.span, end_span)
+        elif block.kind == "repeat":
+            assert isinstance(block.head, ast.RepeatStmt)
+            node = ast.RepeatBlock(block.head.count, block.body, block.head.span, end_span)
         else:
             assert isinstance(block.head, ast.IfStmt)
             node = ast.IfBlock(block.head.left, block.head.op, block.head.right, block.body,
@@ -108,8 +118,7 @@ def _build_file(statements: list[ast.Statement], file: str, unit: ast.Unit,
         inside it (they are closed too, so the rest of the file still makes sense)."""
         word = BLOCK_WORD[kind]
         if not any(b.kind == kind for b in stack):
-            sink.add("E304" if kind == "for" else "E308", at,
-                     f"{word} without an open {kind.upper()}")
+            sink.add(STRAY_CLOSE[kind], at, f"{word} without an open {kind.upper()}")
             return
         while stack[-1].kind != kind:
             inner = stack[-1]
@@ -170,6 +179,14 @@ def _build_file(statements: list[ast.Statement], file: str, unit: ast.Unit,
                     sink.add("E301", statement.span, "IF outside an MP/ISR block")
                     continue
                 stack.append(_Open("if", statement))
+            case ast.WhileStmt() | ast.RepeatStmt():
+                kind = "while" if isinstance(statement, ast.WhileStmt) else "repeat"
+                if not in_program():
+                    sink.add("E301", statement.span, f"{kind.upper()} outside an MP block")
+                    continue
+                stack.append(_Open(kind, statement))
+            case ast.End(what="while" | "repeat"):
+                close_block(statement.what, statement.span)
             case ast.Next() | ast.End(what="for"):
                 close_block("for", statement.span)
             case ast.End(what="if"):
