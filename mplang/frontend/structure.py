@@ -34,7 +34,7 @@ class _Open:
         return self.otherwise if self.otherwise is not None else self.body
 
 
-def _normalise(statement: ast.Statement) -> ast.Statement:
+def normalise(statement: ast.Statement) -> ast.Statement:
     """Raw spellings of block commands become the statements their keywords make."""
     if not isinstance(statement, ast.Command):
         return statement
@@ -130,7 +130,7 @@ def _build_file(statements: list[ast.Statement], file: str, unit: ast.Unit,
         close_inner(stack.pop(), at)
 
     for raw in statements:
-        statement = _normalise(raw)
+        statement = normalise(raw)
         match statement:
             case ast.Const() | ast.Alias() | ast.VarDecl():
                 if in_program():

@@ -1,0 +1,249 @@
+"""`mpc fmt`: rewrite `.mp` sources in the canonical layout, or check / show what would change.
+
+Files are replaced atomically (a temporary file beside them, then a rename), and only when
+their text changes. A file with syntax errors is never touched: the compiler's diagnostics
+say why. Exit codes, first that applies: 3 a file cannot be read, 4 a file cannot be written,
+1 syntax errors, 12 `--check` found files that would change, else 0.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import difflib
+import os
+import stat
+import sys
+import tempfile
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import TYPE_CHECKING, cast
+
+import click
+
+from mplang.cli.common import (
+    EXIT_NO_INPUT,
+    EXIT_OK,
+    EXIT_OUTPUT,
+    EXIT_SOURCE_ERRORS,
+    EXIT_WOULD_REFORMAT,
+    InputError,
+    expand_inputs,
+    guarded,
+    load_project_file,
+    project_option,
+)
+from mplang.diagnostics import DiagnosticSink, Span
+from mplang.project import find_project
+
+if TYPE_CHECKING:
+    from mplang.fmt import FormatOptions
+
+STDIN = "-"
+STDIN_NAME = "<stdin>"
+
+
+@dataclass
+class _Tally:
+    """What happened to the files of one run, for the summary line and the exit code."""
+
+    changed: list[str] = field(default_factory=list)
+    unchanged: int = 0
+    unreadable: int = 0
+    unwritable: int = 0
+    with_errors: int = 0
+
+    def exit_code(self, check: bool) -> int:
+        if self.unreadable:
+            return EXIT_NO_INPUT
+        if self.unwritable:
+            return EXIT_OUTPUT
+        if self.with_errors:
+            return EXIT_SOURCE_ERRORS
+        if check and self.changed:
+            return EXIT_WOULD_REFORMAT
+        return EXIT_OK
+
+
+def _plural(count: int, word: str) -> str:
+    return f"{count} {word}{'' if count == 1 else 's'}"
+
+
+def _options(indent: int | None, keyword_case: str | None,
+             base: FormatOptions | None = None) -> FormatOptions:
+    """The command line's settings over `base`: the defaults, or the options a project's
+    [fmt] table gives (`FormatOptions.from_mapping`)."""
+    from mplang.fmt import FormatOptions, FormatOptionsError, KeywordCase
+
+    options = base or FormatOptions()
+    try:
+        if indent is not None:
+            options = replace(options, indent=indent)
+        if keyword_case is not None:
+            options = replace(options, keyword_case=cast(KeywordCase, keyword_case))
+    except FormatOptionsError as exc:
+        raise click.UsageError(f"mpc fmt: {exc}") from None
+    return options
+
+
+def _decode(data: bytes, display: str) -> str | None:
+    """UTF-8 text, or None after the compiler's E105 diagnostic for anything else."""
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        sink = DiagnosticSink()
+        sink.add("E105", Span(display, 1), f"{display} is not UTF-8 text ({exc.reason})")
+        for diagnostic in sink.items:
+            click.echo(diagnostic.render(), err=True)
+        return None
+
+
+def _formatted(text: str, display: str, options: FormatOptions) -> str | None:
+    """The canonical text, or None after printing the syntax errors that prevent it."""
+    from mplang.fmt import SourceNotFormattable, format_source
+
+    try:
+        return format_source(text, options, name=display)
+    except SourceNotFormattable as exc:
+        for diagnostic in exc.diagnostics:
+            click.echo(diagnostic.render(), err=True)
+        click.echo(f"mpc: {display} has syntax errors; left as it is", err=True)
+        return None
+
+
+def _source_lines(text: str) -> list[str]:
+    """Lines split where the compiler splits them (at "\n" only), each with its ending."""
+    pieces = text.split("\n")
+    return [piece + "\n" for piece in pieces[:-1]] + ([pieces[-1]] if pieces[-1] else [])
+
+
+def _unified_diff(before: str, after: str, display: str) -> str:
+    """A unified diff that `patch -p0` applies; a last line without a newline is marked."""
+    lines = difflib.unified_diff(_source_lines(before), _source_lines(after),
+                                 fromfile=f"{display}\t(original)",
+                                 tofile=f"{display}\t(formatted)")
+    out: list[str] = []
+    for line in lines:
+        out.append(line)
+        if not line.endswith("\n"):
+            out.append("\n\\ No newline at end of file\n")
+    return "".join(out)
+
+
+def _write_atomically(path: Path, data: bytes) -> None:
+    """Replace the file (the target of a symlink) in one rename, keeping its permissions."""
+    target = path.resolve()
+    mode = stat.S_IMODE(target.stat().st_mode)
+    handle, temporary = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.",
+                                         suffix=".mpc-fmt")
+    try:
+        with os.fdopen(handle, "wb") as stream:
+            stream.write(data)
+        os.chmod(temporary, mode)
+        os.replace(temporary, target)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(temporary)
+        raise
+
+
+def _format_file(path: Path, options: FormatOptions, check: bool, show_diff: bool,
+                 tally: _Tally) -> None:
+    display = str(path)
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        click.echo(f"mpc: cannot read {display}: {exc.strerror or exc}", err=True)
+        tally.unreadable += 1
+        return
+    text = _decode(data, display)
+    formatted = None if text is None else _formatted(text, display, options)
+    if text is None or formatted is None:
+        tally.with_errors += 1
+        return
+    if formatted == text:
+        tally.unchanged += 1
+        return
+    if show_diff:
+        click.echo(_unified_diff(text, formatted, display), nl=False)
+    if check or show_diff:
+        tally.changed.append(display)
+        if check:
+            click.echo(f"would reformat {display}", err=True)
+        return
+    try:
+        _write_atomically(path, formatted.encode("utf-8"))
+    except OSError as exc:
+        click.echo(f"mpc: cannot write {display}: {exc.strerror or exc}", err=True)
+        tally.unwritable += 1
+        return
+    tally.changed.append(display)
+    click.echo(f"reformatted {display}", err=True)
+
+
+def _format_stdin(options: FormatOptions, check: bool, show_diff: bool) -> int:
+    """`mpc fmt -`: standard input to standard output (nothing on stdout on errors)."""
+    text = _decode(sys.stdin.buffer.read(), STDIN_NAME)
+    formatted = None if text is None else _formatted(text, STDIN_NAME, options)
+    if text is None or formatted is None:
+        return EXIT_SOURCE_ERRORS
+    if show_diff:
+        click.echo(_unified_diff(text, formatted, STDIN_NAME), nl=False)
+    elif not check:
+        sys.stdout.flush()
+        sys.stdout.buffer.write(formatted.encode("utf-8"))
+        sys.stdout.buffer.flush()
+    if check and formatted != text:
+        click.echo(f"would reformat {STDIN_NAME}", err=True)
+        return EXIT_WOULD_REFORMAT
+    return EXIT_OK
+
+
+@click.command("fmt", short_help="Lay out .mp sources in the canonical format.")
+@click.argument("files", nargs=-1)
+@click.option("--check", is_flag=True,
+              help="Write nothing; list the files that would change and exit 12 if any.")
+@click.option("--diff", "show_diff", is_flag=True,
+              help="Print unified diffs of the changes instead of writing the files.")
+@click.option("--indent", type=int, default=None, metavar="N",
+              help="Spaces per block level, 1-16 [default: 4].")
+@click.option("--keyword-case", type=click.Choice(["upper", "lower"]), default=None,
+              help="Case of keywords and command names [default: upper].")
+@project_option
+@guarded
+def command(files: tuple[str, ...], check: bool, show_diff: bool, indent: int | None,
+            keyword_case: str | None, project_file: Path | None) -> None:
+    """Format FILE... (files, directories or globs; without them, the sources of mpc.toml)
+    in place; '-' formats standard input to standard output. Comments, blank-line groups and
+    every token are kept; files with syntax errors are left untouched (exit 1). The [fmt]
+    table of mpc.toml (here or above) sets the defaults."""
+    from mplang.fmt import FormatOptions, FormatOptionsError
+
+    found = project_file or find_project(Path.cwd())
+    project = load_project_file(found) if found is not None else None
+    base = None
+    if project is not None:
+        try:
+            base = FormatOptions.from_mapping(project.fmt, where=f"{project.path} [fmt]")
+        except FormatOptionsError as exc:
+            raise InputError(str(exc)) from None
+    if not files:
+        if project is None or not project.sources:
+            raise click.UsageError("give FILE... (.mp sources), or run where an mpc.toml "
+                                   "lists them (docs/project.md)")
+        files = tuple(os.path.relpath(p) for p in project.sources)
+    options = _options(indent, keyword_case, base)
+    if STDIN in files:
+        if len(files) > 1:
+            raise click.UsageError("'-' (standard input) cannot be combined with files")
+        sys.exit(_format_stdin(options, check, show_diff))
+    tally = _Tally()
+    for path in expand_inputs(files):
+        _format_file(path, options, check, show_diff, tally)
+    verb = "would be reformatted" if check or show_diff else "reformatted"
+    summary = [f"{_plural(len(tally.changed), 'file')} {verb}", f"{tally.unchanged} unchanged"]
+    if tally.with_errors:
+        summary.append(f"{tally.with_errors} with errors left as they are")
+    if tally.unreadable or tally.unwritable:
+        summary.append(f"{tally.unreadable + tally.unwritable} unreadable or unwritable")
+    click.echo(f"mpc fmt: {', '.join(summary)}", err=True)
+    sys.exit(tally.exit_code(check))
