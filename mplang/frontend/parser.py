@@ -37,7 +37,9 @@ class _SyntaxProblem(Exception):
 
 
 def _int(token: Token) -> int:
-    return int(str(token), 0)
+    """INT is hex (0x1F) or decimal; leading zeros are decimal (int(.., 0) refuses them)."""
+    text = str(token)
+    return int(text, 16) if text[:2].lower() == "0x" else int(text, 10)
 
 
 @v_args(inline=True)

@@ -99,3 +99,11 @@ def test_arbitrary_text_only_gives_diagnostics(text: str) -> None:
 @given(st.text(max_size=200))
 def test_arbitrary_unicode_only_gives_diagnostics(text: str) -> None:
     compile_source(text)
+
+
+def test_leading_zeros_are_decimal_not_a_crash() -> None:
+    """Numbers are decimal or 0x hex; a leading zero changes nothing (`010` is ten) and
+    used to raise inside the parser."""
+    result = compile_source("MP 1 a\n    VAR1 = 010\nEND MP\n")
+    assert result.ok
+    assert result.programs[0].lines[0].frame[-1] == 10
