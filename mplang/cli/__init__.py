@@ -16,6 +16,8 @@ Exit codes (also in docs/cli.md):
      Ctrl-C / SIGTERM; programs after the last verified one may be missing
   11 mpc flash --fleet: devices failed in different ways (the table says which and how)
   12 mpc fmt --check: some files are not formatted
+  13 mpc import: converted with omissions (each named on standard error at its C line)
+  14 mpc disasm: some frames could not be carried over exactly (named on standard error)
   70 internal error (a bug in mpc: please report it with the input)
 """
 
@@ -34,7 +36,9 @@ from mplang.cli.common import (
     EXIT_INTERRUPTED,
     EXIT_NO_DEVICE,
     EXIT_NO_INPUT,
+    EXIT_NOT_EXACT,
     EXIT_OK,
+    EXIT_OMISSIONS,
     EXIT_OUTPUT,
     EXIT_REJECTED,
     EXIT_RUN_FAILED,
@@ -45,11 +49,25 @@ from mplang.cli.common import (
     EXIT_WOULD_REFORMAT,
 )
 
-__all__ = ["EXIT_FLEET_MIXED", "EXIT_INTERNAL", "EXIT_INTERRUPTED", "EXIT_NO_DEVICE",
-           "EXIT_NO_INPUT", "EXIT_OK",
-           "EXIT_OUTPUT", "EXIT_REJECTED", "EXIT_RUN_FAILED", "EXIT_SOURCE_ERRORS",
-           "EXIT_TRANSPORT", "EXIT_UNVERIFIED", "EXIT_USAGE", "EXIT_WOULD_REFORMAT",
-           "main"]
+__all__ = [
+    "EXIT_FLEET_MIXED",
+    "EXIT_INTERNAL",
+    "EXIT_INTERRUPTED",
+    "EXIT_NOT_EXACT",
+    "EXIT_NO_DEVICE",
+    "EXIT_NO_INPUT",
+    "EXIT_OK",
+    "EXIT_OMISSIONS",
+    "EXIT_OUTPUT",
+    "EXIT_REJECTED",
+    "EXIT_RUN_FAILED",
+    "EXIT_SOURCE_ERRORS",
+    "EXIT_TRANSPORT",
+    "EXIT_UNVERIFIED",
+    "EXIT_USAGE",
+    "EXIT_WOULD_REFORMAT",
+    "main",
+]
 
 
 def _module_name(command_name: str) -> str:

@@ -1,0 +1,51 @@
+"""`mpc disasm`: an image JSON back to `.mp` source that rebuilds to the same frames."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import click
+
+from mplang.cli.common import (
+    EXIT_NO_INPUT,
+    EXIT_NOT_EXACT,
+    guarded,
+    parse_temps,
+    write_output,
+)
+
+
+@click.command("disasm", short_help="Turn an image JSON back into .mp source.")
+@click.argument("image", metavar="IMAGE")
+@click.option("-o", "--output", default=None, metavar="OUT",
+              help="Write the source here ('-' or absent: standard output).")
+@click.option("--temp-vars", callback=parse_temps, default=None, metavar="FIRST-LAST",
+              help="VAR pool the image was built with [default: 500-511]; lines computed "
+              "through it are folded back into expressions.")
+@guarded
+def command(image: str, output: str | None, temp_vars: range) -> None:
+    """Disassemble IMAGE (as `mpc build` writes it) into .mp source.
+
+    Every program is rebuilt from the text and compared frame for frame with the image;
+    frames that cannot be carried over exactly are named on standard error (exit 14).
+    """
+    from mplang.disasm import disassemble_file
+    from mplang.flash import ImageError
+
+    path = Path(image)
+    try:
+        result = disassemble_file(path, temp_vars)
+    except ImageError as exc:
+        click.echo(f"mpc: {exc}", err=True)
+        sys.exit(EXIT_NO_INPUT)
+    except OSError as exc:
+        click.echo(f"mpc: {image}: cannot read: {exc.strerror or exc}", err=True)
+        sys.exit(EXIT_NO_INPUT)
+    write_output(result.text, output)
+    for problem in result.problems:
+        click.echo(f"{image}: warning: {problem}", err=True)
+    if result.problems:
+        click.echo(f"mpc: {len(result.problems)} frame(s) or program(s) not carried over "
+                   "exactly", err=True)
+        sys.exit(EXIT_NOT_EXACT)
