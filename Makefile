@@ -30,10 +30,20 @@ demo: $(STAMP)
 test: $(STAMP) tools lint
 	$(BIN)/python -m pytest
 
+# The VS Code extension's node packages (grammar tester, language client), from its lock file:
+# installed when missing or older than package-lock.json.
+VSCODE_EXT := editors/vscode
+
 tools:
 	@command -v mbpoll >/dev/null 2>&1 || $(SUDO) apt-get install -y -q mbpoll >/dev/null 2>&1 \
 	  || { $(SUDO) apt-get update -q >/dev/null 2>&1 && $(SUDO) apt-get install -y -q mbpoll >/dev/null; } \
 	  || echo "make: could not install mbpoll; the tests that use it will fail"
+	@command -v npm >/dev/null 2>&1 || $(SUDO) apt-get install -y -q nodejs npm >/dev/null 2>&1 \
+	  || { $(SUDO) apt-get update -q >/dev/null 2>&1 && $(SUDO) apt-get install -y -q nodejs npm >/dev/null; } \
+	  || echo "make: could not install nodejs and npm; the editor tests will fail"
+	@[ $(VSCODE_EXT)/node_modules/.package-lock.json -nt $(VSCODE_EXT)/package-lock.json ] \
+	  || npm ci --prefix $(VSCODE_EXT) --no-audit --no-fund --loglevel=error >/dev/null \
+	  || echo "make: npm ci in $(VSCODE_EXT) failed; the editor tests will fail"
 
 lint: $(STAMP)
 	$(BIN)/ruff check mplang tests bench
@@ -41,6 +51,7 @@ lint: $(STAMP)
 
 docs: $(STAMP)
 	$(BIN)/python -m mplang.docgen
+	$(BIN)/python -m mplang.editors
 
 bench: $(STAMP)
 	$(BIN)/python bench/compile.py

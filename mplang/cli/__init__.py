@@ -8,7 +8,7 @@ Exit codes (also in docs/cli.md):
   0 success            1 errors in the sources     2 bad command-line usage
   3 input files missing or unreadable               4 output cannot be written
   5 the program failed or did not finish on the virtual controller
-  6 a Modbus endpoint cannot be opened (port in use, no such serial device)
+  6 an endpoint cannot be opened (port in use, no such serial device): mpc sim, mpc lsp
   7 mpc flash: the device cannot be reached (refused, no answer, no such serial port)
   8 mpc flash: the device refused a program, or cannot take the image (word order)
   9 mpc flash: the device did not confirm a download (download-status registers)

@@ -1,0 +1,110 @@
+'use strict';
+// The mplang extension: highlighting and folding come from the grammar and the language
+// configuration; this file only starts `mpc lsp` (the compiler's own checks, hover,
+// completion, definitions) over stdio and restarts it when its settings change.
+
+const os = require('os');
+const path = require('path');
+const vscode = require('vscode');
+const { LanguageClient } = require('vscode-languageclient/node');
+
+const SECTION = 'mplang';
+const PATH_SETTING = 'server.path';
+const ARGS_SETTING = 'server.args';
+
+/** @type {LanguageClient | undefined} */
+let client;
+
+/**
+ * The command that runs the server, from the `mplang.server.path` setting (a name looked up
+ * on PATH, an absolute path, or a path relative to the first workspace folder) and the
+ * options of `mplang.server.args`.
+ * @param {string | undefined} setting
+ * @param {string | undefined} workspaceFolder
+ * @param {unknown} extraArgs
+ * @returns {{command: string, args: string[]}}
+ */
+function serverCommand(setting, workspaceFolder, extraArgs) {
+  let command = (setting || '').trim() || 'mpc';
+  if (command === '~' || command.startsWith('~/') || command.startsWith('~\\')) {
+    command = path.join(os.homedir(), command.slice(1));
+  }
+  if (workspaceFolder !== undefined) {
+    command = command.split('${workspaceFolder}').join(workspaceFolder);
+    const hasDirectory = command.includes('/') || command.includes(path.sep);
+    if (hasDirectory && !path.isAbsolute(command)) {
+      command = path.resolve(workspaceFolder, command);
+    }
+  }
+  const options = Array.isArray(extraArgs) ? extraArgs.map(String) : [];
+  return { command, args: ['lsp', ...options] };
+}
+
+function firstWorkspaceFolder() {
+  const folders = vscode.workspace.workspaceFolders;
+  return folders && folders.length > 0 ? folders[0].uri.fsPath : undefined;
+}
+
+async function startClient() {
+  const configuration = vscode.workspace.getConfiguration(SECTION);
+  const workspaceFolder = firstWorkspaceFolder();
+  const { command, args } = serverCommand(
+    configuration.get(PATH_SETTING), workspaceFolder, configuration.get(ARGS_SETTING));
+  // No `transport` key: the client then talks over the process's stdin/stdout without
+  // adding a `--stdio` argument that `mpc lsp` does not take.
+  const serverOptions = { command, args, options: { cwd: workspaceFolder } };
+  const clientOptions = {
+    documentSelector: [
+      { scheme: 'file', language: 'mplang' },
+      { scheme: 'untitled', language: 'mplang' },
+    ],
+    outputChannelName: 'mplang',
+  };
+  const started = new LanguageClient(SECTION, 'mplang (mpc lsp)', serverOptions, clientOptions);
+  client = started;
+  try {
+    await started.start();
+  } catch (error) {
+    client = undefined;
+    const reason = error instanceof Error ? error.message : String(error);
+    vscode.window.showErrorMessage(
+      `mplang: cannot start "${command} ${args.join(' ')}" (${reason}). ` +
+        'Install mplang (pip install .) or set "mplang.server.path" to the mpc executable, ' +
+        'for example .venv/bin/mpc.',
+    );
+  }
+}
+
+async function stopClient() {
+  const running = client;
+  client = undefined;
+  // A client whose start failed or whose server gave up has nothing to shut down.
+  if (running !== undefined && running.isRunning()) {
+    await running.stop();
+  }
+}
+
+async function restartClient() {
+  await stopClient();
+  await startClient();
+}
+
+/** @param {import('vscode').ExtensionContext} context */
+async function activate(context) {
+  context.subscriptions.push(
+    vscode.commands.registerCommand('mplang.restartServer', restartClient),
+    vscode.workspace.onDidChangeConfiguration((event) => {
+      if (event.affectsConfiguration(`${SECTION}.server`)) {
+        return restartClient();
+      }
+      return undefined;
+    }),
+  );
+  await startClient();
+}
+
+function deactivate() {
+  return stopClient();
+}
+
+module.exports = { activate, deactivate, serverCommand };

@@ -1,0 +1,165 @@
+'use strict';
+// Tests of extension.js without VS Code: the `vscode` module and the language client are
+// replaced by recording fakes, so that what the extension asks for can be checked.
+// Run with `node --test tests/` (tests/test_editors.py does).
+
+const assert = require('node:assert/strict');
+const Module = require('node:module');
+const os = require('node:os');
+const path = require('node:path');
+const { test, beforeEach } = require('node:test');
+
+const fake = {
+  settings: {},
+  commands: {},
+  configurationListeners: [],
+  errors: [],
+  clients: [],
+  failStart: undefined,
+  workspaceFolders: [{ uri: { fsPath: path.join(os.tmpdir(), 'project') } }],
+};
+
+class FakeLanguageClient {
+  constructor(id, name, serverOptions, clientOptions) {
+    Object.assign(this, { id, name, serverOptions, clientOptions });
+    this.running = false;
+    this.stopped = false;
+    fake.clients.push(this);
+  }
+
+  async start() {
+    if (fake.failStart !== undefined) {
+      throw new Error(fake.failStart);
+    }
+    this.running = true;
+  }
+
+  isRunning() {
+    return this.running;
+  }
+
+  async stop() {
+    this.running = false;
+    this.stopped = true;
+  }
+}
+
+const fakeVscode = {
+  workspace: {
+    get workspaceFolders() {
+      return fake.workspaceFolders;
+    },
+    getConfiguration(section) {
+      assert.equal(section, 'mplang');
+      return { get: (key) => fake.settings[key] };
+    },
+    onDidChangeConfiguration(listener) {
+      fake.configurationListeners.push(listener);
+      return { dispose() {} };
+    },
+  },
+  commands: {
+    registerCommand(name, callback) {
+      fake.commands[name] = callback;
+      return { dispose() {} };
+    },
+  },
+  window: {
+    showErrorMessage(message) {
+      fake.errors.push(message);
+    },
+  },
+};
+
+const originalLoad = Module._load;
+Module._load = function load(request, parent, isMain) {
+  if (request === 'vscode') {
+    return fakeVscode;
+  }
+  if (request === 'vscode-languageclient/node') {
+    return { LanguageClient: FakeLanguageClient };
+  }
+  return originalLoad.call(this, request, parent, isMain);
+};
+const extension = require('../extension.js');
+
+beforeEach(() => {
+  fake.settings = {};
+  fake.commands = {};
+  fake.configurationListeners = [];
+  fake.errors = [];
+  fake.clients = [];
+  fake.failStart = undefined;
+});
+
+test('the server command defaults to `mpc lsp`', () => {
+  assert.deepEqual(extension.serverCommand(undefined, '/work'), { command: 'mpc', args: ['lsp'] });
+  assert.deepEqual(extension.serverCommand('  ', '/work'), { command: 'mpc', args: ['lsp'] });
+  assert.deepEqual(extension.serverCommand('mpc', undefined), { command: 'mpc', args: ['lsp'] });
+});
+
+test('the server path may be absolute, home-relative or workspace-relative', () => {
+  const folder = path.join(os.tmpdir(), 'project');
+  assert.equal(extension.serverCommand('/opt/mplang/bin/mpc', folder).command, '/opt/mplang/bin/mpc');
+  assert.equal(extension.serverCommand('~/bin/mpc', folder).command,
+    path.join(os.homedir(), 'bin', 'mpc'));
+  assert.equal(extension.serverCommand('.venv/bin/mpc', folder).command,
+    path.join(folder, '.venv', 'bin', 'mpc'));
+  assert.equal(extension.serverCommand('${workspaceFolder}/.venv/bin/mpc', folder).command,
+    path.join(folder, '.venv', 'bin', 'mpc'));
+});
+
+test('mplang.server.args are added after `lsp`', () => {
+  assert.deepEqual(extension.serverCommand('mpc', undefined, ['--target', 'rs']).args,
+    ['lsp', '--target', 'rs']);
+  assert.deepEqual(extension.serverCommand('mpc', undefined, 'not a list').args, ['lsp']);
+});
+
+test('activate starts `mpc lsp` over stdio for mplang documents', async () => {
+  fake.settings['server.path'] = '.venv/bin/mpc';
+  fake.settings['server.args'] = ['--target', 'rs'];
+  const context = { subscriptions: [] };
+  await extension.activate(context);
+  assert.equal(fake.clients.length, 1);
+  const [client] = fake.clients;
+  assert.equal(client.id, 'mplang');
+  assert.equal(client.running, true);
+  const folder = fake.workspaceFolders[0].uri.fsPath;
+  assert.equal(client.serverOptions.command, path.join(folder, '.venv', 'bin', 'mpc'));
+  assert.deepEqual(client.serverOptions.args, ['lsp', '--target', 'rs']);
+  // Without a transport key the client adds no --stdio argument.
+  assert.equal('transport' in client.serverOptions, false);
+  assert.equal(client.serverOptions.options.cwd, folder);
+  assert.ok(client.clientOptions.documentSelector.some(
+    (selector) => selector.language === 'mplang' && selector.scheme === 'file'));
+  assert.equal(context.subscriptions.length, 2);
+  assert.equal(typeof fake.commands['mplang.restartServer'], 'function');
+  await extension.deactivate();
+  assert.equal(client.stopped, true);
+});
+
+test('changing mplang.server restarts the server with the new path', async () => {
+  await extension.activate({ subscriptions: [] });
+  fake.settings['server.path'] = '/usr/local/bin/mpc';
+  const [listener] = fake.configurationListeners;
+  await listener({ affectsConfiguration: (section) => section === 'mplang.editor' });
+  assert.equal(fake.clients.length, 1);
+  await listener({ affectsConfiguration: (section) => section === 'mplang.server' });
+  assert.equal(fake.clients.length, 2);
+  assert.equal(fake.clients[0].stopped, true);
+  assert.equal(fake.clients[1].serverOptions.command, '/usr/local/bin/mpc');
+  await fake.commands['mplang.restartServer']();
+  assert.equal(fake.clients.length, 3);
+  await extension.deactivate();
+});
+
+test('a server that cannot start is reported with the setting to fix', async () => {
+  fake.settings['server.path'] = 'no-such-mpc';
+  fake.failStart = 'spawn no-such-mpc ENOENT';
+  await extension.activate({ subscriptions: [] });
+  assert.equal(fake.errors.length, 1);
+  assert.match(fake.errors[0], /no-such-mpc lsp/);
+  assert.match(fake.errors[0], /ENOENT/);
+  assert.match(fake.errors[0], /mplang\.server\.path/);
+  await extension.deactivate();
+});

@@ -1,0 +1,86 @@
+"""`mpc lsp`: the language server for .mp files, over stdio (or TCP for debugging)."""
+
+from __future__ import annotations
+
+import logging
+import sys
+
+import click
+
+from mplang.cli.common import EXIT_TRANSPORT, EXIT_USAGE, guarded, parse_temps
+
+LOG_FORMAT = "mpc lsp: %(levelname)s: %(message)s"
+
+
+class _OneLineFormatter(logging.Formatter):
+    """Errors as one line (exception type and message); --verbose keeps the tracebacks."""
+
+    def format(self, record: logging.LogRecord) -> str:
+        text = super().format(logging.makeLogRecord({**record.__dict__, "exc_info": None,
+                                                     "exc_text": None}))
+        if record.exc_info and record.exc_info[1] is not None:
+            error = record.exc_info[1]
+            text += f": {type(error).__name__}: {error}"
+        return text
+
+
+def _parse_pool(ctx: click.Context, param: click.Parameter, value: str | None
+                ) -> range | None:
+    """None when not given: the project file (or the default) decides."""
+    return None if value is None else parse_temps(ctx, param, value)
+
+
+def _parse_listen(_ctx: click.Context, _param: click.Parameter,
+                  value: str | None) -> tuple[str, int] | None:
+    """`PORT` (on 127.0.0.1) or `HOST:PORT`."""
+    if value is None:
+        return None
+    host, _, port_text = value.rpartition(":")
+    try:
+        port = int(port_text)
+    except ValueError:
+        raise click.BadParameter(f"{value!r}: write PORT or HOST:PORT, e.g. 2087") from None
+    if not 1 <= port <= 65535:
+        raise click.BadParameter(f"port {port} is not in 1..65535")
+    return host.strip("[]") or "127.0.0.1", port
+
+
+@click.command("lsp", short_help="Language server for .mp files (editors).")
+@click.option("--tcp", "listen", callback=_parse_listen, default=None, metavar="[HOST:]PORT",
+              help="Serve one client over TCP instead of stdio (host default 127.0.0.1).")
+@click.option("--target", type=click.Choice(["et", "rs"]), default=None,
+              help="Controller the checks are for: ET-M8194H or RS-M8194H [default: the "
+              "project file's, else et].")
+@click.option("--temp-vars", callback=_parse_pool, default=None, metavar="FIRST-LAST",
+              help="VAR pool for expression temporaries [default: the project file's, else "
+              "500-511].")
+@click.option("--allow-outside-includes", is_flag=True, default=None,
+              help="Let INCLUDE reach files outside the project directory.")
+@click.option("-v", "--verbose", is_flag=True, help="Log what the server does to stderr.")
+@guarded
+def command(listen: tuple[str, int] | None, target: str | None, temp_vars: range | None,
+            allow_outside_includes: bool | None, verbose: bool) -> None:
+    """Run the language server: diagnostics, hover, completion, go to definition and slot
+    budgets for .mp files. Editors start it and speak LSP over its standard input/output."""
+    from mplang.lsp.server import create_server
+    from mplang.lsp.workspace import Overrides
+
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(logging.Formatter(LOG_FORMAT) if verbose
+                         else _OneLineFormatter(LOG_FORMAT))
+    logging.basicConfig(level=logging.INFO if verbose else logging.WARNING, handlers=[handler])
+    server = create_server(Overrides(target, temp_vars, allow_outside_includes or None))
+    if listen is None:
+        if sys.stdin is None or sys.stdin.isatty():
+            click.echo("mpc lsp: speaks LSP on standard input/output; start it from an "
+                       "editor (see docs/lsp.md)", err=True)
+            sys.exit(EXIT_USAGE)
+        server.start_io()
+        return
+    host, port = listen
+    click.echo(f"mpc lsp: listening on {host}:{port}", err=True)
+    try:
+        server.start_tcp(host, port)
+    except OSError as exc:
+        click.echo(f"mpc lsp: cannot listen on {host}:{port}: {exc.strerror or exc}", err=True)
+        sys.exit(EXIT_TRANSPORT)
