@@ -57,6 +57,7 @@ bench: $(STAMP)
 	$(BIN)/python bench/compile.py
 	$(BIN)/python bench/interp.py
 	$(BIN)/python bench/modbus.py
+	$(BIN)/python bench/flash.py
 
 clean:
 	rm -rf $(VENV) build *.egg-info

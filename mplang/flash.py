@@ -627,6 +627,7 @@ class Flasher:
             except (LinkTimeout, LinkLost) as exc:
                 failures += 1
                 if failures > self.link.endpoint.retries:
+                    await self._abandon(program)  # never leave a half download behind
                     raise FlashFailure("interrupted", f"{program.label}: {exc}; gave up after "
                                        f"{failures} downloads") from None
                 self._note(f"{program.label}: {exc}: downloading it again from its create "
@@ -708,6 +709,10 @@ class Flasher:
         try:
             await self._write(frame, result)
             self.report.frames_written += 1
+        except FlashFailure:  # the device stayed busy: close what was opened
+            if index > 0:
+                await self._abandon(program)
+            raise
         except Refused as refusal:
             if index > 0:
                 await self._abandon(program)
@@ -716,8 +721,8 @@ class Flasher:
                                program.where(index)) from None
 
     async def _abandon(self, program: FlashProgram) -> None:
-        """After a refused frame: end the download and empty the slot, so the device is
-        ready and holds no truncated program. Failures here are noted, not raised: the
+        """After a refused frame, or giving up on a program: end the download and empty the
+        slot, so the device is ready and holds no truncated program. Failures here are noted, not raised: the
         refusal is what the user must see."""
         try:
             (state,) = await self.link.read_input(STATE_REGISTER, 1)

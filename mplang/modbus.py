@@ -227,6 +227,7 @@ MODBUS_EXCEPTIONS = {
 }
 MAX_WRITE_REGISTERS = 123  # the Modbus limit for FC16, which pymodbus does not check
 ANSWER_GRACE_S = 1.0  # beyond pymodbus's own timeout, before a request is abandoned here
+DEVICE_BUSY = 0x06  # the exception that says "not carried out, send it again later"
 
 
 class LinkError(Exception):
@@ -298,8 +299,14 @@ Client = AsyncModbusTcpClient | AsyncModbusSerialClient
 
 class DeviceLink:
     """One connection to one device, one request at a time (the device matches an answer to
-    the request before it). After a timeout or a lost connection the next request first
-    reconnects, so a late answer to an abandoned request is never taken for the next one's.
+    the request before it). A request is abandoned after a timeout, a lost connection or an
+    answer that belongs to another request; the connection (or serial port) is closed at once
+    and the next request opens a new one, so a late answer to the abandoned request is never
+    taken for the next one's. Over TCP the new connection is enough. An RTU line has no
+    connections and its answers no transaction id: there the port stays closed for a quiet
+    time of one `timeout` after the abandonment and is opened with its input discarded, so
+    an answer up to twice the timeout late is dropped; a later one is refused unless it has
+    the very shape (function, address, register count) of the answer being waited for.
     Usable as `async with DeviceLink(endpoint) as link:`."""
 
     def __init__(self, endpoint: Endpoint) -> None:
@@ -307,9 +314,11 @@ class DeviceLink:
         self._client: Client | None = None
         self._lost = asyncio.Event()
         self._stale = False
+        self._abandoned_at: float | None = None  # monotonic time of the last abandonment
         self.opened = False  # the first connection succeeded
         self.reconnects = 0
         self.repeats = 0  # idempotent requests sent again after a link failure
+        self.foreign_answers = 0  # answers refused because they belong to another request
 
     # ------------------------------------------------------------------ connection
     def _make_client(self, lost: asyncio.Event) -> Client:
@@ -364,6 +373,7 @@ class DeviceLink:
         if client is not None and client.connected and not self._stale \
                 and not self._lost.is_set():
             return client
+        await self._quiet()
         if not self.opened:
             await self.open()
         else:
@@ -380,6 +390,24 @@ class DeviceLink:
                     await asyncio.sleep(backoff(attempt, self.endpoint.timeout))
         assert self._client is not None
         return self._client
+
+    def _abandon(self) -> None:
+        """Give up on the request outstanding: close the link now (a late answer then reaches
+        a closed connection, or waits in a serial port's input buffer that is discarded when
+        the port opens) and make the next request open it again."""
+        self._stale = True
+        self._abandoned_at = time.monotonic()
+        self.close()
+
+    async def _quiet(self) -> None:
+        """Over RTU, keep the port closed until one `timeout` has passed since the last
+        abandoned request: a device that answers late answers into the closed port."""
+        if self.endpoint.serial is None or self._abandoned_at is None:
+            return
+        remaining = self._abandoned_at + self.endpoint.timeout - time.monotonic()
+        self._abandoned_at = None
+        if remaining > 0:
+            await asyncio.sleep(remaining)
 
     # -------------------------------------------------------------------- requests
     async def _exchange(self, request: Callable[[Client], Awaitable[ModbusPDU]],
@@ -400,41 +428,48 @@ class DeviceLink:
                 task.cancel()
             await asyncio.gather(*pending, return_exceptions=True)
         if call not in done:
-            self._stale = True
+            self._abandon()
             if watch in done:
                 raise LinkLost(f"{describe}: connection lost")
             raise LinkTimeout(f"{describe}: no answer within {self.endpoint.timeout:g} s")
         try:
             reply = call.result()
         except ConnectionException as exc:
-            self._stale = True
+            self._abandon()
             raise LinkLost(f"{describe}: connection lost ({exc})") from None
         except ModbusIOException:
-            self._stale = True
+            self._abandon()
             if lost.is_set():
                 raise LinkLost(f"{describe}: connection lost") from None
             raise LinkTimeout(f"{describe}: no answer within {self.endpoint.timeout:g} s"
                               ) from None
         except (ModbusException, OSError) as exc:
-            self._stale = True
+            self._abandon()
             raise LinkLost(f"{describe}: {exc}") from None
+        # an exception answer carries the function code (plus 0x80) but no address: a late
+        # refusal of another function is told apart by that code alone
+        if reply.function_code & 0x7F != function_code or \
+                (not reply.isError() and not matches(reply)):
+            self._abandon()
+            self.foreign_answers += 1
+            raise LinkTimeout(f"{describe}: the answer belongs to another request")
         if reply.isError():
             raise DeviceException(reply.exception_code, function_code, address)
-        if reply.function_code != function_code or not matches(reply):
-            self._stale = True
-            raise LinkTimeout(f"{describe}: the answer belongs to another request")
         return reply
 
     async def _repeating(self, request: Callable[[Client], Awaitable[ModbusPDU]],
                          function_code: int, address: int,
                          matches: Callable[[ModbusPDU], bool]) -> ModbusPDU:
-        """`_exchange`, repeated after a timeout or a lost link: only for requests that do
-        the same thing however often they arrive."""
+        """`_exchange`, repeated after a timeout, a lost link or a busy answer (exception
+        0x06: not carried out): only for requests that do the same thing however often they
+        arrive."""
         attempt = 0
         while True:
             try:
                 return await self._exchange(request, function_code, address, matches)
-            except (LinkTimeout, LinkLost):
+            except (LinkTimeout, LinkLost, DeviceException) as exc:
+                if isinstance(exc, DeviceException) and exc.code != DEVICE_BUSY:
+                    raise
                 attempt += 1
                 if attempt > self.endpoint.retries:
                     raise
@@ -477,7 +512,7 @@ class DeviceLink:
             return read(address, count=count, device_id=unit)
 
         reply = await self._repeating(request, function_code, address,
-                                      lambda r: len(r.registers) >= count)
+                                      lambda r: len(r.registers) == count)
         return [int(v) for v in reply.registers[:count]]
 
     async def write_holding(self, address: int, values: list[int]) -> None:

@@ -43,15 +43,19 @@ def image_of(source: str) -> FlashImage:
 
 
 class Counter:
-    """Counts FC16 writes at holding register 8000 (frames) arriving at the device."""
+    """Counts FC16 writes at holding register 8000 (frames) arriving at the device, and
+    calls `on_frame` (if set) when one arrives."""
 
     def __init__(self) -> None:
         self.frames = 0
+        self.on_frame: Callable[[], None] | None = None
 
     def __call__(self, sending: bool, data: bytes) -> bytes:
         # a Modbus TCP request: MBAP (7 bytes), function code, address (2 bytes)
         if not sending and len(data) > 9 and data[7] == 16 and data[8:10] == b"\x1f\x40":
             self.frames += 1
+            if self.on_frame is not None:
+                self.on_frame()
         return data
 
 
@@ -149,13 +153,11 @@ def test_a_cut_short_download_is_never_recorded_as_done(tmp_path: Path) -> None:
         image = image_of(JOB)
         assert (await do(image, options)).ok
         changed = image_of(JOB.replace("VAR1 + 1", "VAR1 + 3"))
-        counter.frames = 0
         task = asyncio.ensure_future(do(changed, options))
-        while counter.frames == 0:  # stop it once the changed program is being written
-            await asyncio.sleep(0.001)
-        task.cancel()
+        counter.on_frame = task.cancel  # Ctrl-C as the changed program's create arrives
         with pytest.raises(asyncio.CancelledError):
             await task
+        counter.on_frame = None
         saved = json.loads((tmp_path / "record.json").read_text())
         assert "MP4" not in saved["devices"]["bench"]["slots"]
         final = await do(changed, FlashOptions(record=FlashRecord(tmp_path / "record.json"),

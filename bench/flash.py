@@ -1,0 +1,387 @@
+"""`mpc flash` download speed (printed, never asserted).
+
+Targets (issue 4), each a ratio to a baseline measured in the same run:
+
+1. A full-device image (every MP and ISR slot filled to its line budget) over loopback Modbus
+   TCP: total time at most 1.3 x N single-frame round trips, N being every request the flash
+   makes (frames and status reads); a round trip is one FC16 sub-function frame and its
+   answer through the same client (`DeviceLink`) to the same virtual device.
+2. The same image over Modbus RTU at 115200 baud 8N1: total time against the wire-time limit,
+   the bytes of every request and answer on the line (start bit, 8 data bits, parity and
+   stop bits) plus a 3.5-character silence before each frame. Ptys ignore the baud rate, so
+   the line here is a pty pair whose relay holds every chunk for its time on the wire.
+3. A fleet of 20 virtual devices flashed at once (20 `mplang.flash.flash` calls under
+   asyncio.gather) against one device with the same image: target at most 2x. The image is
+   the samples build (788 frames; the full device 20 times over would take minutes). Three
+   fleets: TCP devices served by this process's event loop, TCP devices served by a child
+   process (`--serve N`: the devices then do not take the flashing loop's time), and RTU
+   devices each on its own paced 115200-baud line. Over loopback TCP nothing waits: every
+   request costs CPU only, so 20 devices cost about 20 times the CPU of one and the ratio
+   measures the machine's cores, not the flasher's concurrency (the "busy" figure shows
+   it). On a paced line the wire sets one device's time, as on a real installation, and
+   the ratio shows how far concurrency hides it.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import os
+import pty
+import select
+import statistics
+import subprocess
+import sys
+import threading
+import time
+import tty
+from collections.abc import Awaitable, Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+from mplang import catalogue
+from mplang.compiler import compile_paths, compile_source
+from mplang.flash import FlashImage, FlashReport, flash, image_from_build
+from mplang.modbus import DeviceFace, DeviceLink, Endpoint, SimClock, serve_rtu, serve_tcp, stop
+from mplang.sim.controller import VirtualController
+from mplang.sim.ptylink import PtyLink
+
+ROOT = Path(__file__).resolve().parent.parent
+BAUD = 115200
+BITS_PER_CHAR = 10  # 8N1: start + 8 data + stop (parity or a second stop bit: 11)
+GAP_CHARS = 3.5  # the silence that ends an RTU frame
+ROUND_TRIP_DOWNLOADS, ROUND_TRIP_LINES = 4, 500  # 2,000 timed frames per baseline
+REPEATS = 3  # the TCP figures are the best of this many runs (the machine is shared)
+FLEET = 20
+SLOT_FOR_SAMPLES = ("mp", 156)  # 512 lines: room for the round-trip samples
+# Body lines that run in MP and ISR slots alike, one slot line each, frames of 3 to 7 words.
+BODY = ["  VAR{v} = VAR1 + {k}", "  SET_V X, {speed}", "  VAR{v} = {k}"]
+
+
+# ---------------------------------------------------------------------------- the images
+def full_device_source() -> str:
+    """Every MP and ISR slot, each filled to its line budget (the close line included)."""
+    profile = catalogue.load().profile
+    out: list[str] = []
+    k = 0
+    for kind in ("mp", "isr"):
+        for slot in profile.slot_numbers(kind):
+            out.append(f"{kind.upper()} {slot}")
+            for _ in range((profile.budget(kind, slot) or 0) - 1):
+                out.append(BODY[k % 3].format(v=k % 400 + 2, k=k, speed=1000 + k % 5000))
+                k += 1
+            out.append(f"END {kind.upper()}")
+    return "\n".join(out) + "\n"
+
+
+def full_device_image() -> FlashImage:
+    build = compile_source(full_device_source(), "full.mp")
+    if not build.ok:
+        raise SystemExit(f"the generated full-device source does not build: "
+                         f"{build.diagnostics[0].render()}")
+    image = image_from_build(build)
+    profile = catalogue.load().profile
+    slots = sum(len(profile.slot_numbers(kind)) for kind in ("mp", "isr"))
+    lines = sum(profile.budget(p.kind, p.slot) or 0 for p in image.programs)
+    assert len(image.programs) == slots and lines == sum(
+        (profile.budget(kind, n) or 0) for kind in ("mp", "isr")
+        for n in profile.slot_numbers(kind))
+    return image
+
+
+def samples_image() -> FlashImage:
+    build = compile_paths(sorted((ROOT / "samples").glob("*.mp")))
+    assert build.ok
+    return image_from_build(build)
+
+
+def frames_of(image: FlashImage) -> int:
+    return sum(len(p.frames) for p in image.programs)
+
+
+# --------------------------------------------------------------------------- the baseline
+@dataclass
+class RoundTrip:
+    mean: float
+    median: float
+
+
+async def frame_round_trip(endpoint: Endpoint) -> RoundTrip:
+    """Seconds of one sub-function frame and its answer: the line frames of downloads into a
+    scratch slot (create, line after line, close), each timed on its own. A flash's time is
+    a sum of round trips, so the mean is its baseline; the median shows the tail's share."""
+    encoder = VirtualController().encoder
+    kind, slot = SLOT_FOR_SAMPLES
+    line = [0x0CD2, 0x7FFF, 2, 0, 5]  # SET_VAR VAR2, 5
+    times: list[float] = []
+    async with DeviceLink(endpoint) as link:
+        for _ in range(ROUND_TRIP_DOWNLOADS):
+            await link.write_frame(encoder.create_frame(kind, slot))
+            for _ in range(ROUND_TRIP_LINES):
+                start = time.perf_counter()
+                await link.write_frame(line)
+                times.append(time.perf_counter() - start)
+            await link.write_frame(encoder.close_frame(kind))
+    return RoundTrip(statistics.mean(times), statistics.median(times))
+
+
+@dataclass
+class Timed:
+    report: FlashReport
+    seconds: float
+    requests: int  # as the device counted them
+
+
+async def timed_flash(image: FlashImage, endpoint: Endpoint, face: DeviceFace | None,
+                      ) -> Timed:
+    before = face.requests if face is not None else 0
+    start = time.perf_counter()
+    report = await flash(image, endpoint)
+    seconds = time.perf_counter() - start
+    if not report.ok:
+        raise SystemExit(f"flash failed on {endpoint.describe()}: {report.error}")
+    return Timed(report, seconds, (face.requests - before) if face is not None else 0)
+
+
+def check_stored(face: DeviceFace, image: FlashImage) -> None:
+    """The bench measures a correct download, not just a fast one."""
+    for program in image.programs:
+        table = face.controller.tables[(program.kind, program.slot)]
+        assert [list(line.frame) for line in table.lines] == program.frames[1:-1]
+
+
+# --------------------------------------------------------------------- 1: loopback TCP
+async def over_tcp(image: FlashImage) -> None:
+    """Baseline and flash in turn, `REPEATS` times, each on a fresh device; the best of
+    each is the run least disturbed by the rest of the machine."""
+    round_trips: list[RoundTrip] = []
+    runs: list[Timed] = []
+    for _ in range(REPEATS):
+        face = DeviceFace(VirtualController(), SimClock(1.0))
+        server, port = await serve_tcp(face, "127.0.0.1", 0)
+        endpoint = Endpoint(host="127.0.0.1", port=port)
+        try:
+            round_trips.append(await frame_round_trip(endpoint))
+            runs.append(await timed_flash(image, endpoint, face))
+        finally:
+            await stop(server)
+        check_stored(face, image)
+    round_trip = min(round_trips, key=lambda r: r.mean)
+    run = min(runs, key=lambda r: r.seconds)
+    frames = frames_of(image)
+    limit = run.requests * round_trip.mean
+    print(f"full-device image over loopback TCP: {len(image.programs)} programs, "
+          f"{frames:,} frames, {run.requests:,} requests in {run.seconds:.2f} s "
+          f"({run.requests / run.seconds:,.0f} requests/s; best of {REPEATS})")
+    print(f"  baseline, one frame's round trip: mean {round_trip.mean * 1e6:.0f} us "
+          f"(median {round_trip.median * 1e6:.0f} us; best of {REPEATS} x "
+          f"{ROUND_TRIP_DOWNLOADS * ROUND_TRIP_LINES:,}) -> {run.requests:,} x mean = "
+          f"{limit:.2f} s; flash = {run.seconds / limit:.2f}x (target at most 1.3)")
+
+
+# ------------------------------------------------------------------------- 2: RTU wire
+class PacedLine:
+    """Two pty pairs joined by a relay that holds every chunk for its time on an RTU wire
+    (`BITS_PER_CHAR` bits per byte at `baud`, plus the 3.5-character silence): a serial
+    line without hardware that takes as long as a real one."""
+
+    def __init__(self, baud: int) -> None:
+        self.char_time = BITS_PER_CHAR / baud
+        self._masters: list[int] = []
+        self._slaves: list[int] = []
+        for _ in range(2):
+            master, slave = pty.openpty()
+            tty.setraw(slave)
+            self._masters.append(master)
+            self._slaves.append(slave)
+        self.device_end = os.ttyname(self._slaves[0])
+        self.client_end = os.ttyname(self._slaves[1])
+        self._stop_read, self._stop_write = os.pipe()
+        self._thread = threading.Thread(target=self._relay, name="paced-line", daemon=True)
+        self._thread.start()
+
+    def _relay(self) -> None:
+        a, b = self._masters
+        peer = {a: b, b: a}
+        while True:
+            ready, _, _ = select.select([a, b, self._stop_read], [], [])
+            if self._stop_read in ready:
+                return
+            for fd in ready:
+                try:
+                    data = os.read(fd, 4096)
+                except OSError:
+                    continue
+                if data:  # Modbus RTU is half duplex: one chunk on the wire at a time
+                    time.sleep((len(data) + GAP_CHARS) * self.char_time)
+                    os.write(peer[fd], data)
+
+    def close(self) -> None:
+        os.write(self._stop_write, b"x")
+        self._thread.join(timeout=2)
+        for fd in (*self._masters, *self._slaves, self._stop_read, self._stop_write):
+            os.close(fd)
+
+
+def rtu_request_bytes(registers: int) -> int:
+    """FC16: address, function, start (2), count (2), byte count, data, CRC (2)."""
+    return 9 + 2 * registers
+
+
+def rtu_read_answer_bytes(registers: int) -> int:
+    """FC3/FC4 answer: address, function, byte count, data, CRC (2)."""
+    return 5 + 2 * registers
+
+
+def wire_seconds(image: FlashImage, baud: int) -> tuple[float, int]:
+    """The time the flash's requests and answers take on the wire, and their bytes: every
+    frame (FC16 request, 8-byte answer), and per program the two status reads the flasher
+    makes (register 100; registers 100-114), and the word-order read at the start."""
+    read_request = 8  # address, function, start (2), count (2), CRC (2)
+    frames: list[int] = []  # bytes of every frame on the line, requests and answers
+    frames += [read_request, rtu_read_answer_bytes(1)]  # holding register 14
+    for program in image.programs:
+        frames += [read_request, rtu_read_answer_bytes(1)]  # state before the create
+        for frame in program.frames:
+            frames += [rtu_request_bytes(len(frame)), 8]  # the FC16 answer: 8 bytes
+        frames += [read_request, rtu_read_answer_bytes(15)]  # verification
+    char_time = BITS_PER_CHAR / baud
+    total_bytes = sum(frames)
+    return (total_bytes + GAP_CHARS * len(frames)) * char_time, total_bytes
+
+
+async def flash_over_rtu(image: FlashImage, line: PacedLine | PtyLink) -> Timed:
+    face = DeviceFace(VirtualController(), SimClock(1.0))
+    try:
+        server = await serve_rtu(face, line.device_end, unit=1, baudrate=BAUD)
+        try:
+            run = await timed_flash(image, Endpoint(serial=line.client_end, baudrate=BAUD),
+                                    face)
+        finally:
+            await stop(server)
+    finally:
+        line.close()
+    check_stored(face, image)
+    return run
+
+
+async def over_rtu(image: FlashImage) -> None:
+    own = await flash_over_rtu(image, PtyLink())
+    run = await flash_over_rtu(image, PacedLine(BAUD))
+    limit, total_bytes = wire_seconds(image, BAUD)
+    print(f"full-device image over Modbus RTU at {BAUD} baud 8N1 (paced pty pair): "
+          f"{run.requests:,} requests in {run.seconds:.2f} s")
+    print(f"  wire-time limit: {total_bytes:,} bytes + 3.5-character gaps = {limit:.2f} s; "
+          f"flash = {run.seconds / limit:.2f}x the wire time")
+    print(f"  of which software (client, device, pty; the same flash over an unpaced pty "
+          f"pair): {own.seconds:.2f} s = {own.seconds / own.requests * 1e3:.2f} ms a request; "
+          f"wire + software = {(limit + own.seconds) / limit:.2f}x the wire time")
+
+
+# ---------------------------------------------------------------------------- 3: fleet
+@dataclass
+class FleetRun:
+    one: float  # seconds to flash one device
+    many: float  # seconds to flash FLEET devices at once
+    cpu: float  # CPU seconds this process used while flashing the fleet
+
+
+async def flash_fleet(image: FlashImage, endpoints: list[Endpoint],
+                      faces: list[DeviceFace] | None) -> FleetRun:
+    """The first endpoint alone, then the other FLEET at once."""
+    face = faces[0] if faces else None
+    one = await timed_flash(image, endpoints[0], face)
+    cpu = time.process_time()
+    start = time.perf_counter()
+    await asyncio.gather(*(timed_flash(image, endpoint, faces[n + 1] if faces else None)
+                           for n, endpoint in enumerate(endpoints[1:])))
+    many = time.perf_counter() - start
+    return FleetRun(one.seconds, many, time.process_time() - cpu)
+
+
+async def fleet_in_process(image: FlashImage) -> FleetRun:
+    """Every device served by this process's event loop, beside the flashing."""
+    faces = [DeviceFace(VirtualController(), SimClock(1.0)) for _ in range(FLEET + 1)]
+    served = [await serve_tcp(face, "127.0.0.1", 0) for face in faces]
+    try:
+        run = await flash_fleet(image, [Endpoint(host="127.0.0.1", port=port)
+                                        for _server, port in served], faces)
+    finally:
+        for server, _port in served:
+            await stop(server)
+    for face in faces:
+        check_stored(face, image)
+    return run
+
+
+async def fleet_in_child(image: FlashImage) -> FleetRun:
+    """The devices served by a child process (its own interpreter, event loop and core), so
+    that they do not take the flashing loop's time."""
+    child = subprocess.Popen([sys.executable, __file__, "--serve", str(FLEET + 1)],
+                             stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    assert child.stdout is not None and child.stdin is not None
+    try:
+        ports = [int(word) for word in child.stdout.readline().split()]
+        return await flash_fleet(image, [Endpoint(host="127.0.0.1", port=port)
+                                         for port in ports], None)
+    finally:
+        child.stdin.close()
+        child.wait(30)
+
+
+async def fleet_on_serial_lines(image: FlashImage) -> FleetRun:
+    """RS-M8194H devices, each on its own paced 115200-baud line: the wire, not the CPU,
+    sets one device's time, as on a real installation."""
+    lines = [PacedLine(BAUD) for _ in range(FLEET + 1)]
+    faces = [DeviceFace(VirtualController(), SimClock(1.0)) for _ in lines]
+    servers = [await serve_rtu(face, line.device_end, unit=1, baudrate=BAUD)
+               for face, line in zip(faces, lines, strict=True)]
+    try:
+        run = await flash_fleet(image, [Endpoint(serial=line.client_end, baudrate=BAUD)
+                                        for line in lines], faces)
+    finally:
+        for server in servers:
+            await stop(server)
+        for line in lines:
+            line.close()
+    for face in faces:
+        check_stored(face, image)
+    return run
+
+
+async def serve_devices(count: int) -> None:
+    """`--serve N`: serve N virtual devices on loopback ports, print the ports on one line,
+    stop when standard input closes."""
+    served = [await serve_tcp(DeviceFace(VirtualController(), SimClock(1.0)), "127.0.0.1", 0)
+              for _ in range(count)]
+    print(" ".join(str(port) for _server, port in served), flush=True)
+    await asyncio.get_running_loop().run_in_executor(None, sys.stdin.read)
+    for server, _port in served:
+        await stop(server)
+
+
+async def over_a_fleet(image: FlashImage) -> None:
+    print(f"fleet of {FLEET} devices, the samples image ({len(image.programs)} programs, "
+          f"{frames_of(image)} frames each), against one device (target at most 2x):")
+    cases: list[tuple[str, Callable[[FlashImage], Awaitable[FleetRun]]]] = [
+        ("TCP, devices in this process", fleet_in_process),
+        ("TCP, devices in a child process", fleet_in_child),
+        (f"RTU, one {BAUD}-baud line each", fleet_on_serial_lines)]
+    for name, measure in cases:
+        run = await measure(image)
+        print(f"  {name}: one device {run.one:.2f} s, {FLEET} devices {run.many:.2f} s = "
+              f"{run.many / run.one:.1f}x; this process was busy {run.cpu / run.many:.0%} "
+              f"of the fleet's time")
+
+
+async def main() -> None:
+    image = full_device_image()
+    await over_tcp(image)
+    await over_rtu(image)
+    await over_a_fleet(samples_image())
+
+
+if __name__ == "__main__":
+    if sys.argv[1:2] == ["--serve"]:
+        asyncio.run(serve_devices(int(sys.argv[2])))
+    else:
+        asyncio.run(main())
