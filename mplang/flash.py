@@ -722,8 +722,8 @@ class Flasher:
 
     async def _abandon(self, program: FlashProgram) -> None:
         """After a refused frame, or giving up on a program: end the download and empty the
-        slot, so the device is ready and holds no truncated program. Failures here are noted, not raised: the
-        refusal is what the user must see."""
+        slot, so the device is ready and holds no truncated program. Failures here are noted,
+        not raised: the refusal is what the user must see."""
         try:
             (state,) = await self.link.read_input(STATE_REGISTER, 1)
             if state in (1, 2):
