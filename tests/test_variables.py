@@ -34,8 +34,8 @@ END MP
 """
 
 
-def build(source: str, options: Options = Options()) -> BuildResult:
-    result = compile_source(source, "job.mp", options)
+def build(source: str, options: Options | None = None) -> BuildResult:
+    result = compile_source(source, "job.mp", options or Options())
     assert result.ok, [d.render() for d in result.diagnostics]
     return result
 
