@@ -41,8 +41,7 @@ T = TypeVar("T")
 DEFAULT_TIMEOUT, DEFAULT_RETRIES = 1.0, 3
 
 
-@click.command("flash", short_help="Download and verify programs in a device or a fleet "
-               "(Modbus TCP or RTU).")
+@click.command("flash", short_help="Download and verify programs in a device or a fleet.")
 @click.argument("files", nargs=-1)
 @click.option("--tcp", callback=parse_device_address, default=None, metavar="HOST[:PORT]",
               help="The device's Modbus TCP address (ET-M8194H) [default port: 502].")

@@ -19,7 +19,7 @@ from mplang.compiler import compile_paths
 from mplang.diagnostics import Severity
 
 
-@click.command("lint")
+@click.command("lint", short_help="Run every check without producing an image.")
 @click.argument("files", nargs=-1)
 @click.option("--format", "fmt", type=click.Choice(["text", "json", "sarif"]), default="text",
               show_default=True, help="gcc-style lines, a JSON list, or SARIF 2.1.0.")
