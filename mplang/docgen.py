@@ -11,6 +11,8 @@ from pathlib import Path
 
 from mplang import catalogue
 from mplang.catalogue import Command
+from mplang.csim import profile as csim_profile
+from mplang.fatek import profile as fatek_profile
 from mplang.rules import RULES, Rule
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -104,6 +106,16 @@ def choices_page() -> str:
     for command in cat.commands:
         if command.choice:
             lines.append(f"- **{command.name}** ({command.section}): {command.choice}")
+    lines += ["", "## CSIM RS232 command set", "",
+              "What the CSIM command list (CS = shared/manuals/004_fd07d4bf40d1e0ce.txt) leaves "
+              "undefined or contradicts, and the reading mplang takes: `stdlib/csim/device.toml` "
+              "(and `from_mp.toml` for `--target csim`). See docs/csim.md.", ""]
+    walk(csim_profile.load().raw, "")
+    lines += ["", "## FATEK FBs-PLC positioning programs", "",
+              "What the FBs-PLC chapter (FB = shared/manuals/002_9f89b86e496499fb.txt) leaves "
+              "undefined or contradicts, and the reading mplang takes: `stdlib/fatek/device.toml`. "
+              "See docs/fatek.md.", ""]
+    walk(fatek_profile.load().raw, "")
     return "\n".join(lines) + "\n"
 
 
@@ -113,8 +125,9 @@ def generated() -> dict[Path, str]:
                               ROOT / "docs" / "device-choices.md": choices_page()}
     examples = ROOT / "tests" / "data" / "checks"
     for code, rule in RULES.items():
-        sample = examples / f"{code}.mp"
-        text = sample.read_text() if sample.exists() else None
+        sample = next((examples / f"{code}{suffix}" for suffix in (".mp", ".fbs", ".csim")
+                       if (examples / f"{code}{suffix}").exists()), None)
+        text = sample.read_text() if sample is not None else None
         pages[ROOT / "docs" / "checks" / f"{code}.md"] = rule_page(rule, text)
     return pages
 

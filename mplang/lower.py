@@ -178,7 +178,13 @@ class Scope:
         if unplaced:
             self._allocate(unit, unplaced)
         for key in self.const_exprs:
-            self.const(key)
+            try:
+                self.const(key)
+            except RecursionError:
+                decl = self.const_exprs[key]
+                self.const_values[key] = None
+                self.sink.add("E107", decl.name_span, f"CONST {decl.name} is nested too "
+                              "deeply to compute", hint="split it into several CONSTs")
 
     def _place(self, decl: ast.VarDecl, index: int, pinned: bool) -> None:
         key = decl.name.upper()
@@ -772,7 +778,13 @@ class ProgramLowerer:
                 self.sink.add("W101", node.span, f"unreachable: line {dead_after.line} always "
                               "jumps away", hint="remove it, or put a LABEL before it")
                 warned = True
-            if self.lower_node(node) and dead_after is None:
+            try:
+                jumps = self.lower_node(node)
+            except RecursionError:  # a pathological expression: say so, never crash
+                self.sink.add("E107", node.span, "the statement's expression is nested too "
+                              "deeply to compile", hint="split it into several assignments")
+                jumps = False
+            if jumps and dead_after is None:
                 dead_after = node.span
 
     def lower_node(self, node: ast.Node) -> bool:

@@ -45,6 +45,9 @@ _RULES = [
          "Move the file into the project, or pass --allow-outside-includes."),
     Rule("E105", "unreadable-source", E, "A source file cannot be read as UTF-8 text.",
          "The compiler reads .mp sources as UTF-8.", "Save the file as UTF-8 text."),
+    Rule("E107", "expression-too-deep", E, "An expression too deeply nested to compile.",
+         "Thousands of operators in one expression exceed what the compiler follows; no "
+         "program needs that.", "Split it into several assignments or CONSTs."),
     Rule("E106", "include-inside-program", E, "INCLUDE inside an MP or ISR block.",
          "INCLUDE joins a whole file (its CONSTs, ALIASes and programs) to the build; it is "
          "not a macro that pastes lines into a program.",
@@ -289,7 +292,238 @@ _RULES = [
          "encoding is accepted, but the firmware's handling is not described.",
          "Prefer a constant, or test on the device."),
     # ------------------------------------------ FATEK FBs-PLC positioning programs (E6xx/W6xx)
+    Rule("E601", "fbs-syntax", E, "A line of an FBs-PLC listing does not follow its syntax.",
+         "A listing line is a step instruction (SPD, DRV, DRVC, DRVZ, LIN, LINE, WAIT, ACT, "
+         "EXT, GOTO, MEND; a step starts with its number), a TABLE header, a FUN141 parameter "
+         "'Pn = value' or a SIM line, with the operands the manual prints (FB 863-1149, "
+         "2181-2389).",
+         "Compare the line with the forms in docs/fatek.md."),
+    Rule("E602", "fbs-step-number", E, "Steps are not numbered 1, 2, 3, ... in order.",
+         "The PLC stores steps by position (SR+2 onward, 9 or 15 registers each) and GOTO n "
+         "means the n-th step; a step number that differs from its position would make GOTO "
+         "jump somewhere else than it says.",
+         "Renumber the steps 001, 002, ... in the order they appear."),
+    Rule("E603", "fbs-step-count", E, "A table has no step, or more steps than the PLC allows.",
+         "A FUN140 table holds 1-250 steps (FB 573, 686); more raise PLC error 36.",
+         "Split the program into several tables.", "error 36 (more than the maximum steps)"),
+    Rule("E604", "fbs-speed-range", E, "A constant SPD is outside the output frequency range.",
+         "FUN140 outputs 1-921600 Hz (FB 883), FUN147 a line speed of 1-1840000 (FB 2191); "
+         "SPD 0 makes the step wait for ever for a non-zero speed (FB 885-887).",
+         "Use a speed inside the range, or a register the ladder sets.",
+         "error 31 (speed value wrong)"),
+    Rule("E605", "fbs-stroke-range", E, "A constant stroke is outside its range.",
+         "DRV/DRVC strokes are -99999999..99999999 (FB 958); one LIN moves an axis at most "
+         "1999999 Ps (FB 2261-2262).", "Split the move, or use a smaller unit.",
+         "error 33 (stroke value wrong)"),
+    Rule("E606", "fbs-register", E, "A variable operand names a register the PLC cannot use.",
+         "Rxxxx/Dxxxx operands are read from PLC registers; a 32-bit operand (speed, stroke) "
+         "takes the named register and the next one, and both must exist in one area "
+         "(docs/fatek.md lists the areas).", "Use a register of the listed areas.",
+         "error 30/32 (speed/stroke variable number wrong)"),
+    Rule("E607", "fbs-contact-range", E, "A contact does not exist.",
+         "WAIT and EXT wait for X0-X255, Y0-Y255, M0-M1911 or S0-S999 (FB 1087-1093).",
+         "Use an existing contact."),
+    Rule("E608", "fbs-goto-target", E, "GOTO names a step the table does not have.",
+         "GOTO n jumps to step n of the same table (FB 1145).",
+         "Jump to a step 1..N, or use GOTO NEXT.", "error 34 (illegal positioning program)"),
+    Rule("E609", "fbs-drvc-abs", E, "ABS in a DRVC chain after its first segment.",
+         "Only the first DRVC of a continuous multi-speed chain may use absolute coordinates "
+         "(FB 975-977).", "Write the later segments with ADR.",
+         "error 41 (ABS not allowed inside DRVC)"),
+    Rule("E610", "fbs-direction", E, "A direction field the instruction does not take.",
+         "DRVC needs + or - (FB 978); ABS takes no direction (FB 911-918); with + or - the "
+         "stroke constant is unsigned (FB 891-898).",
+         "Use + or - with DRVC, a blank direction with ABS, and let a signed stroke go with a "
+         "blank direction."),
+    Rule("E611", "fbs-drvc-chain", E, "A DRVC chain that does not end with a DRV, or is too long.",
+         "A chain of n speeds is n-1 DRVC steps closed by one DRV step (FB 1013-1019), at most "
+         "8 segments (FB 974).", "Close the chain with a DRV step; split chains longer than 8."),
+    Rule("E612", "fbs-drvc-drvz", E, "DRVZ right after a DRVC.",
+         "A DRVC chain cannot flow into a home return (FB 801).",
+         "End the chain with a DRV step before the DRVZ.",
+         "error 42 (DRVC cannot be followed by DRVZ)"),
+    Rule("E613", "fbs-drvc-transition", E, "A DRVC step with a condition, MEND or a jump away.",
+         "A DRVC segment flows straight into the next step (FB 988-997): it has no WAIT, ACT "
+         "or EXT and goes on with GOTO NEXT.", "Write GOTO NEXT after the DRVC and nothing else."),
+    Rule("E614", "fbs-instruction", E, "An instruction the table's function does not have.",
+         "FUN140 has DRV, DRVC, DRVZ and ACT; FUN147 has LIN and LINE and no ACT (FB 474-490, "
+         "2380).", "Use the instructions of the table's function, or change the table's kind.",
+         "error 43 / 60 (drive command code wrong / illegal interpolation command)"),
+    Rule("E615", "fbs-step-shape", E, "A step lacks a part, repeats one, or has them in disorder.",
+         "A step holds its output speed, one motion and its transition (FB 571-575): SPD, "
+         "then DRV/DRVC/DRVZ/LIN/LINE, then at most one WAIT/ACT/EXT, then GOTO or MEND.",
+         "Give every step SPD, one motion and a GOTO or MEND, in that order.",
+         "error 34 (illegal positioning program)"),
+    Rule("E616", "fbs-table", E, "A table header the PLC cannot have.",
+         "FUN140/FUN141 drive Ps0-Ps3, FUN147 groups Gp0-Gp1 (FB 525-529, 1846); a table and "
+         "its work registers lie in R0-R3839, D0-D3999 or R5000-R8071 (FB 546-565); one "
+         "FUN141 per axis (FB 1457); table names are unique.",
+         "Fix the header; see docs/fatek.md."),
+    Rule("E617", "fbs-register-overlap", E, "Two tables or work areas share registers.",
+         "The registers of a program table must not be reused (FB 1159), nor the work "
+         "registers of FUN140/FUN147 (FB 532-534, 1848-1850).",
+         "Move one table (SR) or work area (WR)."),
+    Rule("E618", "fbs-parameter", E, "A FUN141 parameter is outside its range.",
+         "FUN141 checks every parameter and raises the code of the first bad one (FB "
+         "1461-1503, 1526-1693).", "Use a value inside the parameter's range.",
+         "FUN141 errors 1-15 (parameter n wrong)"),
+    Rule("E619", "fbs-drvz-setup", E, "DRVZ without the FUN141 set-up its mode needs.",
+         "DRVZ runs only with a correct FUN141 table (FB 3263-3267): a DOG input X0-X15, for "
+         "MD2 a PG0 input X0-X15, a CLR output within Y0-Y23 if one is set (FB 3269-3298).",
+         "Add the axis's FUN141 table with parameter 15, or fix the mode (MD0-MD2).",
+         "errors 50-53 (DRVZ mode / DOG / PG0 / CLR wrong)"),
+    Rule("E620", "fbs-time-range", E, "A WAIT/ACT time constant is outside 0..65535.",
+         "Times are in 0.01 s (FB 1098, 1118); mplang reads a time as one 16-bit register "
+         "(docs/device-choices.md).", "Use 0..65535, or a register."),
+    Rule("W601", "fbs-undocumented-shape", W, "A step shape FB never prints.",
+         "FB prints a bare GOTO only after DRVC, and MEND never after a condition; whether "
+         "the PLC accepts other shapes is not stated.",
+         "Write WAIT TIME,0 before a GOTO, and end with GOTO instead of a condition + MEND."),
+    Rule("W602", "fbs-next-after-last", W, "GOTO NEXT in the last step.",
+         "FB does not say where GOTO NEXT goes from the last step; the virtual controller wraps "
+         "to step 1.", "Write GOTO 1 or MEND."),
+    Rule("W603", "fbs-runs-for-ever", W, "A continuous run that nothing in the step can end.",
+         "A stroke of 0 runs without end (FB 955-957) and LINE runs until its exit condition "
+         "(FB 2299); WAIT is only checked after the output completes, so only EXT or ACT end "
+         "such a step.", "Give the step EXT contact or ACT TIME, or a stroke."),
+    Rule("W604", "fbs-speed-above-maximum", W, "A constant SPD above the axis's maximum speed.",
+         "FUN141 parameter 4 is the highest output frequency (FB 1573-1581); the virtual "
+         "controller caps the speed there.", "Lower SPD or raise parameter 4."),
+    Rule("E640", "fatek-not-expressible", E, "An .mp command or block with no FBs-PLC counterpart.",
+         "A positioning table holds speeds, single-axis or straight-line moves, waits on time "
+         "and jumps; it has no arcs, outputs, interrupts, home sequences or calls to programs "
+         "outside the build (docs/fatek.md lists the mapping).",
+         "Leave it out of programs built for the FATEK targets, or write a native .fbs table."),
+    Rule("E641", "fatek-runtime-decision", E, "A decision on a value known only at run time.",
+         "The positioning language has no conditional branch and no counters (FB 1135-1147): "
+         "IF, FOR and loops are evaluated at compile time, so their operands must be constants "
+         "or variables with a known value.",
+         "Make the condition or count a constant, or move the decision to the ladder."),
+    Rule("E642", "fatek-runtime-value", E, "An operand computed at run time.",
+         "Operands are constants or registers the ladder sets (FB 867-878); a value computed in "
+         "the program (a position read, arithmetic on a host variable) has no register.",
+         "Compute the value at compile time, or let the host write VARn and pass VARn itself."),
+    Rule("E643", "fatek-axes", E, "Axes a FUN140 table cannot drive.",
+         "A FUN140 table drives one axis (FB 122-124); interpolated and multi-axis moves need "
+         "FUN147.", "Build with --target fbs-fun147, or split the program per axis."),
+    Rule("E644", "fatek-wait-placement", E, "A wait where no step can hold it.",
+         "A wait is the transition condition of a step, checked after that step's motion "
+         "(FB 1095): a wait before the first move, or between a LABEL and the next move, has no "
+         "step to belong to.", "Move the wait after a move."),
+    Rule("E645", "fatek-table-size", E, "The program unrolls into too many steps.",
+         "Loops are unrolled at compile time and a table holds at most 250 steps (FB 573).",
+         "Use fewer iterations, or close the loop with LABEL/GOTO so it becomes a jump."),
+    Rule("E646", "fatek-absolute-zero", E,
+         "A move to absolute position 0 from an unknown position.",
+         "A stroke of 0 means a continuous run, ADR or ABS alike (FB 955-957), so DRV ABS "
+         "cannot go to 0; it becomes a relative move only where the position is known.",
+         "Move to an absolute position first, or move relatively."),
+    Rule("E647", "fatek-range", E, "A speed, stroke or time outside the PLC's ranges.",
+         "SPD is 1-921600 (FUN147 1-1840000), a stroke at most 99999999 (LIN 1999999) and a "
+         "time 0-65535 x 0.01 s (FB 883, 958, 2191, 2261).",
+         "Use values inside the ranges; split long moves."),
+    Rule("E648", "fatek-no-speed", E, "A move without a speed set before it.",
+         "Every step carries its own SPD (FB 571-575); the compiler takes it from the last "
+         "SET_V of the axis (SET_VV for LINE_2D/LINE_3D).",
+         "Set the speed before the first move."),
+    Rule("E649", "fatek-no-motion", E, "A program that makes no step.",
+         "A positioning table has 1-250 steps (FB 686) and a step is a motion; a program "
+         "without moves (and not only called by others) has no table.",
+         "Add a move, or CALL the program from one that moves."),
+    Rule("W640", "fatek-ignored", W, "An .mp command with no effect on an FBs-PLC table.",
+         "It configures the M8194H's hardware or ramp shape; on the PLC that is the "
+         "configuration, FUN141 or the ladder.",
+         "Nothing to do if the motion is right; configure the PLC otherwise."),
+    Rule("W641", "fatek-timing", W, "The PLC's timing will differ from the M8194H's.",
+         "End positions are the same, but the PLC rounds waits to 0.01 s, starts WAIT TIME "
+         "when the pulse output completes, ramps with one slope per axis (FUN141) and "
+         "interpolates multi-axis moves.", "Check the timing on the machine if it matters."),
+    Rule("W642", "fatek-zero-move", W, "A move of 0 pulses is left out.",
+         "A stroke of 0 means a continuous run on the PLC (FB 955-957), so a zero move "
+         "cannot be written; it moves nothing on the M8194H either.",
+         "Remove the move, or make sure its distance is not 0."),
     # ------------------------------------------------------ CSIM RS232 command set (E7xx/W7xx)
+    Rule("E701", "csim-syntax", E, "A CSIM line does not follow the command syntax.",
+         "A CSIM line is a label ($NAME alone), a command with comma-separated operands, an "
+         "assignment NAME=value or a ?query; `#` starts a comment (docs/csim.md).",
+         "Compare the line with the command list in docs/csim.md."),
+    Rule("E702", "csim-unknown-command", E, "A command or query is not in the CSIM list.",
+         "Only the commands of the CSIM RS232 command list exist on the device.",
+         "Use the suggested name, or look the command up in docs/csim.md."),
+    Rule("E703", "csim-operand-count", E, "A CSIM command has the wrong number of operands.",
+         "Each command takes the operands the manual lists.",
+         "Give the operands the command's syntax shows."),
+    Rule("E704", "csim-operand-type", E, "A CSIM operand is of the wrong kind.",
+         "Operands are numbers, variables (Nn, Rn, NS(i), RS(i)), labels, outputs Pn or "
+         "events EVn as each command demands; JE/JNE/JG/JNG compare values of one type, and "
+         "functions are not documented.",
+         "Write the kind of operand the command takes."),
+    Rule("E705", "csim-operand-range", E, "A CSIM operand is outside its documented range.",
+         "The manual gives ranges: inputs 1..8, outputs P1..P4, OUTP 0..15, FT 1..20000, "
+         "TX..TW 0..5 or 8, integer variables up to 32766, CM 0..2 and more.",
+         "Use a value inside the range."),
+    Rule("E706", "csim-variable-range", E, "A CSIM variable does not exist.",
+         "The CSIM has N0..N64, R0..R64 and the arrays NS(0..2000), RS(0..2000).",
+         "Use an existing variable."),
+    Rule("E707", "csim-module-prefix", E,
+         "A module prefix Tp that does not exist or that the command does not take.",
+         "Modules are T0..T7; single-module commands and parameters take the prefix, "
+         "coordinated commands drive the logical axes and take none.",
+         "Remove the prefix, or use T0..T7."),
+    Rule("E708", "csim-undefined-label", E, "A jump, CALL or ON EV names a label that is not "
+         "defined.", "A label is defined by a line holding only $NAME in the same program.",
+         "Define the label, or fix its spelling."),
+    Rule("E709", "csim-duplicate-label", E, "A CSIM label is defined twice.",
+         "Every jump to the label would be ambiguous.", "Rename one of the labels."),
+    Rule("E710", "csim-address-range", E, "A numeric jump address is past the program's end.",
+         "Addresses count the program's lines from 0.",
+         "Use a label instead of a number."),
+    Rule("E711", "csim-wrong-context", E,
+         "A host command stored in a program, or a program-only command sent from the host.",
+         "The manual marks where each command may be used: editing, queries and G are host "
+         "commands; jumps, waits and the variable forms of coordinated moves exist only in "
+         "programs (CS 175).",
+         "Move the command to where it may be used."),
+    Rule("E712", "csim-unknown-parameter", E, "An assignment names no CSIM parameter or "
+         "variable.", "NAME=value sets a system parameter (CS 142) or a variable.",
+         "Use a parameter of the list in docs/csim.md, or a variable Nn/Rn."),
+    Rule("W701", "csim-undocumented-arithmetic", W,
+         "Arithmetic or an assignment from a variable, which the CSIM list does not document.",
+         "The command list has only `N#=data` (CS 136); the spelling `V=a op b` is mplang's "
+         "reading and may differ on the device.",
+         "Check the line on the device; silence with `# mpc: ignore[W701]` once verified."),
+    Rule("W702", "csim-not-modelled", W, "A command the virtual CSIM cannot execute.",
+         "Its behaviour is not described well enough to simulate (for example SPI, FT, PWM, "
+         "position-synchronised outputs); mpc run stops there with an error.",
+         "Test the program on the device."),
+    Rule("W703", "csim-undocumented-parameter", W,
+         "A PNn/PRn parameter that the CSIM list does not describe.",
+         "The virtual CSIM stores it but it has no effect there.",
+         "Check the parameter in the drive's own manual."),
+    Rule("W704", "csim-unreachable", W, "A CSIM line after JP or RET that nothing reaches.",
+         "Lines after an unconditional jump or return run only if a label leads to them.",
+         "Remove them, or add a label before them."),
+    Rule("E721", "csim-target-command", E, "An .mp command that the CSIM cannot express.",
+         "The CSIM command set has no counterpart (FRnet, position reads, compare, "
+         "synchronous actions, interrupts, continuous interpolation, ...).",
+         "Leave the command out of programs built for --target csim, or rewrite it with "
+         "what CSIM has (docs/csim.md lists the mapping)."),
+    Rule("E722", "csim-target-form", E, "An .mp command form that the CSIM cannot express.",
+         "The command exists but not in this form: homing and jogging only on X (T0), "
+         "interpolation only on X,Y(,Z) in that order, no integer division or bit operators "
+         "on CSIM reals, no variable where the CSIM form takes a number.",
+         "Rewrite the line as docs/csim.md describes."),
+    Rule("E723", "csim-target-variables", E, "More .mp variables than the CSIM has R variables.",
+         "Every VARn used becomes one of R0..R64, counters of FOR loops too.",
+         "Use fewer variables."),
+    Rule("E724", "csim-target-program", E, "An .mp program that cannot become CSIM code.",
+         "ISRs have no CSIM counterpart (events are SET EV/ON EV), and a CSIM holds one "
+         "program: a CALL must reach a program of the same build.",
+         "Build the ISR's work into an MP, and build every called program together."),
+    Rule("W721", "csim-target-dropped", W, "An .mp command left out of the CSIM program.",
+         "It only shapes the M8194H's profiles or configures its hardware; the CSIM has no "
+         "such setting and the axes end in the same places without it.",
+         "Nothing to do if that is fine; set the CSIM's own parameters otherwise."),
 ]
 
 RULES: dict[str, Rule] = {rule.code: rule for rule in _RULES}

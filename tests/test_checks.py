@@ -15,6 +15,7 @@ from pathlib import Path
 
 import pytest
 
+from mplang import csim, fatek
 from mplang.compiler import Options, compile_paths
 from mplang.project import load_project
 from mplang.rules import RULES
@@ -22,7 +23,7 @@ from mplang.rules import RULES
 CHECKS = Path(__file__).parent / "data" / "checks"
 EXPECT = re.compile(r"#\s*expect:\s*([EW]\d{3})\s+(\d+)(?::(\d+))?")
 OPTIONS = re.compile(r"#\s*options:\s*(.*)")
-CASES = sorted(CHECKS.glob("*.mp"))
+CASES = sorted([*CHECKS.glob("*.mp"), *CHECKS.glob("*.fbs"), *CHECKS.glob("*.csim")])
 PROJECTS = sorted(CHECKS.glob("*_project/mpc.toml"))
 
 
@@ -44,7 +45,17 @@ def options_for(path: Path) -> Options:
 
 @pytest.mark.parametrize("path", CASES, ids=[p.name for p in CASES])
 def test_check_input(path: Path) -> None:
-    result = compile_paths([path], options_for(path))
+    options = options_for(path)
+    if path.suffix in fatek.SUFFIXES:
+        result = fatek.check_native([path])
+    elif options.target in fatek.TARGETS:
+        result = fatek.compile_mp([path], options, options.target)
+    elif path.suffix in csim.SUFFIXES:
+        result = csim.check_native([path])
+    elif options.target in csim.TARGETS:
+        result = csim.compile_mp([path], options, options.target)
+    else:
+        result = compile_paths([path], options)
     want = expected(path)
     assert want, f"{path.name} declares no '# expect:' lines"
     got = {(d.code, d.span.line, d.span.col) for d in result.diagnostics}

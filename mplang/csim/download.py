@@ -1,0 +1,133 @@
+"""Downloading a CSIM program over a serial line (pyserial) and verifying it.
+
+The exchange follows the protocol reading of stdlib/csim/device.toml [protocol]: `DLP`, one
+program line at a time (each echoed and answered OK), the empty line that ends edit mode,
+then `ULP` to list the program back, compared line by line with what was sent. Anything
+else is an error with a reason: no answer within the timeout, an echo that differs from the
+line sent, an ERR reply (with the device's text), a reply that is neither OK nor ERR, or a
+listing that differs. A download never reports success unless the listing matched.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import serial  # type: ignore[import-untyped]  # pyserial ships no type hints
+
+from mplang.csim import profile as profile_module
+from mplang.csim.build import CsimProgram
+
+
+class DownloadError(Exception):
+    """The download failed. kind: port, no-answer, echo, device-error, reply, mismatch,
+    program."""
+
+    def __init__(self, kind: str, message: str) -> None:
+        super().__init__(message)
+        self.kind = kind
+        self.message = message
+
+
+@dataclass
+class DownloadReport:
+    port: str
+    lines: int
+    verified: bool
+    saved: bool
+    elapsed_s: float
+    listing: list[str] = field(default_factory=list)
+
+    def to_json(self) -> dict[str, object]:
+        return {"port": self.port, "lines": self.lines, "verified": self.verified,
+                "saved": self.saved, "elapsed_s": round(self.elapsed_s, 3)}
+
+
+class _Line:
+    """One serial port speaking the CSIM protocol."""
+
+    def __init__(self, port: serial.Serial, name: str) -> None:
+        self.port = port
+        self.name = name
+        protocol = profile_module.load().section("protocol")
+        self.end_in = str(protocol["line_end_in"]).encode()
+        self.end_out = str(protocol["line_end_out"]).encode()
+        self.echo = bool(protocol["echo"])
+        self.ok = str(protocol["ok"])
+        self.error_prefix = str(protocol["error_prefix"]) + " "
+
+    def read_line(self, after: str) -> str:
+        raw = self.port.read_until(self.end_out)
+        if not raw.endswith(self.end_out):
+            got = f" (got {raw.decode('ascii', 'replace')!r} so far)" if raw else ""
+            raise DownloadError("no-answer", f"no answer from the device on {self.name} "
+                                f"within {self.port.timeout:g} s after sending {after!r}{got}")
+        try:
+            return str(raw[: -len(self.end_out)].decode("ascii"))
+        except UnicodeDecodeError:
+            raise DownloadError("reply", f"garbled reply to {after!r}: {raw!r}") from None
+
+    def send(self, text: str) -> list[str]:
+        """Send one line; check the echo; return the data lines once the status is OK."""
+        self.port.write(text.encode("ascii") + self.end_in)
+        self.port.flush()
+        if self.echo:
+            echoed = self.read_line(text)
+            if echoed != text:
+                raise DownloadError("echo", f"wrong echo: sent {text!r}, the device echoed "
+                                    f"{echoed!r}")
+        data: list[str] = []
+        while True:
+            reply = self.read_line(text)
+            if reply == self.ok:
+                return data
+            if reply.startswith(self.error_prefix):
+                raise DownloadError("device-error", f"the device refused {text!r}: {reply}")
+            if text != "ULP":
+                raise DownloadError("reply", f"unexpected reply to {text!r}: {reply!r} "
+                                    f"(expected {self.ok} or {self.error_prefix.strip()} ...)")
+            data.append(reply)
+
+
+def download(program: CsimProgram | list[str], port: str, baud: int = 9600,
+             timeout: float = 2.0, *, save: bool = False) -> DownloadReport:
+    """Send a program with DLP, list it back with ULP and compare; with `save`, SAVE P.
+    Raises DownloadError (never returns without a verified listing)."""
+    lines = program.lines if isinstance(program, CsimProgram) else list(program)
+    for number, text in enumerate(lines):
+        if not text.strip() or "\r" in text or "\n" in text or not text.isascii():
+            raise DownloadError("program", f"line {number} {text!r} cannot be sent: program "
+                                "lines are non-empty single lines of ASCII text")
+    started = time.monotonic()
+    try:
+        link = serial.serial_for_url(port, baudrate=baud, timeout=timeout, write_timeout=timeout)
+    except (serial.SerialException, OSError, ValueError) as exc:
+        raise DownloadError("port", f"cannot open {port}: {exc}") from None
+    try:
+        link.reset_input_buffer()
+        line = _Line(link, port)
+        try:
+            line.send("DLP")
+            for text in lines:
+                line.send(text)
+            line.send("")
+            listing = line.send("ULP")
+        except serial.SerialTimeoutException:
+            raise DownloadError("no-answer", f"the device on {port} does not take data "
+                                f"within {timeout:g} s") from None
+        except (serial.SerialException, OSError) as exc:
+            raise DownloadError("port", f"{port}: {exc}") from None
+        if listing != lines:
+            raise DownloadError("mismatch", _difference(lines, listing))
+        if save:
+            line.send("SAVE P")
+    finally:
+        link.close()
+    return DownloadReport(port, len(lines), True, save, time.monotonic() - started, listing)
+
+
+def _difference(sent: list[str], listed: list[str]) -> str:
+    for index, (a, b) in enumerate(zip(sent, listed, strict=False)):
+        if a != b:
+            return (f"the device lists line {index} as {b!r}, but {a!r} was sent")
+    return (f"the device lists {len(listed)} lines, but {len(sent)} were sent")
