@@ -8,7 +8,7 @@ import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from mplang.compiler import SUPPRESS
+from mplang.compiler import suppressed
 from mplang.csim import profile as profile_module
 from mplang.csim.check import check_script
 from mplang.csim.syntax import Script, parse_file
@@ -97,20 +97,6 @@ class FamilyBuild:
             return "\n".join(f"# ---- program {p.name} ({p.source})\n{p.csim_text()}"
                              for p in self.programs)
         raise ValueError(f"unknown format {fmt!r}: choose one of {', '.join(FORMATS)}")
-
-
-def suppressed(diagnostic: Diagnostic, sources: dict[str, list[str]]) -> bool:
-    """`# mpc: ignore[CODE]` on a line silences warnings there, as in .mp sources."""
-    if diagnostic.severity is not Severity.WARNING:
-        return False
-    lines = sources.get(diagnostic.span.file, [])
-    if not 0 < diagnostic.span.line <= len(lines):
-        return False
-    match = SUPPRESS.search(lines[diagnostic.span.line - 1])
-    if match is None:
-        return False
-    codes = match.group(1)
-    return codes is None or diagnostic.code in {c.strip().upper() for c in codes.split(",")}
 
 
 def check_native(paths: list[Path], target: str | None = None) -> FamilyBuild:

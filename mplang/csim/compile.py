@@ -20,9 +20,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from mplang import catalogue as catalogue_module
-from mplang.compiler import Options
+from mplang.compiler import Options, suppressed
 from mplang.csim import profile as profile_module
-from mplang.csim.build import TARGETS, CsimProgram, FamilyBuild, suppressed
+from mplang.csim.build import TARGETS, CsimProgram, FamilyBuild
 from mplang.csim.check import Checker
 from mplang.csim.profile import Profile
 from mplang.csim.syntax import Script, parse_line

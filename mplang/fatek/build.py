@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from mplang.compiler import SUPPRESS
+from mplang.compiler import suppressed
 from mplang.diagnostics import Diagnostic, DiagnosticSink, Severity, Span
 from mplang.fatek import render
 from mplang.fatek.check import Checker, settle_implicit
@@ -73,20 +73,6 @@ class FamilyBuild:
             "undefined_words": render.STEP_WORDS_NOTE,
             "tables": [render.table_json(t, profile) for t in self.programs],
         }
-
-
-def suppressed(diagnostic: Diagnostic, sources: dict[str, list[str]]) -> bool:
-    """`mpc: ignore[W601]` in a comment of the line silences that warning, as in `.mp`."""
-    if diagnostic.severity is not Severity.WARNING:
-        return False
-    lines = sources.get(diagnostic.span.file, [])
-    if not 0 < diagnostic.span.line <= len(lines):
-        return False
-    match = SUPPRESS.search(lines[diagnostic.span.line - 1])
-    if match is None:
-        return False
-    codes = match.group(1)
-    return codes is None or diagnostic.code in {c.strip().upper() for c in codes.split(",")}
 
 
 def display_name(path: Path) -> str:

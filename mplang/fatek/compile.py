@@ -18,9 +18,9 @@ from pathlib import Path
 
 from mplang import catalogue as catalogue_module
 from mplang.catalogue import Catalogue
-from mplang.compiler import Options
+from mplang.compiler import Options, suppressed
 from mplang.diagnostics import DiagnosticSink, Span
-from mplang.fatek.build import FUN_OF_TARGET, FamilyBuild, check_target, suppressed
+from mplang.fatek.build import FUN_OF_TARGET, FamilyBuild, check_target
 from mplang.fatek.check import Checker
 from mplang.fatek.model import (
     NEXT,
