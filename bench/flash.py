@@ -25,15 +25,10 @@ Targets (issue 4), each a ratio to a baseline measured in the same run:
 from __future__ import annotations
 
 import asyncio
-import os
-import pty
-import select
 import statistics
 import subprocess
 import sys
-import threading
 import time
-import tty
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -179,47 +174,12 @@ async def over_tcp(image: FlashImage) -> None:
 
 
 # ------------------------------------------------------------------------- 2: RTU wire
-class PacedLine:
-    """Two pty pairs joined by a relay that holds every chunk for its time on an RTU wire
-    (`BITS_PER_CHAR` bits per byte at `baud`, plus the 3.5-character silence): a serial
-    line without hardware that takes as long as a real one."""
-
-    def __init__(self, baud: int) -> None:
-        self.char_time = BITS_PER_CHAR / baud
-        self._masters: list[int] = []
-        self._slaves: list[int] = []
-        for _ in range(2):
-            master, slave = pty.openpty()
-            tty.setraw(slave)
-            self._masters.append(master)
-            self._slaves.append(slave)
-        self.device_end = os.ttyname(self._slaves[0])
-        self.client_end = os.ttyname(self._slaves[1])
-        self._stop_read, self._stop_write = os.pipe()
-        self._thread = threading.Thread(target=self._relay, name="paced-line", daemon=True)
-        self._thread.start()
-
-    def _relay(self) -> None:
-        a, b = self._masters
-        peer = {a: b, b: a}
-        while True:
-            ready, _, _ = select.select([a, b, self._stop_read], [], [])
-            if self._stop_read in ready:
-                return
-            for fd in ready:
-                try:
-                    data = os.read(fd, 4096)
-                except OSError:
-                    continue
-                if data:  # Modbus RTU is half duplex: one chunk on the wire at a time
-                    time.sleep((len(data) + GAP_CHARS) * self.char_time)
-                    os.write(peer[fd], data)
-
-    def close(self) -> None:
-        os.write(self._stop_write, b"x")
-        self._thread.join(timeout=2)
-        for fd in (*self._masters, *self._slaves, self._stop_read, self._stop_write):
-            os.close(fd)
+def paced_line(baud: int) -> PtyLink:
+    """A pty link that holds every chunk for its time on an RTU wire (`BITS_PER_CHAR` bits
+    per byte at `baud`, plus the 3.5-character silence): a serial line without hardware that
+    takes as long as a real one."""
+    char_time = BITS_PER_CHAR / baud
+    return PtyLink(lambda data: (len(data) + GAP_CHARS) * char_time)
 
 
 def rtu_request_bytes(registers: int) -> int:
@@ -249,7 +209,7 @@ def wire_seconds(image: FlashImage, baud: int) -> tuple[float, int]:
     return (total_bytes + GAP_CHARS * len(frames)) * char_time, total_bytes
 
 
-async def flash_over_rtu(image: FlashImage, line: PacedLine | PtyLink) -> Timed:
+async def flash_over_rtu(image: FlashImage, line: PtyLink) -> Timed:
     face = DeviceFace(VirtualController(), SimClock(1.0))
     try:
         server = await serve_rtu(face, line.device_end, unit=1, baudrate=BAUD)
@@ -266,7 +226,7 @@ async def flash_over_rtu(image: FlashImage, line: PacedLine | PtyLink) -> Timed:
 
 async def over_rtu(image: FlashImage) -> None:
     own = await flash_over_rtu(image, PtyLink())
-    run = await flash_over_rtu(image, PacedLine(BAUD))
+    run = await flash_over_rtu(image, paced_line(BAUD))
     limit, total_bytes = wire_seconds(image, BAUD)
     print(f"full-device image over Modbus RTU at {BAUD} baud 8N1 (paced pty pair): "
           f"{run.requests:,} requests in {run.seconds:.2f} s")
@@ -331,7 +291,7 @@ async def fleet_in_child(image: FlashImage) -> FleetRun:
 async def fleet_on_serial_lines(image: FlashImage) -> FleetRun:
     """RS-M8194H devices, each on its own paced 115200-baud line: the wire, not the CPU,
     sets one device's time, as on a real installation."""
-    lines = [PacedLine(BAUD) for _ in range(FLEET + 1)]
+    lines = [paced_line(BAUD) for _ in range(FLEET + 1)]
     faces = [DeviceFace(VirtualController(), SimClock(1.0)) for _ in lines]
     servers = [await serve_rtu(face, line.device_end, unit=1, baudrate=BAUD)
                for face, line in zip(faces, lines, strict=True)]

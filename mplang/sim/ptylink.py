@@ -1,8 +1,9 @@
 """A serial line without hardware: two pseudo-terminals joined back to back.
 
 The device opens one end by name, the client (pymodbus, mbpoll, a PLC program under test)
-the other. A thread copies bytes between the two pty masters. Ptys ignore the baud rate, so
-nothing here pretends to model wire timing.
+the other. A thread copies bytes between the two pty masters. Ptys ignore the baud rate;
+by default nothing models wire timing, and `seconds_per_chunk` (bench/flash.py) may hold each
+chunk for its time on a real wire.
 """
 
 from __future__ import annotations
@@ -11,13 +12,18 @@ import os
 import pty
 import select
 import threading
+import time
 import tty
+from collections.abc import Callable
 
 
 class PtyLink:
-    """Two linked ptys; `device_end` and `client_end` are the paths to open."""
+    """Two linked ptys; `device_end` and `client_end` are the paths to open.
+    `seconds_per_chunk(data)`, if given, is how long each chunk is held before it is passed
+    on (one chunk at a time, as on a half-duplex line)."""
 
-    def __init__(self) -> None:
+    def __init__(self, seconds_per_chunk: Callable[[bytes], float] | None = None) -> None:
+        self._pace = seconds_per_chunk
         self._masters: list[int] = []
         self._slaves: list[int] = []
         for _ in range(2):
@@ -44,6 +50,8 @@ class PtyLink:
                 except OSError:
                     continue  # nobody has the other end open yet
                 if data:
+                    if self._pace is not None:
+                        time.sleep(self._pace(data))
                     os.write(peer[fd], data)
 
     def close(self) -> None:
