@@ -5,13 +5,22 @@ from __future__ import annotations
 import hashlib
 import json
 import re
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from mplang import catalogue as catalogue_module
 from mplang.catalogue import Catalogue
+from mplang.configure import (
+    InitLowerer,
+    TriggerTable,
+    Wire,
+    build_trigger_table,
+    wire_interrupts,
+)
 from mplang.diagnostics import Diagnostic, DiagnosticSink, Severity, Span
 from mplang.encode import Encoder
+from mplang.frontend import ast
 from mplang.frontend.sources import load_sources
 from mplang.frontend.structure import build_unit
 from mplang.ir import LoweredProgram, MacroLine, ProgramRef
@@ -78,6 +87,34 @@ class ProgramImage:
 
 
 @dataclass
+class InitImage:
+    """The INIT block as downloaded: real-time frames (INITIAL_* axis codes), LOAD_INITIAL
+    last. Not a macro program: no slot, no budget."""
+
+    program: LoweredProgram
+    frames: list[list[int]]
+
+    def to_json(self) -> dict[str, object]:
+        return {"source": self.program.source, "line": self.program.span.line,
+                "frame_lines": [line.span.line for line in self.program.lines],
+                "frames": self.frames}
+
+
+@dataclass
+class TriggerImage:
+    """The stand-alone trigger table with program slots resolved (chapter 10)."""
+
+    source: str
+    line: int
+    entries: list[dict[str, object]]
+    enabled: bool = True
+
+    def to_json(self) -> dict[str, object]:
+        return {"enabled": self.enabled, "source": self.source, "line": self.line,
+                "entries": self.entries}
+
+
+@dataclass
 class BuildResult:
     diagnostics: list[Diagnostic]
     programs: list[ProgramImage] = field(default_factory=list)
@@ -85,6 +122,8 @@ class BuildResult:
     target: str = "et"
     sources: dict[str, list[str]] = field(default_factory=dict)  # display name -> lines
     variables: list[Variable] = field(default_factory=list)  # `VAR name` declarations
+    init: InitImage | None = None  # the INIT block
+    triggers: TriggerImage | None = None  # the TRIGGERS table
 
     @property
     def ok(self) -> bool:
@@ -93,17 +132,27 @@ class BuildResult:
     def build_id(self) -> str:
         """Content hash of what would be downloaded: the same image, the same id."""
         digest = hashlib.sha256()
-        digest.update(json.dumps([self.word_order, [p.frames for p in self.programs]]).encode())
+        content: list[object] = [self.word_order, [p.frames for p in self.programs]]
+        if self.init is not None:
+            content.append({"init": self.init.frames})
+        if self.triggers is not None:
+            content.append({"triggers": self.triggers.to_json()["entries"]})
+        digest.update(json.dumps(content).encode())
         return digest.hexdigest()[:16]
 
     def image(self) -> dict[str, object]:
-        return {
+        image: dict[str, object] = {
             "format": IMAGE_FORMAT,
             "target": {"word_order": self.word_order, "family": "M8194H",
                        "variant": self.target},
             "build_id": self.build_id(),
-            "programs": [p.to_json() for p in self.programs],
         }
+        if self.init is not None:
+            image["init"] = self.init.to_json()
+        if self.triggers is not None:
+            image["triggers"] = self.triggers.to_json()
+        image["programs"] = [p.to_json() for p in self.programs]
+        return image
 
 
 def compile_paths(paths: list[Path], options: Options = Options(), *,
@@ -142,10 +191,44 @@ def compile_source(text: str, name: str = "<input>.mp", options: Options = Optio
     return compile_paths([path], options, texts={path: text, path.resolve(): text})
 
 
+def _lower_init(unit: ast.Unit, scope: Scope, sink: DiagnosticSink, target: str
+                ) -> LoweredProgram | None:
+    """The build's one INIT block, lowered (E801 for any further block)."""
+    for extra in unit.inits[1:]:
+        first = unit.inits[0]
+        sink.add("E801", extra.span, f"a second INIT block (the first is at "
+                 f"{first.span.file}:{first.span.line})", hint="merge them into one")
+    if not unit.inits:
+        return None
+    return InitLowerer(scope, unit.inits[0], target).lower_init()
+
+
+def _check_filled(placements: list[Placement], wired: list[Wire],
+                  triggers: TriggerTable | None, slot_of: Callable[[ProgramRef], int | None],
+                  sink: DiagnosticSink) -> None:
+    """W811/W821: interrupts and triggers that start a slot no program of the build fills
+    (known only after linking, since unnumbered programs are placed then)."""
+    filled = {(p.program.kind, p.slot) for p in placements}
+    warned: set[tuple[str, int]] = set()
+    for wire in wired:
+        if not isinstance(wire.isr, int):
+            continue  # an ISR named in the build
+        isr = ("isr", wire.isr)
+        if isr not in filled and isr not in warned:
+            sink.add("W811", wire.span, f"ISR{wire.isr} is not in this build: the "
+                     "interrupt starts an empty slot unless it is downloaded separately")
+            warned.add(isr)
+    for trigger in triggers.entries if triggers else []:
+        number = slot_of(trigger.mp) if trigger.mp is not None else None
+        mp = ("mp", number or 0)
+        if number is not None and mp not in filled and mp not in warned:
+            sink.add("W821", trigger.span, f"MP{number} is not in this build: the trigger "
+                     "starts an empty slot unless it is downloaded separately")
+            warned.add(mp)
+
+
 def _finish(unit: object, catalogue: Catalogue, sink: DiagnosticSink,
             options: Options) -> BuildResult:
-    from mplang.frontend import ast
-
     assert isinstance(unit, ast.Unit)
     profile = catalogue.profile
     word_order = profile.word_order_default if options.word_order is None else options.word_order
@@ -158,16 +241,26 @@ def _finish(unit: object, catalogue: Catalogue, sink: DiagnosticSink,
     names = {p.name.upper(): p for p in unit.programs if p.name}
     lowered = [ProgramLowerer(scope, program, options.temps, options.target, names)
                .lower_program() for program in unit.programs]
+    init = _lower_init(unit, scope, sink, options.target)
+    wiring = wire_interrupts(unit.interrupts, lowered, init, catalogue, sink, names)
+    triggers = build_trigger_table(unit.triggers, catalogue, sink, names)
     placements = link(lowered, profile, sink, options.pins)
+    by_name = {p.name.upper(): p for p in lowered if p.name}
+
+    def slot_of(ref: ProgramRef) -> int | None:
+        return resolve(ref, by_name)
+
+    _check_filled(placements, wiring.all_wires, triggers, slot_of, sink)
     result = BuildResult(sink.sorted(), word_order=word_order, target=options.target,
                          variables=sorted(scope.variables, key=lambda v: v.index))
     if not result.ok:
         return result
-    by_name = {p.name.upper(): p for p in lowered if p.name}
     encoder = Encoder(catalogue, word_order)
-
-    def slot_of(ref: ProgramRef) -> int | None:
-        return resolve(ref, by_name)
+    if init is not None:
+        result.init = InitImage(init, [encoder.frame(line, slot_of) for line in init.lines])
+    if triggers is not None:
+        result.triggers = TriggerImage(triggers.source, triggers.span.line, [
+            t.to_json(slot_of(t.mp) if t.mp is not None else None) for t in triggers.entries])
 
     for placement in sorted(placements, key=lambda p: (p.program.kind != "mp", p.slot)):
         program = placement.program

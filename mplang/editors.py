@@ -38,7 +38,10 @@ KEYWORD_ROLES = {
     "END": "control", "FOR": "control", "NEXT": "control", "EXIT": "control", "IF": "control",
     "THEN": "control", "ELSE": "control", "LABEL": "control", "GOTO": "control",
     "CALL": "control", "TERMINATE": "control", "WHILE": "control", "REPEAT": "control",
+    "INIT": "program", "INTERRUPTS": "program", "TRIGGERS": "program", "ON": "control",
 }
+# Terminals that outrank NAME without being keywords: `DI 8.0` in an ON line.
+NOT_KEYWORDS = ("DI_PIN",)
 KEYWORD_SCOPES = {"program": "storage.type.program.mplang",
                   "declaration": "storage.type.declaration.mplang",
                   "import": "keyword.control.import.mplang",
@@ -89,7 +92,7 @@ def grammar_keywords() -> list[str]:
     name_priority = next(t.priority for t in lark.terminals if t.name == "NAME")
     words = []
     for terminal in lark.terminals:
-        if terminal.priority <= name_priority:
+        if terminal.priority <= name_priority or terminal.name in NOT_KEYWORDS:
             continue
         match = re.fullmatch(r"([a-z]+)\\b", terminal.pattern.value)
         if match is None or match.group(1).upper() != terminal.name:

@@ -76,6 +76,11 @@ WORD_ORDER_REGISTER = 14  # holding: 0 MSW first, 1 LSW first
 ILLEGAL_FUNCTION, DEVICE_BUSY = 0x01, 0x06
 DPRAM_FULL = 0xC1  # register-102 cause that means "busy": the frame was not taken
 STATES = {0: "ready", 1: "MP download", 2: "ISR download"}
+CHIP_STATE_REGISTER = 101  # input: 4 loading the initial table, 5 initialization finished
+CHIP_LOADING, CHIP_INITIALIZED = 4, 5
+TRIGGER_REGISTER = 9  # holding: FRnet DI triggering 0 off / 1 on (5.4)
+INIT_TIMEOUT_S = 2.0  # how long LOAD_INITIAL may take before the table counts unverified
+INIT_POLL_S = 0.01
 BUSY_PAUSE_FIRST_S, BUSY_PAUSE_MAX_S = 0.01, 0.5  # the FIFO drains in milliseconds
 
 OUTCOMES = ("verified", "no-device", "rejected", "unverified", "interrupted")
@@ -154,10 +159,39 @@ class FlashProgram:
 
 
 @dataclass
+class FlashInit:
+    """The INIT block: real-time frames writing the initial table (INITIAL_* axis codes),
+    LOAD_INITIAL last; verified through the chip state (input register 101)."""
+
+    source: str | None
+    frames: list[list[int]]
+    lines: list[int | None]
+
+    def where(self, index: int) -> str | None:
+        line = self.lines[index] if 0 <= index < len(self.lines) else None
+        if self.source is None:
+            return None
+        return f"{self.source}:{line}" if line is not None else self.source
+
+
+@dataclass
+class FlashTriggers:
+    """The TRIGGERS table: the device takes the table only from the vendor utility, so a
+    flash enables (or disables) triggering at holding register 9 and reads it back."""
+
+    enabled: bool
+    entries: list[dict[str, Any]]
+    source: str | None
+    line: int | None
+
+
+@dataclass
 class FlashImage:
     word_order: int
     programs: list[FlashProgram]
     build_id: str | None = None
+    init: FlashInit | None = None
+    triggers: FlashTriggers | None = None
 
 
 def image_from_build(build: BuildResult) -> FlashImage:
@@ -169,7 +203,15 @@ def image_from_build(build: BuildResult) -> FlashImage:
         lines: list[int | None] = list(p.frame_lines)
         programs.append(FlashProgram(p.program.kind, p.placement.slot, p.program.name,
                                      p.program.source, [list(f) for f in p.frames], lines))
-    return FlashImage(build.word_order, programs, build.build_id())
+    init = None
+    if build.init is not None:
+        init = FlashInit(build.init.program.source, [list(f) for f in build.init.frames],
+                         [line.span.line for line in build.init.program.lines])
+    triggers = None
+    if build.triggers is not None:
+        triggers = FlashTriggers(build.triggers.enabled, list(build.triggers.entries),
+                                 build.triggers.source, build.triggers.line)
+    return FlashImage(build.word_order, programs, build.build_id(), init, triggers)
 
 
 def _is_int(value: object) -> bool:
@@ -246,7 +288,75 @@ def image_from_json(data: object, name: str, catalogue: Catalogue | None = None)
                 not all(v is None or (_is_int(v) and v > 0) for v in lines):
             raise fail(f"{at}.frame_lines", "must list one source line (or null) per frame")
         programs.append(FlashProgram(kind, slot, label, source, frames, lines))
-    return FlashImage(word_order, programs, build_id if isinstance(build_id, str) else None)
+    return FlashImage(word_order, programs, build_id if isinstance(build_id, str) else None,
+                      _init_from_json(data.get("init"), catalogue, fail),
+                      _triggers_from_json(data.get("triggers"), fail))
+
+
+def _check_frames(frames: object, at: str, fail: Callable[[str, str], ImageError]) -> None:
+    if not isinstance(frames, list) or not frames:
+        raise fail(at, "must be a non-empty list of frames")
+    for k, frame in enumerate(frames):
+        where = f"{at}[{k}]"
+        if not isinstance(frame, list) or not 1 <= len(frame) <= MAX_WRITE_REGISTERS:
+            raise fail(where, f"must be a list of 1..{MAX_WRITE_REGISTERS} registers")
+        for w, word in enumerate(frame):
+            if not _is_int(word) or not 0 <= word <= 0xFFFF:
+                raise fail(f"{where}[{w}]", f"{word!r} is not a 16-bit register value")
+
+
+def _init_from_json(raw: object, catalogue: Catalogue, fail: Callable[[str, str], ImageError]
+                    ) -> FlashInit | None:
+    """The image's "init": initial-table commands (IT scope, an INITIAL_* axis code), then
+    LOAD_INITIAL and nothing after it; anything else would change live settings or run."""
+    if raw is None:
+        return None
+    if not isinstance(raw, dict):
+        raise fail("init", "must be an object")
+    frames = raw.get("frames")
+    _check_frames(frames, "init.frames", fail)
+    assert isinstance(frames, list)
+    load = catalogue.rtc_by_short["LOAD_INITIAL"].code
+    offset = int(catalogue.profile.raw["axes"]["initial_table_offset"])
+    for k, frame in enumerate(frames[:-1]):
+        command = catalogue.by_code.get(frame[0])
+        if command is None or "it" not in command.scope:
+            raise fail(f"init.frames[{k}]", f"{frame[0]:#06x} is not a command that writes "
+                       "the initial table")
+        if len(frame) < 2 or not frame[1] & offset:
+            raise fail(f"init.frames[{k}][1]", "must be an INITIAL_* axis code (0x11..0x1F)")
+    if frames[-1] != [load]:
+        raise fail(f"init.frames[{len(frames) - 1}]", f"must be LOAD_INITIAL [{load}]")
+    source = raw.get("source")
+    if source is not None and not isinstance(source, str):
+        raise fail("init.source", "must be a string or null")
+    lines = raw.get("frame_lines")
+    if lines is None:
+        lines = [None] * len(frames)
+    elif not isinstance(lines, list) or len(lines) != len(frames) or \
+            not all(v is None or (_is_int(v) and v > 0) for v in lines):
+        raise fail("init.frame_lines", "must list one source line (or null) per frame")
+    return FlashInit(source, frames, lines)
+
+
+def _triggers_from_json(raw: object, fail: Callable[[str, str], ImageError]
+                        ) -> FlashTriggers | None:
+    if raw is None:
+        return None
+    if not isinstance(raw, dict):
+        raise fail("triggers", "must be an object")
+    enabled = raw.get("enabled")
+    if not isinstance(enabled, bool):
+        raise fail("triggers.enabled", "must be true or false")
+    entries = raw.get("entries")
+    if not isinstance(entries, list) or not all(isinstance(e, dict) for e in entries):
+        raise fail("triggers.entries", "must be a list of objects")
+    source, line = raw.get("source"), raw.get("line")
+    if source is not None and not isinstance(source, str):
+        raise fail("triggers.source", "must be a string or null")
+    if line is not None and not _is_int(line):
+        raise fail("triggers.line", "must be a line number or null")
+    return FlashTriggers(enabled, entries, source, line)
 
 
 def load_image(path: Path, catalogue: Catalogue | None = None) -> FlashImage:
@@ -283,16 +393,42 @@ def render_plan(image: FlashImage, catalogue: Catalogue | None = None,
             words = " ".join(f"{w:04X}" for w in frame)
             out.append(f"  {index:>4}  {name:<20} {words:<44} {program.where(index) or ''}"
                        .rstrip())
+    if image.init is not None:
+        init = image.init
+        out.append("")
+        out.append(f"INIT  ({init.where(0) or 'source unknown'})  {len(init.frames)} frames, "
+                   f"then input register {CHIP_STATE_REGISTER} must read {CHIP_INITIALIZED}")
+        for index, frame in enumerate(init.frames):
+            command = catalogue.by_code.get(frame[0])
+            name = command.short_name if command is not None else "?"
+            words = " ".join(f"{w:04X}" for w in frame)
+            out.append(f"  {index:>4}  {name:<20} {words:<44} {init.where(index) or ''}"
+                       .rstrip())
+    if image.triggers is not None:
+        out.append("")
+        out.append(f"TRIGGERS  write holding register {TRIGGER_REGISTER} = "
+                   f"{int(image.triggers.enabled)} and read it back "
+                   f"({len(image.triggers.entries)} channels; the table itself is entered "
+                   "with EzMove)")
     return "\n".join(out) + "\n"
 
 
 def plan_json(image: FlashImage, recorded: frozenset[str] = frozenset()) -> dict[str, object]:
     """`mpc flash --dry-run --json`: the same plan as data."""
-    return {"dry_run": True, "word_order": image.word_order, "build_id": image.build_id,
-            "programs": [{"kind": p.kind, "slot": p.slot, "name": p.name, "source": p.source,
-                          "recorded": f"{p.kind.upper()}{p.slot}" in recorded,
-                          "frame_lines": p.lines, "frames": p.frames}
-                         for p in image.programs]}
+    plan: dict[str, object] = {
+        "dry_run": True, "word_order": image.word_order, "build_id": image.build_id,
+        "programs": [{"kind": p.kind, "slot": p.slot, "name": p.name, "source": p.source,
+                      "recorded": f"{p.kind.upper()}{p.slot}" in recorded,
+                      "frame_lines": p.lines, "frames": p.frames}
+                     for p in image.programs]}
+    if image.init is not None:
+        plan["init"] = {"source": image.init.source, "frame_lines": image.init.lines,
+                        "frames": image.init.frames}
+    if image.triggers is not None:
+        plan["triggers"] = {"register": TRIGGER_REGISTER,
+                            "value": int(image.triggers.enabled),
+                            "entries": image.triggers.entries}
+    return plan
 
 
 # ------------------------------------------------------------------------- the record
@@ -384,11 +520,32 @@ class ProgramResult:
 
 
 @dataclass
+class StepResult:
+    """The INIT download or the TRIGGERS enable: "pending", "verified", "rejected",
+    "unverified" or "interrupted", with the error and its source place."""
+
+    what: str  # "init" | "triggers"
+    frames: int
+    status: str = "pending"
+    seconds: float = 0.0
+    error: str | None = None
+    where: str | None = None
+    detail: str | None = None
+
+    def to_json(self) -> dict[str, object]:
+        return {"status": self.status, "frames": self.frames,
+                "seconds": round(self.seconds, 4), "error": self.error, "where": self.where,
+                "detail": self.detail}
+
+
+@dataclass
 class FlashReport:
     device: str
     word_order: int
     build_id: str | None
     programs: list[ProgramResult]
+    init: StepResult | None = None
+    triggers: StepResult | None = None
     outcome: str = "verified"
     error: str | None = None
     where: str | None = None
@@ -399,8 +556,10 @@ class FlashReport:
 
     @property
     def ok(self) -> bool:
+        steps = [s for s in (self.init, self.triggers) if s is not None]
         return self.outcome == "verified" and all(p.status in ("verified", "unchanged")
-                                                  for p in self.programs)
+                                                  for p in self.programs) \
+            and all(s.status == "verified" for s in steps)
 
     def count(self, status: str) -> int:
         return sum(1 for p in self.programs if p.status == status)
@@ -411,7 +570,10 @@ class FlashReport:
                 "error": self.error, "where": self.where, "notes": self.notes,
                 "seconds": round(self.seconds, 4), "written": self.count("verified"),
                 "unchanged": self.count("unchanged"), "frames_written": self.frames_written,
-                "programs": [p.to_json() for p in self.programs]}
+                "programs": [p.to_json() for p in self.programs],
+                **({"init": self.init.to_json()} if self.init is not None else {}),
+                **({"triggers": self.triggers.to_json()} if self.triggers is not None
+                   else {})}
 
 
 @dataclass(frozen=True)
@@ -454,9 +616,16 @@ class Flasher:
         self.profile = self.catalogue.profile
         self.report = FlashReport(link.endpoint.describe(), image.word_order, image.build_id,
                                   _results(image))
-        self._current: ProgramResult | None = None
+        self._set_steps()
+        self._current: ProgramResult | StepResult | None = None
         self.address = options.address or link.endpoint.describe()
         self._entry: dict[str, Any] | None = None  # this device's record, once trusted
+
+    def _set_steps(self) -> None:
+        image = self.image
+        self.report.init = None if image.init is None else StepResult(
+            "init", len(image.init.frames))
+        self.report.triggers = None if image.triggers is None else StepResult("triggers", 0)
 
     def _encoder(self) -> Encoder:
         """Create and close frames in the image's word order (a rebuild may change it)."""
@@ -475,7 +644,8 @@ class Flasher:
             await self._connect()
             unchanged = await self._consult_record()
             self.report.frames_planned = sum(len(p.frames) for p in self.image.programs
-                                             if p.slot_label not in unchanged)
+                                             if p.slot_label not in unchanged) + (
+                len(self.image.init.frames) if self.image.init is not None else 0)
             if unchanged:
                 labels = [p.slot_label for p in self.image.programs
                           if p.slot_label in unchanged]
@@ -488,6 +658,14 @@ class Flasher:
                     continue
                 self._current = result
                 await self._program(program, result)
+                self._current = None
+            if self.image.init is not None and self.report.init is not None:
+                self._current = self.report.init
+                await self._init(self.image.init, self.report.init)
+                self._current = None
+            if self.image.triggers is not None and self.report.triggers is not None:
+                self._current = self.report.triggers
+                await self._triggers(self.image.triggers, self.report.triggers)
                 self._current = None
         except FlashFailure as failure:
             self._fail(failure.outcome, str(failure), failure.where)
@@ -535,6 +713,7 @@ class Flasher:
             self.report.word_order = self.image.word_order
             self.report.build_id = self.image.build_id
             self.report.programs = _results(self.image)
+            self._set_steps()
             self._note(f"the device's word order (holding register {WORD_ORDER_REGISTER}) is "
                        f"{device_order}: built for it")
             return
@@ -756,6 +935,62 @@ class Flasher:
             raise FlashFailure("rejected", f"{program.label}: the device refused the program: "
                                f"download error {error:#04x} ({reason}) at slot line {line} "
                                f"({name})", program.where(index))
+
+    # ------------------------------------------------------- initial table, triggers
+    async def _init(self, init: FlashInit, result: StepResult) -> None:
+        """Write the initial table (always: no register tells whether the device's table
+        still matches a record), then wait for LOAD_INITIAL to finish: input register 101
+        reads 4 while the table loads and 5 when the initialization finished (12.1.12)."""
+        start = time.monotonic()
+        for index, frame in enumerate(init.frames):
+            try:
+                await self._write(frame, None)
+            except Refused as refusal:
+                raise FlashFailure("rejected", f"INIT: the device refused frame {index} "
+                                   f"({self._describe(frame)}): {refusal}",
+                                   init.where(index)) from None
+            self.report.frames_written += 1
+        deadline = time.monotonic() + INIT_TIMEOUT_S
+        while True:
+            (state,) = await self.link.read_input(CHIP_STATE_REGISTER, 1)
+            if state == CHIP_INITIALIZED:
+                break
+            if time.monotonic() > deadline:
+                raise FlashFailure("unverified", f"INIT: input register {CHIP_STATE_REGISTER} "
+                                   f"reads {state} {INIT_TIMEOUT_S:.0f} s after LOAD_INITIAL, "
+                                   f"not {CHIP_INITIALIZED} (initialization finished)",
+                                   init.where(len(init.frames) - 1))
+            await asyncio.sleep(INIT_POLL_S)
+        result.status = "verified"
+        result.seconds = time.monotonic() - start
+        result.detail = f"input register {CHIP_STATE_REGISTER} = {CHIP_INITIALIZED}"
+        self.progress(f"INIT: {len(init.frames)} frames written, initial table loaded "
+                      f"({result.seconds * 1000:.0f} ms)")
+
+    async def _triggers(self, triggers: FlashTriggers, result: StepResult) -> None:
+        """Switch FRnet DI triggering on (or off) and read the register back. The table
+        itself cannot be downloaded: the manual sets it only through the vendor utility."""
+        start = time.monotonic()
+        wanted = int(triggers.enabled)
+        where = f"{triggers.source}:{triggers.line}" if triggers.source else None
+        try:
+            await self.link.write_holding(TRIGGER_REGISTER, [wanted])
+        except DeviceException as exc:
+            raise FlashFailure("rejected", f"TRIGGERS: the device refused holding register "
+                               f"{TRIGGER_REGISTER} = {wanted}: {exc}", where) from None
+        (now,) = await self.link.read_holding(TRIGGER_REGISTER, 1)
+        if now != wanted:
+            raise FlashFailure("unverified", f"TRIGGERS: holding register {TRIGGER_REGISTER} "
+                               f"reads {now} after writing {wanted}", where)
+        result.status = "verified"
+        result.seconds = time.monotonic() - start
+        result.detail = f"holding register {TRIGGER_REGISTER} = {wanted}"
+        state = "enabled" if wanted else "disabled"
+        self.progress(f"TRIGGERS: FRnet DI triggering {state} (holding register "
+                      f"{TRIGGER_REGISTER} reads {now})")
+        self._note(f"the trigger table ({len(triggers.entries)} channels) is not downloadable: "
+                   "enter it in EzMove (Setting -> FRnet DI..., Send Table) as "
+                   "`mpc build --format triggers` lists it")
 
     def _describe(self, frame: list[int]) -> str:
         command = self.catalogue.by_code.get(frame[0])

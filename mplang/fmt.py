@@ -164,19 +164,21 @@ def _statement_depths(statements: list[ast.Statement]) -> tuple[dict[int, int], 
         statement = normalise_block_spelling(raw)
         line = raw.span.line
         match statement:
-            case ast.ProgramHeader():
+            case ast.ProgramHeader() | ast.InitHeader() | ast.InterruptsHeader() | \
+                    ast.TriggersHeader():
                 stack = ["program"]
                 depth = 0
-            case ast.End(what="mp" | "isr"):
+            case ast.End(what="mp" | "isr" | "init" | "interrupts" | "triggers"):
                 stack = []
                 depth = 0
-            case ast.ForStmt() | ast.IfStmt():
+            case ast.ForStmt() | ast.IfStmt() | ast.WhileStmt() | ast.RepeatStmt():
                 depth = len(stack)
                 if stack:
-                    stack.append("for" if isinstance(statement, ast.ForStmt) else "if")
-            case ast.Next() | ast.End(what="for" | "if"):
-                kind = "if" if isinstance(statement, ast.End) and statement.what == "if" \
-                    else "for"
+                    stack.append("if" if isinstance(statement, ast.IfStmt) else
+                                 "while" if isinstance(statement, ast.WhileStmt) else
+                                 "repeat" if isinstance(statement, ast.RepeatStmt) else "for")
+            case ast.Next() | ast.End(what="for" | "if" | "while" | "repeat"):
+                kind = statement.what if isinstance(statement, ast.End) else "for"
                 if kind in stack:
                     while stack.pop() != kind:
                         pass
@@ -220,7 +222,9 @@ class _Renderer:
             if len(exprs) == 1 and exprs[0].data == "group":
                 return head + self.expr(exprs[0])  # NAME(a, b): the argument list form
             return f"{head} {', '.join(self.expr(e) for e in exprs)}" if exprs else head
-        parts = [self.expr(c) if isinstance(c, Tree) else self.token(c) for c in children]
+        parts = [self.expr(c) if isinstance(c, Tree) and c.data not in ("on_call", "on_words")
+                 else self.statement(c) if isinstance(c, Tree) else self.token(c)
+                 for c in children]
         return " ".join(parts)
 
     def expr(self, tree: Tree[Token]) -> str:

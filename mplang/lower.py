@@ -22,7 +22,8 @@ VAR_RE = re.compile(r"VAR(\d+)", re.IGNORECASE)
 BVAR_RE = re.compile(r"BVAR(\d+)", re.IGNORECASE)
 PROGRAM_RE = re.compile(r"(MP|ISR)(\d+)", re.IGNORECASE)
 KEYWORDS = {"CONST", "ALIAS", "VAR", "WHILE", "REPEAT", "INCLUDE", "MP", "ISR", "END", "FOR",
-            "NEXT", "EXIT", "IF", "THEN", "ELSE", "LABEL", "GOTO", "CALL", "TERMINATE"}
+            "NEXT", "EXIT", "IF", "THEN", "ELSE", "LABEL", "GOTO", "CALL", "TERMINATE",
+            "INIT", "INTERRUPTS", "TRIGGERS", "ON"}
 CONTROL_COMMANDS = {"SET_VAR", "VAR_CALCULATE"}
 
 
@@ -822,7 +823,20 @@ class ProgramLowerer:
             case ast.Terminate():
                 self.emit("MP_TERMINATE", (), node.span)
                 return True
+            case ast.OnStmt():
+                self.lower_on(node)
         return False
+
+    def lower_on(self, node: ast.OnStmt) -> None:
+        """`ON X P>=C+ CALL ISR 2` inside a program: INTFACTOR_ENABLE per axis (an ISR
+        re-arming the next compare, as in the 7.3.12 example)."""
+        from mplang.configure import wire_lines, wires
+
+        command = self.cat.macro("INTFACTOR_ENABLE")
+        if not self.command_allowed(command, node.span):
+            return
+        self.out.lines.extend(wire_lines(wires(node, self.cat, self.sink, self.program_names),
+                                         self.cat))
 
     def lower_for(self, node: ast.ForBlock, counter: VarRef | None = None) -> None:
         """FOR count ... NEXT; `counter`: a temporary already holding the count (REPEAT)."""

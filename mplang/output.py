@@ -23,20 +23,30 @@ def _slot_lines(first: int, cost: int) -> str:
     return str(first) if cost == 1 else f"{first}-{first + cost - 1}"
 
 
+def _frames_object(obj: dict[str, Any], indent: str) -> str:
+    """A JSON object at `indent` whose frame_lines sit on one line and whose frames are one
+    per line (the object's first line carries no indent: the caller places it)."""
+    frames = obj.pop("frames")
+    lines = obj.pop("frame_lines")
+    body = json.dumps(obj, indent=2).replace("\n", "\n" + indent)[:-(len(indent) + 2)]
+    frame_text = ",\n".join(f"{indent}    {json.dumps(f)}" for f in frames)
+    return (f"{body},\n{indent}  \"frame_lines\": {json.dumps(lines)},\n"
+            f"{indent}  \"frames\": [\n{frame_text}\n{indent}  ]\n{indent}}}")
+
+
 def render_json(result: BuildResult) -> str:
     """Indented JSON with each frame kept on one line, so images diff well."""
     image = result.image()
     programs = image.pop("programs")
     assert isinstance(programs, list)
+    init = image.pop("init", None)
+    triggers = image.pop("triggers", None)
     head = json.dumps(image, indent=2)[:-2]
-    parts = []
-    for program in programs:
-        frames = program.pop("frames")
-        lines = program.pop("frame_lines")
-        body = json.dumps(program, indent=2).replace("\n", "\n    ")[:-6]
-        frame_lines = ",\n".join("        " + json.dumps(f) for f in frames)
-        parts.append(f"    {body},\n      \"frame_lines\": {json.dumps(lines)},\n"
-                     f"      \"frames\": [\n{frame_lines}\n      ]\n    }}")
+    if isinstance(init, dict):
+        head += ',\n  "init": ' + _frames_object(init, "  ")
+    if triggers is not None:
+        head += ',\n  "triggers": ' + json.dumps(triggers, indent=2).replace("\n", "\n  ")
+    parts = [f"    {_frames_object(program, '    ')}" for program in programs]
     return head + ',\n  "programs": [\n' + ",\n".join(parts) + "\n  ]\n}\n"
 
 
@@ -44,6 +54,21 @@ def render_listing(result: BuildResult, sources: dict[str, list[str]]) -> str:
     """Per source line: slot line numbers it occupies, their cost, and the frames in hex."""
     out = [f"; mplang listing  build {result.build_id()}  target {result.target.upper()}-M8194H"
            f"  word order {result.word_order}"]
+    if result.init is not None:
+        init = result.init.program
+        out.append("")
+        out.append(f"INIT  ({init.span.file}:{init.span.line}, initial table: real-time "
+                   "commands, LOAD_INITIAL last)")
+        out.append(f"  {'source':<24} {'':>7} {'':>4}  frame")
+        for line, frame in zip(init.lines, result.init.frames, strict=True):
+            source_lines = sources.get(line.span.file, [])
+            text = source_lines[line.span.line - 1].strip() \
+                if 0 < line.span.line <= len(source_lines) else ""
+            out.append(f"  {line.span.file + ':' + str(line.span.line):<24} {'':>7} {'':>4}  "
+                       f"{_hex(frame):<44}  {text}".rstrip())
+    if result.triggers is not None:
+        out.append("")
+        out.append(render_triggers(result).rstrip("\n"))
     for image in result.programs:
         program, placement = image.program, image.placement
         title = f"{program.kind.upper()}{placement.slot}" + (f" {program.name}" if program.name
@@ -84,6 +109,9 @@ def result_close_counts(image: Any) -> bool:
 def render_hex(result: BuildResult) -> str:
     """One frame per line: `<slot> <index>: <registers>`, for diffing and for other tools."""
     out = [f"# mplang hex  build {result.build_id()}  word order {result.word_order}"]
+    if result.init is not None:
+        for index, frame in enumerate(result.init.frames):
+            out.append(f"{'INIT':<6} {index:>3}: {_hex(frame)}")
     for image in result.programs:
         label = f"{image.program.kind.upper()}{image.placement.slot}"
         for index, frame in enumerate(image.frames):
@@ -104,6 +132,33 @@ def render_link_map(result: BuildResult) -> str:
         total_budget += p.budget
     out.append(f"{len(result.programs)} programs, {total_used} of {total_budget} lines in their "
                f"slots used")
+    return "\n".join(out) + "\n"
+
+
+def render_triggers(result: BuildResult) -> str:
+    """The TRIGGERS table as the vendor utility's "FRnet DI Setting" window shows it
+    (chapter 10): what to enter there, since no register layout of the table is documented."""
+    profile = catalogue_module.load().profile.raw["trigger_table"]
+    table = result.triggers
+    if table is None:
+        return "; no TRIGGERS block in this build\n"
+    out = [f"TRIGGERS  ({table.source}:{table.line}; enter in EzMove: Setting -> FRnet DI..., "
+           "then Send Table; mpc flash enables it through holding register "
+           f"{profile['enable_register']})",
+           f"  {'Group':<6} {'Channel':<8} {'Trigger Condition':<18} {'Event Type':<20} "
+           f"{'Axis':<5} line"]
+    names = {v.upper().replace(" ", "_"): v for v in profile["conditions"].values()}
+    axis_name = catalogue_module.load().profile.axis_name
+    for entry in table.entries:
+        condition = names.get(str(entry["condition"]).upper().replace("-", "_"),
+                              str(entry["condition"]))
+        event = str(profile["events"][entry["event"]])
+        if entry["event"] == "mp":
+            event = f"MP{entry['mp']}"
+        axes = axis_name(int(str(entry["axes"]))) if entry["event"] == "hold-drive" else ""
+        out.append(f"  {entry['group']:<6} {entry['channel']:<8} {condition:<18} {event:<20} "
+                   f"{axes:<5} {entry['line']}".rstrip())
+    out.append("  every other channel: None")
     return "\n".join(out) + "\n"
 
 

@@ -291,6 +291,84 @@ _RULES = [
          "The manual documents VARn operands only for some parameters; the 32-bit "
          "encoding is accepted, but the firmware's handling is not described.",
          "Prefer a constant, or test on the device."),
+    # ------------------------------------ E8/W8: whole-controller configuration blocks
+    Rule("E802", "config-block-content", E,
+         "A line that does not belong in an INIT, INTERRUPTS or TRIGGERS block.",
+         "INIT holds only initial-table commands, INTERRUPTS only `ON axis factor CALL isr` "
+         "lines and TRIGGERS only `ON DI g.c condition event` lines; `ON DI` lines exist only "
+         "in a TRIGGERS block and `ON axis` lines only in an INTERRUPTS block or a program.",
+         "Move the line into a program, or into the block it belongs to."),
+    Rule("E805", "config-block-structure", E,
+         "An INIT, INTERRUPTS or TRIGGERS block is nested, not closed, or closed twice.",
+         "Configuration blocks stand at the top level, between programs, and end with "
+         "END INIT, END INTERRUPTS or END TRIGGERS.",
+         "Close the open program first, and end the block with its END line."),
+    Rule("E801", "init-duplicate", E, "More than one INIT block in a build.",
+         "A controller has one initial table; two blocks would leave it to file order which "
+         "setting wins.", "Merge the blocks into one."),
+    Rule("E803", "init-command", E, "A command that cannot write the initial table.",
+         "Only the commands Table 1 marks IT write the initial table (pulse mode, maximum "
+         "speed, limits, home levels, software limits, encoder, servo, alarm, in-position, "
+         "filter, ring counter, triangle prevention, external drive off); they are sent as "
+         "real-time commands with an INITIAL_* axis code.",
+         "Set it from a program or the host instead; see docs/configuration.md for the list.",
+         device="illegal function cause 3 (no such command)"),
+    Rule("E804", "init-variable", E, "A variable as an initial-table value.",
+         "The initial table is stored in the controller's non-volatile memory when the block "
+         "is downloaded; it holds numbers, not references to variables that change later.",
+         "Use a constant (CONST) instead."),
+    Rule("W801", "init-override", W, "An INIT line sets again what an earlier line set.",
+         "Always the last setting is retained (chapter 8, RS 9726), so the earlier line has "
+         "no effect on those axes.", "Remove the earlier line, or the later one."),
+    Rule("E811", "interrupt-factor", E, "An interrupt factor the motion chip does not have.",
+         "INTFACTOR_ENABLE takes the factors of Table 11: PULSE, P>=C-, P<C-, P<C+, P>=C+, "
+         "C-END, C-STA, D-END (or their numbers 0-7).",
+         "Write one of the factor names, without spaces (`P>=C+`)."),
+    Rule("E812", "interrupt-target", E, "ON ... CALL names no ISR.",
+         "An interrupt factor starts an interrupt routine: ISR1..ISR20, by number "
+         "(`CALL ISR 3`) or by the name of an ISR of the build.",
+         "Name an ISR; an MP cannot answer an interrupt."),
+    Rule("E813", "interrupt-conflict", E, "One axis and factor wired to two ISRs.",
+         "Each axis holds one ISR number per factor; a second INTFACTOR_ENABLE replaces the "
+         "first, so one of the declarations would never take effect.",
+         "Keep one ON line per axis and factor, or re-arm it from the ISR on purpose with an "
+         "ON line inside the ISR."),
+    Rule("E814", "interrupt-slmt-conflict", E,
+         "A compare interrupt on an axis whose software limits are enabled.",
+         "The software limits use the COMP+/COMP- registers that the factors P>=C-, P<C-, "
+         "P<C+ and P>=C+ compare against; the manual says INTFACTOR_ENABLE 'is conflict with "
+         "RSM_SET_SLMT' (RS 8027).",
+         "Disable the software limits of that axis in INIT (CLEAR_SLMT), or clear them "
+         "(CLEAR_SLMT) or set the compare value (SET_COMPARE) in the setup program first."),
+    Rule("E815", "interrupt-setup-program", E,
+         "INTERRUPTS names no MP of the build.",
+         "The wiring is compiled into the setup program the block names; it must be an MP "
+         "(ENABLE_INT exists only in MPs and in real time) built together with the block.",
+         "Name an MP of the build by name or number (`INTERRUPTS MP 3`)."),
+    Rule("W811", "interrupt-isr-missing", W, "An interrupt calls an ISR slot no program fills.",
+         "An interrupt whose ISR slot is empty does nothing on the device.",
+         "Build the ISR together with the wiring, or ignore if it is downloaded separately."),
+    Rule("W812", "interrupt-no-compare", W,
+         "A compare interrupt on an axis no program gives a compare value.",
+         "P>=C-, P<C-, P<C+ and P>=C+ compare against COMP+/COMP-, which only SET_COMPARE "
+         "sets; without it the factor compares with whatever the registers hold.",
+         "Call SET_COMPARE for that axis in the setup program before the motion starts."),
+    Rule("E821", "trigger-channel", E, "A DI channel outside the FRnet DI groups.",
+         "Stand-alone triggers are FRnet DI channels: groups 8..15, channels 0..15.",
+         "Write DI g.c with g in 8..15 and c in 0..15."),
+    Rule("E822", "trigger-condition", E, "A trigger condition the controller does not define.",
+         "The conditions are OFF, ON, ON_TO_OFF, OFF_TO_ON and CHANGE (chapter 10).",
+         "Write one of those conditions; leave unused channels out."),
+    Rule("E823", "trigger-event", E, "A trigger event the controller does not define.",
+         "A DI event starts an MP (`CALL name` / `CALL MP 5`), aborts the running command "
+         "(`ABORT COMMAND`) or macro program (`ABORT MACRO`), or holds the drive of some axes "
+         "(`HOLD XY`).", "Write one of those events."),
+    Rule("E824", "trigger-duplicate", E, "One DI channel with two trigger lines.",
+         "The trigger table holds one condition and one event per channel.",
+         "Keep one line per channel."),
+    Rule("W821", "trigger-mp-missing", W, "A trigger starts an MP slot no program fills.",
+         "Triggering an empty MP does nothing on the device.",
+         "Build the MP together with the table, or ignore if it is downloaded separately."),
     # ------------------------------------------ FATEK FBs-PLC positioning programs (E6xx/W6xx)
     Rule("E601", "fbs-syntax", E, "A line of an FBs-PLC listing does not follow its syntax.",
          "A listing line is a step instruction (SPD, DRV, DRVC, DRVZ, LIN, LINE, WAIT, ACT, "

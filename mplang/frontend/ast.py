@@ -196,10 +196,54 @@ class Command:
     name_span: Span
 
 
+@dataclass
+class InitHeader:
+    """`INIT`: opens the initial-table block (power-on settings, chapter 8)."""
+
+    span: Span
+
+
+@dataclass
+class InterruptsHeader:
+    """`INTERRUPTS setup` / `INTERRUPTS MP 3`: wiring injected into that setup program."""
+
+    target: str  # "MP3", "3" or a program name
+    span: Span
+    target_span: Span
+
+
+@dataclass
+class TriggersHeader:
+    """`TRIGGERS`: opens the stand-alone FRnet DI trigger table."""
+
+    span: Span
+
+
+@dataclass
+class OnStmt:
+    """`ON X P>=C+ CALL ISR 3` (an interrupt factor) or `ON DI 8.0 OFF_TO_ON CALL cycle`
+    (a stand-alone trigger). Names are checked against the device profile when lowering."""
+
+    subject: str  # an axis name, or "DI g.c"
+    subject_span: Span
+    condition: str  # "P>=C+", "4", "OFF_TO_ON", "ON", ...
+    condition_span: Span
+    action: str  # "CALL", or the first action word ("ABORT", "HOLD", ...)
+    argument: str | None  # CALL target, or the second action word
+    argument_kind: str | None  # "mp" / "isr" when written `CALL MP 5` / `CALL ISR 3`
+    action_span: Span
+    span: Span
+
+    @property
+    def is_trigger(self) -> bool:
+        return self.subject.upper().startswith("DI")
+
+
 Statement = (
     Const | Alias | VarDecl | Include | ProgramHeader | End | ForStmt | WhileStmt
     | RepeatStmt | Next | ExitFor | Exit | IfStmt
     | Else | LabelStmt | Goto | CallStmt | Terminate | Assign | Command
+    | InitHeader | InterruptsHeader | TriggersHeader | OnStmt
 )
 
 # ------------------------------------------------------- blocks (structure pass)
@@ -262,6 +306,38 @@ class Program:
 
 
 @dataclass
+class InitBlock:
+    """`INIT ... END INIT`: initial-table commands, in source order."""
+
+    body: list[Command]
+    span: Span
+    end_span: Span
+    source: str
+
+
+@dataclass
+class InterruptsBlock:
+    """`INTERRUPTS setup ... END INTERRUPTS`: interrupt factors wired by program `target`."""
+
+    target: str
+    target_span: Span
+    entries: list[OnStmt]
+    span: Span
+    end_span: Span
+    source: str
+
+
+@dataclass
+class TriggersBlock:
+    """`TRIGGERS ... END TRIGGERS`: FRnet DI events of stand-alone mode (chapter 10)."""
+
+    entries: list[OnStmt]
+    span: Span
+    end_span: Span
+    source: str
+
+
+@dataclass
 class Unit:
     """One build: top-level declarations and programs of every file and include."""
 
@@ -269,3 +345,6 @@ class Unit:
     aliases: list[Alias] = field(default_factory=list)
     variables: list[VarDecl] = field(default_factory=list)
     programs: list[Program] = field(default_factory=list)
+    inits: list[InitBlock] = field(default_factory=list)
+    interrupts: list[InterruptsBlock] = field(default_factory=list)
+    triggers: list[TriggersBlock] = field(default_factory=list)

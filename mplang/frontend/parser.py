@@ -24,6 +24,7 @@ TOKEN_WORDS = {
     "_NL": "end of line", "$END": "end of line", "LPAR": "'('", "RPAR": "')'",
     "COMMA": "','", "EQUAL": "'='", "PLUS": "'+'", "MINUS": "'-'", "STAR": "'*'",
     "SLASH": "'/'", "AMP": "'&'", "BAR": "'|'", "THEN": "THEN", "AT": "'@'",
+    "DI_PIN": "a DI channel (DI 8.0)", "CONDITION": "an interrupt factor or trigger condition",
 }
 
 
@@ -167,6 +168,35 @@ class _Builder(Transformer[Token, Any]):
                                      "argument list")
         return ast.Command(str(name), items, self._span(name), self._span(name))
 
+    def init_header(self, kw: Token) -> ast.InitHeader:
+        return ast.InitHeader(self._span(kw))
+
+    def interrupts_header(self, kw: Token, mp: Token | None, target: Token
+                          ) -> ast.InterruptsHeader:
+        text = f"MP{target}" if mp is not None else str(target)
+        return ast.InterruptsHeader(text, self._span(kw), self._span(mp or target))
+
+    def triggers_header(self, kw: Token) -> ast.TriggersHeader:
+        return ast.TriggersHeader(self._span(kw))
+
+    def on_stmt(self, kw: Token, subject: Token, condition: Token,
+                action: tuple[str, str | None, str | None, Span]) -> ast.OnStmt:
+        word, argument, kind, span = action
+        text = str(subject)
+        if subject.type == "DI_PIN":
+            text = "DI " + text[2:].strip()
+        return ast.OnStmt(text, self._span(subject), str(condition), self._span(condition),
+                          word, argument, kind, span, self._span(kw))
+
+    def on_call(self, kw: Token, kind: Token | None, target: Token
+                ) -> tuple[str, str | None, str | None, Span]:
+        return ("CALL", str(target), str(kind.type).lower() if kind else None,
+                self._span(target))
+
+    def on_words(self, first: Token, second: Token | None
+                 ) -> tuple[str, str | None, str | None, Span]:
+        return (str(first).upper(), str(second) if second else None, None, self._span(first))
+
     def start(self, *statements: Any) -> list[ast.Statement]:
         return [s for s in statements if s is not None]
 
@@ -252,8 +282,11 @@ def _placeholder(text: str, span: Span) -> list[ast.Statement]:
         "else": ast.Else(span), "next": ast.Next(span),
         "mp": ast.ProgramHeader("mp", None, None, span),
         "isr": ast.ProgramHeader("isr", None, None, span),
+        "init": ast.InitHeader(span), "triggers": ast.TriggersHeader(span),
+        "interrupts": ast.InterruptsHeader("?", span, span),
     }
-    if first == "end" and second in ("mp", "isr", "if", "for"):
+    if first == "end" and second in ("mp", "isr", "if", "for", "init", "interrupts",
+                                     "triggers"):
         return [ast.End(second, span)]
     return [made[first]] if first in made else []
 

@@ -15,7 +15,11 @@ from mplang.frontend import ast
 from mplang.frontend.sources import SourceSet
 
 BLOCK_WORD = {"mp": "END MP", "isr": "END ISR", "for": "NEXT", "if": "END IF",
-              "while": "END WHILE", "repeat": "END REPEAT"}
+              "while": "END WHILE", "repeat": "END REPEAT", "init": "END INIT",
+              "interrupts": "END INTERRUPTS", "triggers": "END TRIGGERS"}
+# Top-level configuration blocks (docs/configuration.md): not programs, no nesting.
+CONFIG_KINDS = ("init", "interrupts", "triggers")
+CONFIG_HEADERS = (ast.InitHeader, ast.InterruptsHeader, ast.TriggersHeader)
 STRAY_CLOSE = {"for": "E304", "if": "E308", "while": "E315", "repeat": "E315"}
 
 
@@ -113,6 +117,52 @@ def _build_file(statements: list[ast.Statement], file: str, unit: ast.Unit,
     def in_program() -> bool:
         return bool(stack)
 
+    def close_config(end_span: Span) -> None:
+        block = stack.pop()
+        head = block.head
+        if isinstance(head, ast.InitHeader):
+            unit.inits.append(ast.InitBlock(
+                [s for s in block.body if isinstance(s, ast.Command)], head.span, end_span, file))
+        elif isinstance(head, ast.InterruptsHeader):
+            unit.interrupts.append(ast.InterruptsBlock(
+                head.target, head.target_span,
+                [s for s in block.body if isinstance(s, ast.OnStmt)], head.span, end_span,
+                file))
+        else:
+            assert isinstance(head, ast.TriggersHeader)
+            unit.triggers.append(ast.TriggersBlock(
+                [s for s in block.body if isinstance(s, ast.OnStmt)], head.span, end_span,
+                file))
+
+    def config_line(statement: ast.Statement) -> bool:
+        """A line inside INIT/INTERRUPTS/TRIGGERS; False when it ends the block instead
+        (a header of any kind, or an END), to be handled by the normal rules."""
+        block = stack[0]
+        kind = block.kind
+        if isinstance(statement, ast.End) and statement.what == kind:
+            close_config(statement.span)
+            return True
+        if isinstance(statement, (ast.ProgramHeader, ast.End, *CONFIG_HEADERS)):
+            sink.add("E805", block.head.span, f"{kind.upper()} is not closed by "
+                     f"{BLOCK_WORD[kind]}", hint=f"add {BLOCK_WORD[kind]} before line "
+                     f"{statement.span.line}")
+            close_config(statement.span)
+            return False
+        wanted = {"init": ast.Command, "interrupts": ast.OnStmt, "triggers": ast.OnStmt}[kind]
+        fits = isinstance(statement, wanted)
+        if isinstance(statement, ast.OnStmt) and fits:
+            fits = statement.is_trigger == (kind == "triggers")
+        if fits:
+            block.body.append(statement)
+            return True
+        allowed = {"init": "initial-table commands (SET_MAX_V X, 200000)",
+                   "interrupts": "interrupt factors (ON X P>=C+ CALL ISR 3)",
+                   "triggers": "DI triggers (ON DI 8.0 OFF_TO_ON CALL cycle)"}[kind]
+        article = "a" if kind == "triggers" else "an"
+        sink.add("E802", statement.span, f"{article} {kind.upper()} block holds only {allowed}",
+                 hint="move this line into a program or the block where it belongs")
+        return True
+
     def close_block(kind: str, at: Span) -> None:
         """NEXT or END IF: close the innermost block of `kind`, reporting blocks left open
         inside it (they are closed too, so the rest of the file still makes sense)."""
@@ -131,7 +181,33 @@ def _build_file(statements: list[ast.Statement], file: str, unit: ast.Unit,
 
     for raw in statements:
         statement = normalise(raw)
+        if stack and stack[0].kind in CONFIG_KINDS and config_line(statement):
+            continue
         match statement:
+            case ast.InitHeader() | ast.InterruptsHeader() | ast.TriggersHeader():
+                kind = {ast.InitHeader: "init", ast.InterruptsHeader: "interrupts",
+                        ast.TriggersHeader: "triggers"}[type(statement)]
+                if in_program():
+                    sink.add("E805", statement.span, f"{kind.upper()} block inside the "
+                             f"{stack[0].kind.upper()} that starts at line "
+                             f"{stack[0].head.span.line}",
+                             hint=f"close that program with {BLOCK_WORD[stack[0].kind]} first: "
+                             "configuration blocks stand at the top level")
+                    while len(stack) > 1:
+                        unclosed(stack[-1], statement.span)
+                        close_inner(stack.pop(), statement.span)
+                    close_program(statement.span)
+                stack.append(_Open(kind, statement))
+            case ast.End(what="init" | "interrupts" | "triggers"):
+                sink.add("E805", statement.span, f"END {statement.what.upper()} without an "
+                         f"open {statement.what.upper()} block")
+            case ast.OnStmt() if statement.is_trigger or not in_program():
+                where = "a TRIGGERS block" if statement.is_trigger else \
+                    "an INTERRUPTS block or a program"
+                sink.add("E802", statement.span, f"ON {statement.subject} belongs in {where}",
+                         hint="ON DI lines make the stand-alone trigger table: TRIGGERS ... "
+                         "END TRIGGERS" if statement.is_trigger else
+                         "INTERRUPTS setup ... END INTERRUPTS wires factors in program setup")
             case ast.Const() | ast.Alias() | ast.VarDecl():
                 if in_program():
                     sink.add("E301", statement.span, "CONST, ALIAS and VAR must stand at the "
@@ -211,6 +287,11 @@ def _build_file(statements: list[ast.Statement], file: str, unit: ast.Unit,
     while stack:
         last = Span(file, (statements[-1].span.line if statements else 1))
         block = stack[-1]
+        if block.kind in CONFIG_KINDS:
+            sink.add("E805", block.head.span, f"{block.kind.upper()} is not closed by "
+                     f"{BLOCK_WORD[block.kind]}", hint=f"add {BLOCK_WORD[block.kind]}")
+            close_config(last)
+            continue
         unclosed(block, last)
         if len(stack) > 1:
             close_inner(stack.pop(), last)
