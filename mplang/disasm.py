@@ -134,9 +134,62 @@ def disassemble(image: FlashImage, temps: range = DEFAULT_TEMPS,
             problems.append(f"{program.label}: frame {index} ({words}) cannot be written as "
                             f".mp: {reason}")
     header = _file_header(image, origin, target, temps)
-    source = header + "\n".join(_render_program(t, temps) for t in texts)
+    config = _render_init(image, catalogue, encoder, problems) + _render_triggers(image,
+                                                                                  catalogue)
+    source = header + config + "\n".join(_render_program(t, temps) for t in texts)
     problems += _whole_build_problems(source, image, texts, options)
     return Disassembly(source, problems)
+
+
+# ------------------------------------------------------------------ configuration blocks
+def _render_init(image: FlashImage, catalogue: Catalogue, encoder: Encoder,
+                 problems: list[str]) -> str:
+    """The image's initial table as an INIT block: axes written plainly (inside INIT, X
+    means INITIAL_X), LOAD_INITIAL left to END INIT."""
+    if image.init is None:
+        return ""
+    offset = int(catalogue.profile.raw["axes"]["initial_table_offset"])
+    lines = ["INIT"]
+    for index, frame in enumerate(image.init.frames[:-1]):
+        line = image.init.lines[index] if index < len(image.init.lines) else None
+        comment = f"line {line}" if line is not None else ""
+        words = " ".join(f"{w:04X}" for w in frame)
+        try:
+            command, operands = encoder.decode(frame)
+        except EncodeError as exc:
+            problems.append(f"INIT: frame {index} ({words}) cannot be written as .mp: {exc}")
+            lines.append(_with_comment(f"    # {words}", f"not decodable: {exc}"))
+            continue
+        args = []
+        for param, operand in zip(command.params, operands, strict=True):
+            if param.kind == "axis_it" and isinstance(operand, int) and operand & offset:
+                args.append(catalogue.profile.axis_name(operand - offset))
+            else:
+                args.append(str(operand))
+        text = f"    {command.short_name}" + (f" {', '.join(args)}" if args else "")
+        lines.append(_with_comment(text, comment))
+    lines.append("END INIT")
+    return "\n".join(lines) + "\n\n"
+
+
+def _render_triggers(image: FlashImage, catalogue: Catalogue) -> str:
+    if image.triggers is None:
+        return ""
+    lines = ["TRIGGERS"]
+    for entry in image.triggers.entries:
+        condition = str(entry.get("condition", "")).upper().replace("-", "_")
+        event = entry.get("event")
+        action = {"abort-command": "ABORT COMMAND", "abort-macro": "ABORT MACRO"}.get(
+            str(event), "")
+        if event == "mp":
+            action = f"CALL MP {entry.get('mp')}"
+        elif event == "hold-drive":
+            action = f"HOLD {catalogue.profile.axis_name(int(str(entry.get('axes', 0))))}"
+        text = f"    ON DI {entry.get('group')}.{entry.get('channel')} {condition} {action}"
+        line = entry.get("line")
+        lines.append(_with_comment(text, f"line {line}" if line is not None else ""))
+    lines.append("END TRIGGERS")
+    return "\n".join(lines) + "\n\n"
 
 
 # ------------------------------------------------------------------------------ decoding
@@ -535,6 +588,16 @@ def _whole_build_problems(source: str, image: FlashImage, texts: list[ProgramTex
         return [f"the output does not rebuild: its line {d.span.line}: {d.code} {d.message}"
                 for d in errors]
     problems = []
+    if image.init is not None and (result.init is None
+                                   or result.init.frames != image.init.frames):
+        problems.append("INIT: the disassembly rebuilds to other frames")
+    if image.triggers is not None:
+        def plain(entries: Sequence[dict[str, object]]) -> list[dict[str, object]]:
+            return [{k: v for k, v in e.items() if k != "line"} for e in entries]
+
+        if result.triggers is None or plain(result.triggers.entries) != \
+                plain(image.triggers.entries):
+            problems.append("TRIGGERS: the disassembly rebuilds to another trigger table")
     for text in texts:
         program = text.program
         rebuilt = _rebuilt(result, program)

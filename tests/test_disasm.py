@@ -420,3 +420,30 @@ def test_the_docs_example_is_what_disasm_writes() -> None:
     build = compile_source(source, "job.mp")
     result = disassemble(image_from_build(build), origin="job.json", variant="et")
     assert result.exact and result.text == expected
+
+
+# ------------------------------------------------------------- configuration blocks
+@pytest.mark.parametrize("word_order", [0, 1])
+def test_init_and_trigger_table_round_trip(word_order: int) -> None:
+    build = compile_paths([ROOT / "samples" / "controller" / "controller.mp"],
+                          Options(word_order=word_order))
+    result, rebuilt = round_trip(build)
+    assert result.exact, result.problems
+    assert "INIT\n" in result.text and "TRIGGERS\n" in result.text
+    assert frames(rebuilt) == frames(build)
+    assert build.init is not None and rebuilt.init is not None
+    assert rebuilt.init.frames == build.init.frames
+    assert build.triggers is not None and rebuilt.triggers is not None
+    strip = [{k: v for k, v in e.items() if k != "line"} for e in build.triggers.entries]
+    assert [{k: v for k, v in e.items() if k != "line"} for e in rebuilt.triggers.entries] \
+        == strip
+
+
+def test_an_init_frame_that_cannot_be_decoded_is_named() -> None:
+    build = compile_source("INIT\n    SERVO_ON X\nEND INIT\nMP 1\n    VAR1 = 1\nEND MP\n")
+    image = image_from_build(build)
+    assert image.init is not None
+    image.init.frames[0] = [0x0A15]  # SERVO_ON without its axis register
+    result = disassemble(image)
+    assert not result.exact
+    assert any(p.startswith("INIT: frame 0") for p in result.problems)
