@@ -223,9 +223,7 @@ class Scope:
         try:
             value: int | None = self.fold(decl.value)
             if value is None:
-                self.sink.add("E206", decl.value.span, f"CONST {decl.name} is not a constant "
-                              "expression", hint="CONST values may use numbers, other CONSTs "
-                              "and + - * / & | ( )")
+                self._not_constant(decl)
         except ConstError as err:
             if err.code:
                 self.sink.add(err.code, err.span, err.message)
@@ -234,6 +232,26 @@ class Scope:
             self._evaluating.discard(key)
         self.const_values[key] = value
         return value
+
+    def _not_constant(self, decl: ast.Const) -> None:
+        """E206, naming the first name that keeps the value from being a constant."""
+        hint = "CONST values may use numbers, other CONSTs and + - * / & | ( )"
+        culprit = next((e for e in _walk(decl.value) if isinstance(e, ast.Call) or (
+            isinstance(e, ast.Name) and e.name.upper() not in self.const_exprs)), None)
+        if isinstance(culprit, ast.Call):
+            self.sink.add("E206", culprit.span, f"CONST {decl.name} uses {culprit.name}(...), "
+                          "which is read at run time, so it is not a constant",
+                          hint="assign it to a variable in a program instead")
+            return
+        if not isinstance(culprit, ast.Name):
+            self.sink.add("E206", decl.value.span, f"CONST {decl.name} is not a constant "
+                          "expression", hint=hint)
+            return
+        what = "a variable" if self.variable(culprit.name) is not None else \
+            self.reserved(culprit.name) or "not defined"
+        self.sink.add("E206", culprit.span, f"CONST {decl.name} uses {culprit.name}, which is "
+                      f"{what}, so it is not a constant",
+                      hint=did_you_mean(culprit.name, list(self.const_exprs)) or hint)
 
     def fold(self, expr: ast.Expr) -> int | None:
         """Integer value of a constant expression, None if it involves run-time values."""
@@ -305,6 +323,19 @@ def did_you_mean(name: str, candidates: list[str]) -> str:
     return f"did you mean {close[0]}?" if close else ""
 
 
+def temps_for(kind: str, temps: range) -> range:
+    """The part of the temporary pool a program of `kind` computes in. An ISR runs between
+    two lines of the MP it interrupts, so it must not overwrite the MP's half-computed
+    temporaries: ISRs take the top quarter of the pool (at least two variables), MPs the
+    rest. A pool of fewer than four variables is shared (and then an ISR must not compute
+    expressions while an MP may be interrupted in one)."""
+    if len(temps) < 4:
+        return temps
+    isr_count = max(2, len(temps) // 4)
+    split = temps.stop - isr_count
+    return range(split, temps.stop) if kind == "isr" else range(temps.start, split)
+
+
 @dataclass
 class _Block:
     kind: str  # "for" | "if" | "while" (lowered to an IF)
@@ -322,7 +353,8 @@ class ProgramLowerer:
         self.program = program
         self.kind = program.kind
         self.temps = temps
-        self.free_temps = list(reversed(temps))
+        self.own_temps = temps_for(program.kind, temps)
+        self.free_temps = list(reversed(self.own_temps))
         self.target = target
         self.program_names = program_names
         self.out = LoweredProgram(program.kind, program.slot, program.name, program.source,
@@ -384,13 +416,15 @@ class ProgramLowerer:
     def take_temp(self, span: Span) -> VarRef | None:
         if not self.free_temps:
             self.sink.add("E422", span, f"the expression needs more than the "
-                          f"{len(self.temps)} temporary variables of the pool",
+                          f"{len(self.own_temps)} temporary variables an "
+                          f"{self.kind.upper()} may use (VAR{self.own_temps.start}.."
+                          f"VAR{self.own_temps.stop - 1})",
                           hint="split it into several assignments")
             return None
         return VarRef(self.free_temps.pop())
 
     def give_temp(self, ref: VarRef) -> None:
-        if ref.index in self.temps and ref.index not in self.free_temps:
+        if ref.index in self.own_temps and ref.index not in self.free_temps:
             self.free_temps.append(ref.index)
 
     # --------------------------------------------------------------- expressions

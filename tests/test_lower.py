@@ -138,3 +138,45 @@ def test_only_warnings_can_be_silenced() -> None:
     source = "MP 1\n VAR2 = VAR1   # mpc: ignore[W103]\n VAR3 = VAR9 # mpc: ignore\n" \
              " FOO 1 # mpc: ignore\nEND MP\n"
     assert [d.code for d in compile_source(source).diagnostics] == ["E201"]
+
+
+def _temporaries(program_lines: list[MacroLine]) -> set[int]:
+    return {o.index for line in program_lines for o in line.operands
+            if isinstance(o, VarRef) and 500 <= o.index < 512}
+
+
+def test_isrs_compute_in_their_own_temporaries() -> None:
+    # An ISR runs between two lines of the MP it interrupts: sharing a temporary would
+    # overwrite the MP's half-computed expression.
+    source = """MP 41 main
+    VAR1 = (VAR2 + 1) * (VAR3 + 2) * (VAR4 + 3) - (VAR5 + 4) * (VAR6 + 5)
+END MP
+ISR 7 tick
+    VAR7 = (VAR8 + 1) * (VAR9 + 2) - VAR10
+END ISR
+"""
+    result = compile_source(source)
+    assert result.ok, [d.render() for d in result.diagnostics]
+    by_kind = {p.program.kind: _temporaries([lf.line for lf in p.lines])
+               for p in result.programs}
+    assert by_kind["mp"] and by_kind["isr"]
+    assert not by_kind["mp"] & by_kind["isr"]
+    assert by_kind["isr"] <= set(range(509, 512)) and by_kind["mp"] <= set(range(500, 509))
+
+
+def test_isr_expression_too_big_for_its_share_names_the_share() -> None:
+    deep = "VAR9 + 1"
+    for n in range(1, 6):
+        deep = f"(VAR{n} + 1) * ({deep})"
+    source = f"ISR 7 tick\n    VAR20 = {deep}\nEND ISR\n"
+    result = compile_source(source)
+    messages = [d.message for d in result.diagnostics if d.code == "E422"]
+    assert messages and "an ISR may use (VAR509..VAR511)" in messages[0]
+
+
+def test_const_from_unknown_name_names_it() -> None:
+    result = compile_source("CONST SPEED = 10\nCONST A = SPEDE * 2\nCONST B = VAR3 + 1\n")
+    found = {(d.message, d.hint) for d in result.diagnostics if d.code == "E206"}
+    assert ("CONST A uses SPEDE, which is not defined, so it is not a constant",
+            "did you mean SPEED?") in found
+    assert any("CONST B uses VAR3, which is a variable" in message for message, _ in found)
