@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import re
@@ -13,6 +14,7 @@ from mplang import catalogue as catalogue_module
 from mplang.catalogue import Catalogue
 from mplang.configure import (
     InitLowerer,
+    InterruptWiring,
     TriggerTable,
     Wire,
     build_trigger_table,
@@ -227,6 +229,34 @@ def _check_filled(placements: list[Placement], wired: list[Wire],
             warned.add(mp)
 
 
+@dataclass
+class LoweredUnit:
+    """A build lowered up to the linker: programs (interrupt wiring injected), the INIT
+    block, the wiring and the trigger table."""
+
+    programs: list[LoweredProgram]
+    init: LoweredProgram | None
+    wiring: InterruptWiring
+    triggers: TriggerTable | None
+
+
+def lower_unit(unit: ast.Unit, scope: Scope, sink: DiagnosticSink, options: Options
+               ) -> LoweredUnit:
+    """Every program and configuration block of a declared unit, lowered and checked: the
+    one path the compiler and the editor's budget display share."""
+    catalogue = scope.catalogue
+    names = {p.name.upper(): p for p in unit.programs if p.name}
+    lowered: list[LoweredProgram] = []
+    for program in unit.programs:
+        with contextlib.suppress(ConstError):  # already reported where it arose
+            lowered.append(ProgramLowerer(scope, program, options.temps, options.target,
+                                          names).lower_program())
+    init = _lower_init(unit, scope, sink, options.target)
+    wiring = wire_interrupts(unit.interrupts, lowered, init, catalogue, sink, names)
+    triggers = build_trigger_table(unit.triggers, catalogue, sink, names)
+    return LoweredUnit(lowered, init, wiring, triggers)
+
+
 def _finish(unit: object, catalogue: Catalogue, sink: DiagnosticSink,
             options: Options) -> BuildResult:
     assert isinstance(unit, ast.Unit)
@@ -238,12 +268,9 @@ def _finish(unit: object, catalogue: Catalogue, sink: DiagnosticSink,
     except ConstError as err:
         if err.code:
             sink.add(err.code, err.span, err.message)
-    names = {p.name.upper(): p for p in unit.programs if p.name}
-    lowered = [ProgramLowerer(scope, program, options.temps, options.target, names)
-               .lower_program() for program in unit.programs]
-    init = _lower_init(unit, scope, sink, options.target)
-    wiring = wire_interrupts(unit.interrupts, lowered, init, catalogue, sink, names)
-    triggers = build_trigger_table(unit.triggers, catalogue, sink, names)
+    lowered_unit = lower_unit(unit, scope, sink, options)
+    lowered, init = lowered_unit.programs, lowered_unit.init
+    wiring, triggers = lowered_unit.wiring, lowered_unit.triggers
     placements = link(lowered, profile, sink, options.pins)
     by_name = {p.name.upper(): p for p in lowered if p.name}
 

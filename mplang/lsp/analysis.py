@@ -19,14 +19,13 @@ from pathlib import Path
 
 from mplang import catalogue as catalogue_module
 from mplang.catalogue import Catalogue
-from mplang.compiler import Options, compile_paths
+from mplang.compiler import Options, compile_paths, lower_unit
 from mplang.diagnostics import Diagnostic, DiagnosticSink, Span
 from mplang.frontend import ast
 from mplang.frontend.sources import SourceFile, SourceSet, load_sources
 from mplang.frontend.structure import build_unit
-from mplang.ir import LoweredProgram
 from mplang.link import Placement, link
-from mplang.lower import ConstError, ProgramLowerer, Scope
+from mplang.lower import ConstError, Scope
 from mplang.lsp.positions import Location, Range, line_range, span_range, split_lines
 from mplang.lsp.tokens import Token, lex_line
 from mplang.lsp.workspace import BuildContext
@@ -339,12 +338,7 @@ def _measure_programs(analysis: Analysis, files: list[SourceFile],
     analysis.const_values = dict(scope.const_values)
     analysis.alias_targets = dict(scope.aliases)
     analysis.pinned = {v.name.upper() for v in scope.variables if v.pinned}
-    names = {p.name.upper(): p for p in unit.programs if p.name}
-    lowered: list[LoweredProgram] = []
-    for written in unit.programs:
-        with contextlib.suppress(ConstError):
-            lowered.append(ProgramLowerer(scope, written, options.temps, options.target,
-                                          names).lower_program())
+    lowered = lower_unit(unit, scope, sink, options).programs
     placements: dict[int, Placement] = {id(p.program): p
                                         for p in link(lowered, catalogue.profile, sink,
                                                       options.pins)}

@@ -170,3 +170,14 @@ def test_a_compiler_failure_becomes_one_diagnostic_and_commands_still_hover(
     assert only.range == line_range(0, 0, 0) and only.severity == "error"
     found = features.hover(analysis, Pos(1, 6))
     assert found is not None and found.markdown.startswith("**SET_V**")
+
+
+def test_interrupt_wiring_counts_in_the_setup_programs_budget() -> None:
+    text = ("INTERRUPTS go\n    ON XY D-END CALL ISR 1\nEND INTERRUPTS\n"
+            "MP 1 go\n    SET_V X, 1\nEND MP\nISR 1\n    VAR1 = 1\nEND ISR\n")
+    analysis = analyse(Path("wired.mp"), text)
+    go = analysis.program_named("go")
+    assert go is not None
+    use = analysis.slot_use(go)
+    # INTFACTOR_ENABLE for X and for Y, ENABLE_INT, SET_V and END MP
+    assert use is not None and use.summary == "MP1: 5/8 lines"
