@@ -555,6 +555,14 @@ class AxisIO:
     def clear_slmt(self, axis_mask: int, now: float) -> None:
         self._configure(axis_mask, now, slmt=False)
 
+    def store_slmt_disabled(self, axis_mask: int, forward: int, reverse: int, use_ep: int,
+                            now: float) -> None:
+        """The initial table loading software limits that it keeps disabled: the values go
+        into the comparators and the limits are off, in one step (SET_SLMT then CLEAR_SLMT
+        would enable them for an instant and stop an axis already beyond them)."""
+        self._configure(axis_mask, now, slmt=False, comp_plus=int(forward),
+                        comp_minus=int(reverse), comp_ep=use_ep == 1)
+
     def servo(self, axis_mask: int, on: bool) -> None:
         for i in _axes(axis_mask):
             self.status[i].servo_on = on

@@ -8,6 +8,7 @@ to the moment they end, and motion is computed analytically by `mplang.sim.motio
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import re
@@ -21,9 +22,11 @@ from mplang.catalogue import Catalogue, Command
 from mplang.encode import Encoder
 from mplang.ir import BVarRef, Operand, VarRef
 from mplang.lower import apply_operator, wrap32
-from mplang.sim import axis_commands, interpolation_commands
+from mplang.sim import axis_commands, initial_table, interpolation_commands
+from mplang.sim.initial_table import AxisColumn, InitialTable
 from mplang.sim.motion import MotionModel
 from mplang.sim.tables import DownloadError, MacroTable, StoredLine, decode_frame, validate
+from mplang.sim.triggers import Triggers
 
 AXIS_NAMES = ("X", "Y", "Z", "U")
 MAX_STEPS_DEFAULT = 50_000_000
@@ -113,7 +116,7 @@ class VirtualController:
         self.motion = MotionModel()
         self.clock = 0.0
         self.state = "ready"  # "ready" | "mp" | "isr" (input register 100: 0/1/2)
-        self.chip_state = 3  # input register 101 (appendix table 12)
+        self.chip_state = 3  # input register 101 (appendix table 12); power on makes it 5
         self.pending: MacroTable | None = None
         self.pending_line = 0
         self.download_status = (0, 0, 0, 0, 0)  # registers 110-114
@@ -127,8 +130,16 @@ class VirtualController:
         self.log: deque[str] = deque(maxlen=200)  # what the device did, for `mpc sim -v`
         self.handlers = self._handlers()
         self.programs: dict[tuple[str, int], tuple[MacroTable, Program]] = {}
-        self.memory_version = 0  # counts stored programs: tells `mpc sim` when to save FRAM
+        self.memory_version = 0  # counts non-volatile changes: tells `mpc sim` to save FRAM
         self.epoch = 0  # counts changes made to the motion model from outside its own plan
+        # chapter 8: the non-volatile initial table, and the live settings the motion model
+        # does not simulate (only the `initial_table.UNMODELLED` fields of these columns
+        # count; `initial_table.live_columns` reads the others from the model)
+        self.initial_table = InitialTable(self.catalogue)
+        self.unmodelled: list[AxisColumn] = [self.initial_table.config.factory] * 4
+        self.loading_until: float | None = None  # register 101 shows 4 until then
+        self.triggers = Triggers(self)  # chapter 10: the FRnet DI trigger table
+        self._load_initial_now()  # "directly after power on" (RS 9738)
 
     @property
     def word_order(self) -> int:
@@ -172,6 +183,9 @@ class VirtualController:
                 return 0
             if command.is_macro:
                 return 0x08
+            cause = self.initial_table.refusal(command, operands)
+            if cause:
+                return cause
             if len(self.fifo) >= self.fifo_capacity:
                 raise DeviceBusy(f"{command.name}: the command FIFO is full")
             start = max(self.clock, self.fifo[-1].due if self.fifo else self.clock)
@@ -187,6 +201,9 @@ class VirtualController:
             return 0
         if kind not in command.scope:
             return 0x05 if kind == "isr" else 0x06
+        cause = self.initial_table.refusal(command, operands)  # "IT ... not inside MP" RS 990
+        if cause:
+            return cause
         budget = self.profile.budget(kind, self.pending.slot) or 0
         if self.pending_line + command.line_cost > budget:
             return 0x04
@@ -234,7 +251,7 @@ class VirtualController:
                              f"{self.stack[0].table.kind.upper()}{self.stack[0].table.slot} "
                              "is running")
         self.error = None
-        self.stack = [Frame(table)]
+        self.stack.append(Frame(table))  # in place: `advance` holds this list
         self.chip_state = 8 if kind == "mp" else 10
         self.log.append(f"{self.clock:.4f} s: {kind.upper()}{slot} called")
 
@@ -280,15 +297,25 @@ class VirtualController:
         fifo = self.fifo
         line_time = self.line_time
         while True:
-            if fifo and fifo[0].due <= self.clock:
+            loading = self.loading_until
+            if loading is not None and loading <= self.clock:
+                self._finish_loading()
+                continue
+            if fifo and fifo[0].due <= self.clock and loading is None:
                 self._run_rtc(fifo.popleft())
                 continue
             if self.isr_queue and not self._isr_running():
                 self._start_isr(self.isr_queue.popleft())
                 continue
+            if not stack and self.triggers.waiting:
+                self.triggers.start_waiting()  # a DI-triggered MP waited for this moment
+                continue
             if self.chip_state == 10 and stack and not self._isr_running():
                 self.chip_state = 8  # the ISR returned to the program it interrupted
-            horizon = until if not fifo or fifo[0].due > until else fifo[0].due
+            if loading is not None:  # the chip loads its table: the FIFO waits (RS 11368)
+                horizon = min(until, loading)
+            else:
+                horizon = until if not fifo or fifo[0].due > until else fifo[0].due
             interrupt = self.motion.next_interrupt(self.clock)  # (RESET_CARD replaces it)
             if interrupt is not None:
                 if interrupt <= self.clock:
@@ -299,7 +326,7 @@ class VirtualController:
             if not stack:
                 if self.chip_state in (8, 10):
                     self.chip_state += 1  # MP / ISR execution finished
-                if until_idle and not fifo and interrupt is None:
+                if until_idle and not fifo and interrupt is None and loading is None:
                     return steps
                 if self.clock < horizon:
                     self.clock = horizon
@@ -406,6 +433,8 @@ class VirtualController:
                 self.fifo.clear()
             elif name == "RESET_CARD":
                 self.reset()
+            elif name == "LOAD_INITIAL":
+                self._begin_loading()
             else:
                 handler = self.handlers.get(name)
                 if handler is not None:
@@ -429,14 +458,81 @@ class VirtualController:
 
     def reset(self) -> None:
         """RESET_CARD: stop every program and motion, clear the FIFO and the motion chip's
-        settings; macro memory and variables are kept (they live in FRAM and RAM)."""
+        settings; macro memory, the initial table, the trigger table and variables are kept
+        (they live in FRAM and RAM). The power-on defaults are the initial table's, so the
+        table is loaded again, as after power on (profile `initial_table.reset_card_reloads`)."""
         self.stack.clear()
         self.fifo.clear()
         self.isr_queue.clear()
+        self.triggers.waiting.clear()
         self.motion = MotionModel()
         self.handlers = self._handlers()
         self.programs.clear()
+        self.unmodelled = [self.initial_table.config.factory] * 4
+        self.loading_until = None
         self.chip_state = 3
+        if self.initial_table.config.reset_card_reloads:
+            self._begin_loading()
+
+    # ------------------------------------------------------------ initial table
+    def _begin_loading(self) -> None:
+        """LOAD_INITIAL: register 101 shows 4 for the profile's loading time, then the
+        table's settings take effect and it shows 5 (RS 11368)."""
+        self.chip_state = 4
+        self.loading_until = self.clock + self.initial_table.config.load_time
+        self.log.append(f"{self.clock:.4f} s: calling the initial table")
+
+    def _finish_loading(self) -> None:
+        self.loading_until = None
+        self._load_initial_now()
+        if self.stack:
+            self.chip_state = 10 if self._isr_running() else 8
+        self.log.append(f"{self.clock:.4f} s: initial table loaded")
+
+    def _load_initial_now(self) -> None:
+        """Apply the initial table to the live settings through the plain-axis handlers."""
+        frame = Frame(MacroTable("rtc", 0))
+        for name, operands in initial_table.load_commands(self.initial_table.columns):
+            self.handlers[name](frame, operands)
+        self.epoch += 1
+        self.chip_state = 5
+
+    def settings(self) -> dict[str, object]:
+        """Every Figure 3 setting per axis: `live` (in force now) and `initial_table` (what
+        LOAD_INITIAL and power on apply). Settings the motion model does not simulate are
+        reported here like the others."""
+        live = initial_table.live_columns(self)
+        return {"live": {axis: dataclasses.asdict(column)
+                         for axis, column in zip(AXIS_NAMES, live, strict=True)},
+                "initial_table": self.initial_table.to_json()}
+
+    # -------------------------------------------------------- stand-alone triggers
+    def load_trigger_table(self, entries: object) -> None:
+        """The FRnet DI trigger table, as image["triggers"]["entries"] holds it (what the
+        vendor utility's "Send Table" stores). ValueError names a bad entry."""
+        self.triggers.load(entries)
+
+    def set_triggering(self, enabled: bool) -> None:
+        """Holding register 9 (RSM_SET_FRNET_TRIGGER_EVENT): FRnet DI triggering on/off."""
+        self.triggers.set_enabled(enabled)
+
+    def set_di_group(self, group: int, value: int) -> None:
+        """An FRnet DI group (8-15) changes now; every DI change goes through here, so the
+        trigger table sees it. Writing `frnet` directly bypasses the triggers."""
+        if not 8 <= group <= 15:
+            raise ValueError(f"FRnet DI groups are 8..15, got {group}")
+        old, new = self.frnet[group], value & 0xFFFF
+        self.frnet[group] = new
+        if old != new:
+            self.triggers.di_changed(group, old, new)
+
+    def terminate_programs(self, why: str) -> None:
+        """End every running MP and ISR level now, as MP_TERMINATE does; motion goes on."""
+        if self.stack:
+            self.stack.clear()
+            if self.chip_state in (8, 10):
+                self.chip_state += 1
+        self.log.append(f"{self.clock:.4f} s: {why}")
 
     def value(self, operand: Operand) -> int:
         if isinstance(operand, VarRef):
@@ -469,7 +565,7 @@ class VirtualController:
                 method(*[self.value(o) for o in ops], self.clock)
             return run
 
-        return {
+        handlers: dict[str, Handler] = {
             "SET_VAR": self._set_var, "SET_RVAR": self._set_rvar,
             "VAR_CALCULATE": self._calculate, "FOR": self._for, "NEXT": self._next,
             "EXIT_FOR": self._exit_for, "IF": self._if, "ELSE": self._else,
@@ -503,6 +599,8 @@ class VirtualController:
             **interpolation_commands.handlers(self),
             **axis_commands.handlers(self),
         }
+        initial_table.wrap_handlers(self, handlers)
+        return handlers
 
     def _set_var(self, _f: Frame, ops: tuple[Operand, ...]) -> None:
         assert isinstance(ops[0], VarRef)
@@ -606,7 +704,11 @@ class VirtualController:
     def _frnet_write(self, _f: Frame, ops: tuple[Operand, ...]) -> None:
         group, channel, on = (self.value(o) for o in ops)
         bit = 1 << channel
-        self.frnet[group] = (self.frnet[group] | bit) if on else (self.frnet[group] & ~bit)
+        value = (self.frnet[group] | bit) if on else (self.frnet[group] & ~bit)
+        if 8 <= group <= 15:
+            self.set_di_group(group, value)  # a DI group: the trigger table sees it
+        else:
+            self.frnet[group] = value
 
     def _frnet_wait(self, _f: Frame, ops: tuple[Operand, ...]) -> Wait | None:
         group, channel, state, timeout = (self.value(o) for o in ops)
@@ -633,17 +735,23 @@ class VirtualController:
 
     def save(self, path: Path) -> None:
         """Persist macro memory (the device's non-volatile FRAM): every stored table as the
-        frames that downloaded it, with the word order they were written in."""
+        frames that downloaded it, with the word order they were written in, the initial
+        parameter table and the FRnet DI trigger table."""
         programs = {f"{kind}{slot}": [list(line.frame) for line in table.lines]
                     for (kind, slot), table in sorted(self.tables.items())}
-        data = {"format": MEMORY_FORMAT, "word_order": self.word_order, "programs": programs}
+        data = {"format": MEMORY_FORMAT, "word_order": self.word_order, "programs": programs,
+                "initial_table": self.initial_table.to_json(),
+                "triggers": self.triggers.to_json()}
         tmp = path.with_name(path.name + ".tmp")
         tmp.write_text(json.dumps(data, indent=1))
         tmp.replace(path)  # never leave a half-written memory file behind
 
     def restore(self, path: Path) -> None:
-        """Load macro memory saved by `save`, validating every table like a download.
-        Raises ValueError with the reason if the file is not such a memory image."""
+        """Load macro memory saved by `save`, validating every table like a download, and
+        power on with it: a saved initial table is loaded into the live settings, a saved
+        trigger table (and its enable flag) is in force. Files without those keys (written
+        before they existed) keep the controller's. Raises ValueError with the reason if
+        the file is not such a memory image."""
         try:
             data = json.loads(path.read_text(encoding="utf-8"))
         except (json.JSONDecodeError, UnicodeDecodeError) as exc:
@@ -674,3 +782,8 @@ class VirtualController:
                                      f"{error.line}")
         finally:
             self.word_order = current
+        if "initial_table" in data:
+            self.initial_table.from_json(data["initial_table"])
+            self._load_initial_now()
+        if "triggers" in data:
+            self.triggers.from_json(data["triggers"])

@@ -68,7 +68,7 @@ class RegisterMap:
         self.bvar_base = int(raw["variables"]["byte_holding_base"])
         self.call_register = int(raw["registers"]["call_mp"])
         self.word_order_register = int(raw["registers"]["word_order"])
-        self.frnet_event = 0  # holding 9
+        self.frnet_event_register = int(raw["registers"]["frnet_event"])
 
     # ----------------------------------------------------------------- helpers
     def _pair(self, value: int) -> list[int]:
@@ -188,7 +188,7 @@ class RegisterMap:
         # the MP called (by register 8 or MP_CALL), even while an ISR runs above it
         regs[self.call_register] = vc.stack[0].table.slot if vc.stack and \
             vc.stack[0].table.kind == "mp" else 0
-        regs[9] = self.frnet_event
+        regs[self.frnet_event_register] = 1 if vc.triggers.enabled else 0
         regs[self.word_order_register] = vc.word_order
         if address < 122 and end > 82:
             regs[82:90] = self._axes_pairs("lp")
@@ -211,8 +211,8 @@ class RegisterMap:
             self._subfunction(values)
             return
         if address >= SIM_DI_FIRST and end <= SIM_DI_LAST + 1:
-            for k, value in enumerate(values):
-                self.vc.frnet[8 + address - SIM_DI_FIRST + k] = value & 0xFFFF
+            for k, value in enumerate(values):  # through the controller: triggers see it
+                self.vc.set_di_group(8 + address - SIM_DI_FIRST + k, value)
             return
         if not (address >= 0 and end <= HOLDING_SPAN):
             raise Refusal(ILLEGAL_ADDRESS, reason=f"holding {address}..{end - 1} is not writable")
@@ -231,8 +231,8 @@ class RegisterMap:
         if register == self.call_register:
             self._call(value)
             return 1
-        if register == 9:
-            self.frnet_event = 1 if value else 0
+        if register == self.frnet_event_register:  # RSM_SET_FRNET_TRIGGER_EVENT (5.4)
+            vc.set_triggering(bool(value))
             return 1
         if register == self.word_order_register:
             if value not in (0, 1):
