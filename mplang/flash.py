@@ -387,23 +387,13 @@ def render_plan(image: FlashImage, catalogue: Catalogue | None = None,
             if slot in recorded else ""
         out.append(f"{program.label}  ({program.where(0) or 'source unknown'})  "
                    f"{len(program.frames)} frames{mark}")
-        for index, frame in enumerate(program.frames):
-            command = catalogue.by_code.get(frame[0])
-            name = command.short_name if command is not None else "?"
-            words = " ".join(f"{w:04X}" for w in frame)
-            out.append(f"  {index:>4}  {name:<20} {words:<44} {program.where(index) or ''}"
-                       .rstrip())
+        out += _plan_rows(program.frames, program.where, catalogue)
     if image.init is not None:
         init = image.init
         out.append("")
         out.append(f"INIT  ({init.where(0) or 'source unknown'})  {len(init.frames)} frames, "
                    f"then input register {CHIP_STATE_REGISTER} must read {CHIP_INITIALIZED}")
-        for index, frame in enumerate(init.frames):
-            command = catalogue.by_code.get(frame[0])
-            name = command.short_name if command is not None else "?"
-            words = " ".join(f"{w:04X}" for w in frame)
-            out.append(f"  {index:>4}  {name:<20} {words:<44} {init.where(index) or ''}"
-                       .rstrip())
+        out += _plan_rows(init.frames, init.where, catalogue)
     if image.triggers is not None:
         out.append("")
         out.append(f"TRIGGERS  write holding register {TRIGGER_REGISTER} = "
@@ -411,6 +401,18 @@ def render_plan(image: FlashImage, catalogue: Catalogue | None = None,
                    f"({len(image.triggers.entries)} channels; the table itself is entered "
                    "with EzMove)")
     return "\n".join(out) + "\n"
+
+
+def _plan_rows(frames: list[list[int]], where: Callable[[int], str | None],
+               catalogue: Catalogue) -> list[str]:
+    """One dry-run line per frame: index, command, registers in hex, source place."""
+    rows = []
+    for index, frame in enumerate(frames):
+        command = catalogue.by_code.get(frame[0])
+        name = command.short_name if command is not None else "?"
+        words = " ".join(f"{w:04X}" for w in frame)
+        rows.append(f"  {index:>4}  {name:<20} {words:<44} {where(index) or ''}".rstrip())
+    return rows
 
 
 def plan_json(image: FlashImage, recorded: frozenset[str] = frozenset()) -> dict[str, object]:
