@@ -1,6 +1,7 @@
 """Drawing a `Trace` the way a motion controller's path-tracking window shows a run: the tool
 path in the XY plane (and XZ / YZ when Z moves), and position and velocity against time for
-every axis that moves.
+every axis that moves. The trace may come from the M8194H (`mplang.trace.run_traced`) or
+from another family's samples (`mplang.trace.trace_from_samples`): its `unit` labels the axes.
 
 matplotlib is driven through its object API on the Agg canvas, set explicitly: no pyplot,
 no global backend, never a GUI window, and nothing that depends on a display. The image has
@@ -31,7 +32,7 @@ DEFAULT_WIDTH = 1200
 DEFAULT_HEIGHT = 900
 FORMATS = ("png", "svg")
 TRUE_SCALE_RATIO = 10
-"""A path panel is drawn to scale (one pulse as long on both axes) unless one extent is more
+"""A path panel is drawn to scale (one unit as long on both axes) unless one extent is more
 than this many times the other; a flat Z move would otherwise be an invisible line."""
 
 _STYLE: dict[RcKeyType, Any] = {
@@ -121,8 +122,8 @@ def _draw_path(panel: Axes, trace: Trace, plane: tuple[str, str]) -> None:
     if to_scale:
         panel.set_aspect("equal", adjustable="datalim")
     panel.set_title(f"{across}{up} path" + ("" if to_scale else " (not to scale)"))
-    panel.set_xlabel(f"{across} (pulses)")
-    panel.set_ylabel(f"{up} (pulses)")
+    panel.set_xlabel(f"{across} ({trace.unit})")
+    panel.set_ylabel(f"{up} ({trace.unit})")
     panel.xaxis.set_major_locator(MaxNLocator(nbins=5))
     panel.grid(True, linewidth=0.4)
     panel.legend(loc="best", fontsize=7)
@@ -135,8 +136,8 @@ def _draw_axis(position: Axes, velocity: Axes, trace: Trace, name: str) -> None:
     if ep != lp:
         position.plot(trace.time, ep, linewidth=0.8, linestyle="--", label="EP")
         position.legend(loc="best", fontsize=7)
-    position.set_ylabel(f"{name} (pulses)")
+    position.set_ylabel(f"{name} ({trace.unit})")
     velocity.plot(trace.time, trace.velocity[index], linewidth=1.0, color="tab:orange")
-    velocity.set_ylabel(f"{name} (pulses/s)")
+    velocity.set_ylabel(f"{name} ({trace.unit}/s)")
     for panel in (position, velocity):
         panel.grid(True, linewidth=0.4)

@@ -11,11 +11,14 @@ line; for values, the line is found by reading the file's table and key lines).
 
 from __future__ import annotations
 
+import functools
+import importlib
 import re
 import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from types import ModuleType
 from typing import Any
 
 from mplang.diagnostics import Span
@@ -24,7 +27,14 @@ from mplang.link import SlotPin
 PROJECT_FILE = "mpc.toml"
 DEFAULT_RECORD = ".mpc/flash-record.json"
 TARGET_KEYS = frozenset({"tcp", "serial", "unit", "baud", "parity", "stopbits", "timeout",
-                         "retries", "sources", "image", "word-order"})
+                         "retries", "sources", "image", "word-order", "target"})
+MODBUS_ONLY_KEYS = ("unit", "word-order", "image", "retries")
+"""[targets.NAME] keys that only an M8194H (a Modbus device taking image frames) uses."""
+M8194H_TARGETS = ("et", "rs")
+M8194H_TITLES = {"et": "ET-M8194H", "rs": "RS-M8194H"}
+FAMILY_PACKAGES = ("mplang.fatek", "mplang.csim")
+"""The other controller families (issue 7). Each package names its own targets (`TARGETS`)
+and source suffixes (`SUFFIXES`); nothing here repeats them."""
 SECTIONS = frozenset({"project", "slots", "targets", "flash", "fmt"})
 PROJECT_KEYS = frozenset({"sources", "target", "word-order", "temp-vars", "var-pool",
                           "allow-outside-includes", "werror"})
@@ -56,6 +66,7 @@ class Target:
     image: Path | None = None
     word_order: int | None = None
     span: Span | None = None
+    target: str | None = None  # the device's controller, if the table names it
 
     def address(self) -> str:
         """Where the device is, as the incremental record keys it."""
@@ -76,7 +87,7 @@ class FlashSettings:
 class Project:
     path: Path  # the mpc.toml file
     sources: tuple[Path, ...] = ()
-    target: str | None = None  # "et" / "rs": the controller variant
+    target: str | None = None  # "et" / "rs", or a family target (known_targets())
     word_order: int | None = None
     temp_vars: range | None = None
     var_pool: range | None = None
@@ -90,6 +101,35 @@ class Project:
     @property
     def root(self) -> Path:
         return self.path.parent
+
+
+@functools.cache
+def family_targets() -> dict[str, str]:
+    """Every target of the other controller families -> its package name (this imports the
+    family packages, so it is asked only for a name that is not an M8194H target)."""
+    found: dict[str, str] = {}
+    for package in FAMILY_PACKAGES:
+        for name in importlib.import_module(package).TARGETS:
+            found[str(name)] = package
+    return found
+
+
+def family_package(target: str) -> ModuleType | None:
+    """The family package answering to `target`; None for the M8194H (and unknown names)."""
+    if target in M8194H_TARGETS:
+        return None
+    package = family_targets().get(target)
+    return None if package is None else importlib.import_module(package)
+
+
+def known_targets() -> tuple[str, ...]:
+    """Every `--target` / `target =` value: the M8194H's, then each family's."""
+    return (*M8194H_TARGETS, *family_targets())
+
+
+def describe_targets() -> str:
+    return ", ".join(f'"{name}"' + (f" ({M8194H_TITLES[name]})" if name in M8194H_TITLES
+                                    else "") for name in known_targets())
 
 
 def find_project(start: Path) -> Path | None:
@@ -269,6 +309,39 @@ def _pins(table: Mapping[str, Any], where: _Locator) -> tuple[SlotPin, ...]:
     return tuple(pins)
 
 
+def _controller(value: object, table: str, where: _Locator) -> str:
+    """A `target =` value: one of known_targets()."""
+    if not isinstance(value, str) or (value not in M8194H_TARGETS
+                                      and value not in family_targets()):
+        raise where.error(table, "target", f"must be one of {describe_targets()}, "
+                          f"not {value!r}")
+    return value
+
+
+def _device_controller(raw: Mapping[str, Any], table: str, where: _Locator) -> str | None:
+    """The `target` of a [targets.NAME] device, checked against what that controller can be
+    reached by and what it takes."""
+    if "target" not in raw:
+        return None
+    target = _controller(raw["target"], table, where)
+    package = family_package(target)
+    if package is None:
+        return target
+    title = str(package.TITLE)
+    transports = tuple(package.TRANSPORTS)
+    if not transports:
+        raise where.error(table, "target", f"{target}: {package.NO_TRANSPORT}, so a "
+                          f"{title} program is not a device to flash")
+    if "tcp" in raw and "tcp" not in transports:
+        raise where.error(table, "tcp", f"a {title} device ({target}) is reached over a "
+                          "serial line: give serial = \"PORT\"")
+    for key in MODBUS_ONLY_KEYS:
+        if key in raw:
+            raise where.error(table, key, f"does not apply to a {title} device ({target}): "
+                              f"it is for M8194H devices")
+    return target
+
+
 def _target(name: str, raw: object, root: Path, where: _Locator) -> Target:
     table = f"targets.{name}"
     if not isinstance(raw, dict):
@@ -277,6 +350,7 @@ def _target(name: str, raw: object, root: Path, where: _Locator) -> Target:
     if ("tcp" in raw) == ("serial" in raw):
         raise where.error(table, None, "give the device as tcp = \"HOST[:PORT]\" or "
                           "serial = \"PORT\" (one of them)")
+    controller = _device_controller(raw, table, where)
     host: str | None = None
     port = 502
     serial: str | None = None
@@ -318,7 +392,7 @@ def _target(name: str, raw: object, root: Path, where: _Locator) -> Target:
         sources=sources, image=image,
         word_order=None if "word-order" not in raw else
         _int(raw["word-order"], 0, 1, table, "word-order", where),
-        span=where.span(table))
+        span=where.span(table), target=controller)
 
 
 def _targets(data: Mapping[str, Any], root: Path, where: _Locator) -> dict[str, Target]:
@@ -340,10 +414,8 @@ def load_project(path: Path) -> Project:
     if "sources" in project:
         sources = _expand(_string_list(project["sources"], "project", "sources", where), root,
                           "project", "sources", where)
-    target = project.get("target")
-    if target is not None and target not in ("et", "rs"):
-        raise where.error("project", "target", f"must be \"et\" (ET-M8194H) or \"rs\" "
-                          f"(RS-M8194H), not {target!r}")
+    target = None if "target" not in project else \
+        _controller(project["target"], "project", where)
     temps: range | None = None
     if "temp-vars" in project:
         try:

@@ -26,10 +26,12 @@ class RunReport:
     trace: Trace | None = None
 
     def to_json(self) -> dict[str, object]:
-        snapshot = self.controller.snapshot()
-        snapshot["time_ms"] = round(self.result.time_s * 1000, 3)
-        snapshot["error"] = self.result.error
-        return snapshot
+        """The `mpc run --json` summary: called (the program, "MP21"), vars, axes, time_ms,
+        error; the other families' runs give the same keys."""
+        summary: dict[str, object] = {"called": self.called, **self.controller.snapshot()}
+        summary["time_ms"] = round(self.result.time_s * 1000, 3)
+        summary["error"] = self.result.error
+        return summary
 
 
 def pick_program(build: BuildResult, call: str | None, first_file: str | None) -> int:

@@ -17,7 +17,7 @@ stamped, at the clock, never at a time the controller has already left behind.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TextIO
 
@@ -32,15 +32,18 @@ CSV_COLUMNS_PER_AXIS = ("lp", "ep", "velocity")
 
 @dataclass
 class Trace:
-    """Time series of every axis: logical position (LP) and encoder position (EP) in pulses,
-    signed velocity in pulses/s, one entry per sample time in seconds."""
+    """Time series of every axis: logical position (LP) and encoder position (EP) in pulses
+    (or the `unit` of another controller family), signed velocity in units/s, one entry per
+    sample time in seconds. M8194H positions are whole pulses; a family may report real
+    coordinates (CSIM)."""
 
     period: float
     axes: tuple[str, ...] = AXIS_NAMES
     time: list[float] = field(default_factory=list)
-    lp: list[list[int]] = field(default_factory=list)
-    ep: list[list[int]] = field(default_factory=list)
+    lp: list[list[float]] = field(default_factory=list)
+    ep: list[list[float]] = field(default_factory=list)
     velocity: list[list[float]] = field(default_factory=list)
+    unit: str = "pulses"
 
     def __post_init__(self) -> None:
         if not self.lp:
@@ -84,7 +87,7 @@ class Trace:
     def moving_axes(self) -> tuple[str, ...]:
         return tuple(name for name in self.axes if self.moved(name))
 
-    def extent(self, name: str) -> tuple[int, int]:
+    def extent(self, name: str) -> tuple[float, float]:
         """Smallest and largest logical position the axis reached."""
         series = self.lp[self.axis(name)]
         return min(series), max(series)
@@ -94,19 +97,60 @@ class Trace:
                             for column in CSV_COLUMNS_PER_AXIS)]
 
     def rows(self) -> Iterator[list[str]]:
-        """One CSV row per sample: time in seconds (1 us resolution), positions as integers,
-        velocities with 3 decimals."""
+        """One CSV row per sample: time in seconds (1 us resolution), positions as integers
+        (real coordinates as they are, see `position_text`), velocities with 3 decimals."""
         for k, when in enumerate(self.time):
             row = [f"{when:.6f}"]
             for index in range(len(self.axes)):
                 speed = round(self.velocity[index][k], 3) + 0.0  # no "-0.000"
-                row += [str(self.lp[index][k]), str(self.ep[index][k]), f"{speed:.3f}"]
+                row += [position_text(self.lp[index][k]), position_text(self.ep[index][k]),
+                        f"{speed:.3f}"]
             yield row
 
     def write_csv(self, stream: TextIO) -> None:
         stream.write(",".join(self.header()) + "\n")
         for row in self.rows():
             stream.write(",".join(row) + "\n")
+
+
+def position_text(value: float) -> str:
+    """An integer as it is (every M8194H position); a real coordinate without float dust:
+    whole values as integers, others with up to 6 decimals (1e-6 unit)."""
+    if isinstance(value, int):
+        return str(value)
+    rounded = round(value, 6) + 0.0  # no "-0"
+    if rounded.is_integer():
+        return str(int(rounded))
+    return f"{rounded:.6f}".rstrip("0")
+
+
+def trace_from_samples(samples: Sequence[tuple[float, Mapping[str, float]]], period: float,
+                       unit: str = "pulses") -> Trace:
+    """A Trace of another family's run (`FamilyRun.samples`: time and position per axis).
+    X, Y, Z and U come first (the path planes), then any other axis in order of appearance.
+    The families count one position per axis, so EP is LP; the velocity of a sample is the
+    mean over the interval since the previous sample (0 at the first), the families giving
+    positions only. An axis a sample does not name keeps its last position (0 before)."""
+    names = [name for name in AXIS_NAMES if any(name in point for _, point in samples)]
+    for _, point in samples:
+        names += [name for name in point if name not in names]
+    trace = Trace(period, tuple(names), unit=unit)
+    last = dict.fromkeys(names, 0.0)
+    for when, point in samples:
+        if trace.time and when <= trace.time[-1]:
+            trace._drop_last()
+        previous = trace.time[-1] if trace.time else None
+        for index, name in enumerate(names):
+            value = point.get(name, last[name])
+            trace.lp[index].append(value)
+            trace.ep[index].append(value)
+            before = trace.lp[index][-2] if previous is not None else value
+            trace.velocity[index].append(0.0 if previous is None
+                                         else (value - before) / (when - previous))
+        for name in names:
+            last[name] = point.get(name, last[name])
+        trace.time.append(when)
+    return trace
 
 
 def axis_state(model: MotionModel, axis: int, now: float) -> tuple[int, int, float]:

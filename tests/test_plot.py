@@ -150,3 +150,27 @@ def test_input_source_and_output_errors(project: Path) -> None:
     code, _, err = invoke("plot", source, "-o", str(project / "dir.png"))
     assert code == 4 and "is a directory" in err
     assert not (project / "a.png").exists()
+
+
+def test_a_family_trace_is_drawn_with_its_unit() -> None:
+    """Another family's samples (here in CSIM units) label the panels with their unit; the
+    M8194H's traces keep pulses."""
+    from matplotlib.figure import Figure
+
+    from mplang import plot
+    from mplang.trace import trace_from_samples
+
+    samples = [(k / 100, {"X": float(k), "Y": k / 2, "Z": 0.0, "U": 0.0}) for k in range(50)]
+    labels = {}
+    for trace in (trace_from_samples(samples, 0.01, "units"), Trace(0.01)):
+        if not len(trace):
+            trace.time = [0.0, 1.0]
+            trace.lp = trace.ep = [[0, 10], [0, 5], [0, 0], [0, 0]]
+            trace.velocity = [[0.0, 10.0], [0.0, 5.0], [0.0, 0.0], [0.0, 0.0]]
+        figure = Figure()
+        plot._draw(figure, trace)
+        labels[trace.unit] = {panel.get_ylabel() for sub in figure.subfigs for panel in sub.axes}
+    assert {"Y (units)", "X (units)", "X (units/s)"} <= labels["units"]
+    assert {"Y (pulses)", "X (pulses)", "X (pulses/s)"} <= labels["pulses"]
+    assert render(trace_from_samples(samples, 0.01, "units"),
+                  PlotRequest("family", "png", 300, 300))[:8] == PNG_SIGNATURE

@@ -84,7 +84,19 @@ indent = 2
     ("[projects]\n", ":1: unknown table [projects]"),
     ("[project]\nsources = \"nowhere/*.mp\"\n", ":2: [project] sources: no files match"),
     ("[project]\nsources = \"missing.mp\"\n", ":2: [project] sources: missing.mp: no such"),
-    ("[project]\ntarget = \"xx\"\n", ":2: [project] target: must be \"et\""),
+    ("[project]\ntarget = \"xx\"\n", ":2: [project] target: must be one of \"et\" "
+     "(ET-M8194H), \"rs\" (RS-M8194H), \"fbs-fun140\", \"fbs-fun147\", \"csim\", not 'xx'"),
+    ("[project]\ntarget = 5\n", ":2: [project] target: must be one of"),
+    ("[targets.x]\nserial = \"/dev/x\"\n\ntarget = \"csi\"\n", ":4: [targets.x] target: must "
+     "be one of"),
+    ("[targets.x]\ntcp = \"10.0.0.2\"\ntarget = \"csim\"\n", ":2: [targets.x] tcp: a CSIM "
+     "device (csim) is reached over a serial line"),
+    ("[targets.x]\nserial = \"/dev/x\"\ntarget = \"fbs-fun140\"\n", ":3: [targets.x] target: "
+     "fbs-fun140: FB documents no way to write positioning tables"),
+    ("[targets.x]\nserial = \"/dev/x\"\ntarget = \"csim\"\nunit = 2\n", ":4: [targets.x] unit: "
+     "does not apply to a CSIM device (csim)"),
+    ("[targets.x]\nserial = \"/dev/x\"\nword-order = 1\ntarget = \"csim\"\n", ":3: [targets.x] "
+     "word-order: does not apply"),
     ("[project]\n\nword-order = 2\n", ":3: [project] word-order: must be a whole number"),
     ("[project]\ntemp-vars = \"500-600\"\n", ":2: [project] temp-vars: the pool must lie"),
     ("[slots]\nfeeder = \"MP\"\n", ":2: [slots] feeder: write the slot as"),
@@ -186,3 +198,48 @@ def test_project_errors_and_missing_sources_exit_cleanly(
     assert empty.exit_code == EXIT_USAGE and "lists no sources" in empty.output
     flash = runner.invoke(main, ["flash", "--to", "y", "--dry-run"])
     assert flash.exit_code == EXIT_USAGE and "no [targets.y]" in flash.output
+
+
+def test_the_other_families_targets_are_project_and_device_targets(tmp_path: Path) -> None:
+    path = project(tmp_path, """
+[project]
+sources = ["src"]
+target = "fbs-fun147"
+
+[targets.drive]
+serial = "/dev/ttyUSB1"
+target = "csim"
+baud = 9600
+[targets.cell]
+tcp = "10.0.0.9"
+target = "rs"
+""")
+    loaded = load_project(path)
+    assert loaded.target == "fbs-fun147"
+    drive, cell = loaded.targets["drive"], loaded.targets["cell"]
+    assert (drive.target, drive.serial, drive.baud) == ("csim", "/dev/ttyUSB1", 9600)
+    assert (cell.target, cell.host) == ("rs", "10.0.0.9")
+    assert [t.target for t in load_fleet(path)] == ["csim", "rs"]
+
+
+def test_every_known_target_comes_from_the_family_packages() -> None:
+    from mplang import csim, fatek
+    from mplang.project import family_package, known_targets
+
+    assert known_targets() == ("et", "rs", *fatek.TARGETS, *csim.TARGETS)
+    assert family_package("csim") is csim and family_package("fbs-fun140") is fatek
+    assert family_package("et") is None and family_package("nothing") is None
+
+
+def test_a_device_target_builds_its_m8194h_image(tmp_path: Path,
+                                                 monkeypatch: pytest.MonkeyPatch) -> None:
+    """A device's own target = "rs" builds its image for the RS-M8194H (RS-only commands)."""
+    monkeypatch.chdir(tmp_path)
+    project(tmp_path, "[project]\nsources = [\"rs_only.mp\"]\n[targets.cell]\n"
+            "tcp = \"127.0.0.1:1\"\ntarget = \"rs\"\n",
+            {"rs_only.mp": "MP 1\n    INTP_END 0\nEND MP\n"})
+    runner = CliRunner()
+    assert runner.invoke(main, ["build"]).exit_code == 1  # et: INTP_END is RS-only
+    dry = runner.invoke(main, ["flash", "--dry-run", "--json"])
+    assert dry.exit_code == EXIT_OK, dry.output
+    assert json.loads(dry.stdout)["programs"][0]["slot"] == 1

@@ -19,7 +19,7 @@ from mplang.cli import main
 from mplang.compiler import BuildResult, Options, compile_paths, compile_source
 from mplang.run import run_build
 from mplang.sim.controller import VirtualController
-from mplang.trace import Trace, run_traced
+from mplang.trace import Trace, position_text, run_traced, trace_from_samples
 
 SAMPLES = Path(__file__).resolve().parent.parent / "samples"
 
@@ -280,3 +280,52 @@ def test_run_trace_usage_and_output_errors(project: Path) -> None:
     assert invoke("run", source, "--trace", str(project))[0] == 4
     assert invoke("run", str(project / "missing.mp"), "--trace", str(project / "t.csv"))[0] == 3
     assert not (project / "t.csv").exists()
+
+
+# ---- traces of the other families (`trace_from_samples`)
+
+def test_family_samples_become_a_trace_with_ep_lp_and_mean_velocity() -> None:
+    samples = [(0.0, {"X": 0, "Y": 0, "T4": 0}), (0.5, {"X": 100, "Y": 0, "T4": 1.5}),
+               (1.0, {"X": 100, "Y": -50, "T4": 1.5})]
+    trace = trace_from_samples(samples, 0.5, "units")
+    assert trace.axes == ("X", "Y", "T4") and trace.unit == "units"
+    assert trace.time == [0.0, 0.5, 1.0]
+    assert trace.lp == trace.ep == [[0, 100, 100], [0, 0, -50], [0, 1.5, 1.5]]
+    assert trace.velocity == [[0.0, 200.0, 0.0], [0.0, 0.0, -100.0], [0.0, 3.0, 0.0]]
+    assert trace.header()[:4] == ["time_s", "X_lp", "X_ep", "X_velocity"]
+    assert list(trace.rows())[1] == ["0.500000", "100", "100", "200.000", "0", "0", "0.000",
+                                     "1.5", "1.5", "3.000"]
+
+
+def test_a_repeated_instant_keeps_the_later_sample_and_missing_axes_hold() -> None:
+    trace = trace_from_samples([(0.0, {"X": 0}), (0.1, {"X": 5, "Y": 2}), (0.1, {"X": 7}),
+                                (0.2, {"Y": 4})], 0.1)
+    assert trace.time == [0.0, 0.1, 0.2]
+    assert trace.lp == [[0, 7, 7], [0, 2, 4]]  # the later reading of 0.1 names no Y: Y holds
+    assert trace.velocity[0][1] == pytest.approx(70.0)
+    assert trace_from_samples([(0.0, {"X": 1}), (1.0, {"Y": 3})], 1.0).lp == [[1, 1], [0, 3]]
+
+
+@pytest.mark.parametrize(("value", "text"), [(12, "12"), (-3, "-3"), (12.0, "12"), (-0.0, "0"),
+                                             (70.710678118, "70.710678"), (0.5, "0.5"),
+                                             (-1e-9, "0"), (2.0000004, "2")])
+def test_position_text(value: float, text: str) -> None:
+    assert position_text(value) == text
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.tuples(st.floats(0.0001, 1.0), st.floats(-1e6, 1e6)), min_size=1,
+                max_size=30))
+def test_velocities_integrate_back_to_the_positions(steps: list[tuple[float, float]]) -> None:
+    """Whatever the samples, the mean velocities over the intervals add up to the motion."""
+    samples: list[tuple[float, dict[str, float]]] = [(0.0, {"X": 0.0})]
+    when = 0.0
+    for delay, position in steps:
+        when += delay
+        samples.append((when, {"X": position}))
+    trace = trace_from_samples(samples, 0.001)
+    assert trace.lp[0] == trace.ep[0] == [p["X"] for _, p in samples]
+    position = 0.0
+    for k in range(1, len(trace)):
+        position += trace.velocity[0][k] * (trace.time[k] - trace.time[k - 1])
+        assert position == pytest.approx(trace.lp[0][k], abs=1e-6 * (1 + abs(position)))

@@ -8,10 +8,12 @@ Exit codes (also in docs/cli.md):
   0 success            1 errors in the sources     2 bad command-line usage
   3 input files missing or unreadable               4 output cannot be written
   5 the program failed or did not finish on the virtual controller
-  6 an endpoint cannot be opened (port in use, no such serial device): mpc sim, mpc lsp
+  6 an endpoint cannot be opened (port in use, no such serial device): mpc sim, mpc lsp,
+     and mpc flash to a CSIM (its serial port)
   7 mpc flash: the device cannot be reached (refused, no answer, no such serial port)
   8 mpc flash: the device refused a program, or cannot take the image (word order)
-  9 mpc flash: the device did not confirm a download (download-status registers)
+  9 mpc flash: the device did not confirm a download (download-status registers; a CSIM:
+     its echo, replies or listing differ from what was sent)
   10 mpc flash: interrupted: the link failed beyond --retries, the device stayed busy, or
      Ctrl-C / SIGTERM; programs after the last verified one may be missing
   11 mpc flash --fleet: devices failed in different ways (the table says which and how)
@@ -92,4 +94,5 @@ class CommandPackage(click.Group):
 @click.group(cls=CommandPackage, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="mpc")
 def main() -> None:
-    """mpc: compile, check, run and download M8194H macro programs (.mp)."""
+    """mpc: compile, check, run and download M8194H macro programs (.mp), and FATEK
+    FBs-PLC positioning tables and CSIM programs (--target, .fbs, .csim)."""

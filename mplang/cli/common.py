@@ -7,17 +7,17 @@ from __future__ import annotations
 import glob
 import os
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from functools import wraps
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any, Protocol, TypeVar
 
 import click
 
 from mplang import project as project_module
-from mplang.compiler import DEFAULT_TEMPS, BuildResult, Options
-from mplang.diagnostics import Severity
+from mplang.compiler import DEFAULT_TEMPS, Options
+from mplang.diagnostics import Diagnostic, Severity
 
 EXIT_OK = 0
 EXIT_SOURCE_ERRORS = 1
@@ -117,7 +117,14 @@ def write_output(text: str, output: str | None) -> None:
         raise OutputError(f"cannot write {output}: {exc.strerror or exc}") from None
 
 
-def report(result: BuildResult, werror: bool) -> int:
+class HasDiagnostics(Protocol):
+    """A build of any controller family: the M8194H's BuildResult or a FamilyBuild."""
+
+    @property
+    def diagnostics(self) -> list[Diagnostic]: ...
+
+
+def report(result: HasDiagnostics, werror: bool) -> int:
     for diagnostic in result.diagnostics:
         click.echo(diagnostic.render(), err=True)
     errors = sum(1 for d in result.diagnostics if d.severity is Severity.ERROR)
@@ -128,9 +135,46 @@ def report(result: BuildResult, werror: bool) -> int:
     return EXIT_OK
 
 
+class LazyChoice(click.Choice[str]):
+    """A choice whose values beyond `first` come from `rest()` only when they are needed
+    (an unknown value, help, completion): `--target` lists the family packages' targets
+    without importing them for `mpc --help` or an M8194H build."""
+
+    def __init__(self, first: Sequence[str], rest: Callable[[], Sequence[str]]) -> None:
+        super().__init__(first)
+        self._first = tuple(first)
+        self._rest = rest
+        self._all: tuple[str, ...] | None = None
+
+    @property  # click stores a tuple; this computes it once
+    def choices(self) -> tuple[str, ...]:
+        if self._all is None:
+            self._all = (*self._first, *(c for c in self._rest() if c not in self._first))
+        return self._all
+
+    @choices.setter
+    def choices(self, value: Sequence[str]) -> None:
+        self._first = tuple(value)
+        self._all = None
+
+    def convert(self, value: Any, param: click.Parameter | None,
+                ctx: click.Context | None) -> str:
+        if value in self._first:
+            return str(value)
+        return super().convert(value, param, ctx)
+
+
+def _family_targets() -> Sequence[str]:
+    return project_module.known_targets()
+
+
+TARGET_HELP = ("Controller: et (ET-M8194H, Modbus TCP), rs (RS-M8194H, Modbus RTU), or the "
+               "target of another controller family (FATEK FBs-PLC positioning tables, CSIM "
+               "RS232 programs: docs/cli.md); native listings imply their family's.")
+
 common_options = [
-    click.option("--target", type=click.Choice(["et", "rs"]), default="et", show_default=True,
-                 help="Controller: ET-M8194H (Modbus TCP) or RS-M8194H (Modbus RTU)."),
+    click.option("--target", type=LazyChoice(project_module.M8194H_TARGETS, _family_targets),
+                 default="et", show_default=True, help=TARGET_HELP),
     click.option("--word-order", type=click.Choice(["0", "1"]), default=None,
                  help="Device word order (holding register 14). Default: the device's, 0."),
     click.option("--temp-vars", callback=parse_temps, default=None, metavar="FIRST-LAST",
@@ -211,6 +255,8 @@ class BuildSetup:
     options: Options
     werror: bool
     project: project_module.Project | None
+    target_given: bool = False  # --target on the command line, or the project file's
+    word_order_given: bool = False  # --word-order on the command line (M8194H only)
 
 
 def load_project_file(path: Path) -> project_module.Project:
@@ -248,12 +294,13 @@ def build_setup(ctx: click.Context, files: tuple[str, ...], project_file: Path |
     else:
         paths = []
     options = build_options(target, word_order, temp_vars, allow_outside_includes)
-    if project is None:
-        return BuildSetup(paths, options, werror, None)
 
     def given(name: str) -> bool:
         source = ctx.get_parameter_source(name)
         return source is not None and source is not click.core.ParameterSource.DEFAULT
+
+    if project is None:
+        return BuildSetup(paths, options, werror, None, given("target"), given("word_order"))
 
     options = replace(
         options,
@@ -267,4 +314,5 @@ def build_setup(ctx: click.Context, files: tuple[str, ...], project_file: Path |
         pins=project.pins,
         var_pool=options.var_pool if project.var_pool is None else project.var_pool)
     werror = werror if given("werror") or project.werror is None else project.werror
-    return BuildSetup(paths, options, werror, project)
+    return BuildSetup(paths, options, werror, project,
+                      given("target") or project.target is not None, given("word_order"))

@@ -18,6 +18,13 @@ BUILD_FORMAT = "mplang-csim/1"
 TARGETS: tuple[str, ...] = ("csim",)
 SUFFIXES: tuple[str, ...] = (".csim",)
 FORMATS = ("listing", "json", "csim")
+TITLE = "CSIM"
+DEFAULT_FORMAT = "csim"
+"""What `mpc build` writes without --format: the script to download."""
+POSITION_UNIT = "units"
+"""The coordinate unit is set on the drive (PN44-46) and not defined by the manual."""
+TRANSPORTS: tuple[str, ...] = ("serial",)
+NO_TRANSPORT = ""
 
 
 @dataclass

@@ -100,6 +100,19 @@ class VirtualCsim:
         parts += [*reply.data, reply.status]
         return "".join(part + end for part in parts).encode("ascii", "replace")
 
+    def preload(self, lines: list[str]) -> tuple[str, Reply] | None:
+        """Store a program exactly as a DLP download would (the same checks, the same
+        listing), for `mpc sim FILE`. Returns the first line refused and its reply, or None
+        when every line and the end of edit mode were answered OK."""
+        end = str(self.protocol["edit_end"])
+        for text in ["DLP", *lines, end]:
+            reply = self.handle(text)
+            if reply.status != self.protocol["ok"]:
+                if self.mode != "command":
+                    self.handle(end)
+                return text, reply
+        return None
+
     # ---------------------------------------------------------------------- lines
     def handle(self, line: str) -> Reply:
         """Answer one line from the host (without its CR)."""
@@ -261,9 +274,13 @@ class CsimServer:
     """Serves a VirtualCsim on a serial device (a pty end, /dev/ttyUSB0, ...) in a thread."""
 
     def __init__(self, port_path: str, *, baudrate: int = 9600, time_scale: float = 1.0,
-                 device: VirtualCsim | None = None) -> None:
+                 device: VirtualCsim | None = None, parity: str = "N", stopbits: int = 1,
+                 on_line: Callable[[str, Reply], None] | None = None) -> None:
         self.port_path = port_path
         self.baudrate = baudrate
+        self.parity = parity
+        self.stopbits = stopbits
+        self.on_line = on_line  # told every host line and its reply (mpc sim -v)
         self.device = device or VirtualCsim(time_scale=time_scale)
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
@@ -271,7 +288,8 @@ class CsimServer:
         self.failure: str | None = None
 
     def start(self) -> CsimServer:
-        self._port = serial.Serial(self.port_path, self.baudrate, timeout=0.01)
+        self._port = serial.Serial(self.port_path, self.baudrate, parity=self.parity,
+                                   stopbits=self.stopbits, timeout=0.01)
         self._thread = threading.Thread(target=self._serve, name="virtual-csim", daemon=True)
         self._thread.start()
         return self
@@ -290,7 +308,10 @@ class CsimServer:
                     if bytes([byte]) == end_in:
                         line = pending.decode("ascii", "replace")
                         pending.clear()
-                        port.write(self.device.wire(line, self.device.handle(line)))
+                        reply = self.device.handle(line)
+                        port.write(self.device.wire(line, reply))
+                        if self.on_line is not None:
+                            self.on_line(line, reply)
                     elif byte != 0x0A:
                         pending.append(byte)
                 printed = self.device.tick()

@@ -21,12 +21,14 @@ from mplang.csim.build import CsimProgram
 
 class DownloadError(Exception):
     """The download failed. kind: port, no-answer, echo, device-error, reply, mismatch,
-    program."""
+    program. `line`: the index of the program line concerned, where there is one (so a
+    caller can name its source line)."""
 
-    def __init__(self, kind: str, message: str) -> None:
+    def __init__(self, kind: str, message: str, line: int | None = None) -> None:
         super().__init__(message)
         self.kind = kind
         self.message = message
+        self.line = line
 
 
 @dataclass
@@ -90,17 +92,20 @@ class _Line:
 
 
 def download(program: CsimProgram | list[str], port: str, baud: int = 9600,
-             timeout: float = 2.0, *, save: bool = False) -> DownloadReport:
+             timeout: float = 2.0, *, save: bool = False, parity: str = "N",
+             stopbits: int = 1) -> DownloadReport:
     """Send a program with DLP, list it back with ULP and compare; with `save`, SAVE P.
-    Raises DownloadError (never returns without a verified listing)."""
+    `baud`, `parity` (N, E, O) and `stopbits` set the line (8 data bits; the manual names
+    no line settings). Raises DownloadError (never returns without a verified listing)."""
     lines = program.lines if isinstance(program, CsimProgram) else list(program)
     for number, text in enumerate(lines):
         if not text.strip() or "\r" in text or "\n" in text or not text.isascii():
             raise DownloadError("program", f"line {number} {text!r} cannot be sent: program "
-                                "lines are non-empty single lines of ASCII text")
+                                "lines are non-empty single lines of ASCII text", number)
     started = time.monotonic()
     try:
-        link = serial.serial_for_url(port, baudrate=baud, timeout=timeout, write_timeout=timeout)
+        link = serial.serial_for_url(port, baudrate=baud, parity=parity, stopbits=stopbits,
+                                     timeout=timeout, write_timeout=timeout)
     except (serial.SerialException, OSError, ValueError) as exc:
         raise DownloadError("port", f"cannot open {port}: {exc}") from None
     try:
@@ -108,8 +113,12 @@ def download(program: CsimProgram | list[str], port: str, baud: int = 9600,
         line = _Line(link, port)
         try:
             line.send("DLP")
-            for text in lines:
-                line.send(text)
+            for number, text in enumerate(lines):
+                try:
+                    line.send(text)
+                except DownloadError as exc:
+                    exc.line = number
+                    raise
             line.send("")
             listing = line.send("ULP")
         except serial.SerialTimeoutException:
@@ -118,7 +127,7 @@ def download(program: CsimProgram | list[str], port: str, baud: int = 9600,
         except (serial.SerialException, OSError) as exc:
             raise DownloadError("port", f"{port}: {exc}") from None
         if listing != lines:
-            raise DownloadError("mismatch", _difference(lines, listing))
+            raise DownloadError("mismatch", *_difference(lines, listing))
         if save:
             line.send("SAVE P")
     finally:
@@ -126,8 +135,8 @@ def download(program: CsimProgram | list[str], port: str, baud: int = 9600,
     return DownloadReport(port, len(lines), True, save, time.monotonic() - started, listing)
 
 
-def _difference(sent: list[str], listed: list[str]) -> str:
+def _difference(sent: list[str], listed: list[str]) -> tuple[str, int | None]:
     for index, (a, b) in enumerate(zip(sent, listed, strict=False)):
         if a != b:
-            return (f"the device lists line {index} as {b!r}, but {a!r} was sent")
-    return (f"the device lists {len(listed)} lines, but {len(sent)} were sent")
+            return f"the device lists line {index} as {b!r}, but {a!r} was sent", index
+    return f"the device lists {len(listed)} lines, but {len(sent)} were sent", None

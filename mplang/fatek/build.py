@@ -24,6 +24,15 @@ TARGETS = ("fbs-fun140", "fbs-fun147")
 SUFFIXES = (".fbs",)
 FORMATS = ("fbs", "listing", "table", "json")
 FUN_OF_TARGET = {"fbs-fun140": 140, "fbs-fun147": 147}
+TITLE = "FATEK FBs-PLC"
+DEFAULT_FORMAT = "fbs"
+"""What `mpc build` writes without --format: the native listing, which reads back."""
+POSITION_UNIT = "pulses"
+"""Positions are reported in Ps, output pulses (FB 890-1019)."""
+TRANSPORTS: tuple[str, ...] = ()
+NO_TRANSPORT = ("FB documents no way to write positioning tables into a PLC: they are "
+                "entered with WinProladder's table editor (FB 809-839, 861)")
+"""Why `mpc flash` and `mpc sim` have nothing to offer for this family."""
 
 
 @dataclass

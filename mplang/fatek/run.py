@@ -18,7 +18,7 @@ from mplang.fatek.motion import Leg, round_half_up
 from mplang.run import NoSuchProgram, RunSetupError
 
 SAMPLE_PERIOD = 0.001
-"""Samples fall at least every millisecond of simulated time while an axis moves."""
+"""By default samples fall at least every millisecond of simulated time while an axis moves."""
 
 
 class NoSuchTable(NoSuchProgram):
@@ -40,6 +40,7 @@ class FamilyRun:
     legs: list[Leg] = field(default_factory=list)
     steps: int = 0
     log: list[str] = field(default_factory=list)
+    sample_period: float | None = SAMPLE_PERIOD  # None: leg starts, ends and boundaries only
 
     def to_json(self) -> dict[str, object]:
         """The `mpc run --json` shape of the M8194H (mplang/run.py)."""
@@ -52,7 +53,8 @@ class FamilyRun:
     @property
     def samples(self) -> list[tuple[float, dict[str, int]]]:
         """(time in s, {axis: position}) at the start and end of every motion leg, at every
-        step boundary inside a DRVC chain, and every millisecond while a leg moves."""
+        step boundary inside a DRVC chain, and every `sample_period` (1 ms by default) of
+        simulated time while a leg moves."""
         out: list[tuple[float, dict[str, int]]] = []
         start = self.legs[0].start if self.legs else tuple(float(p) for p in self.positions)
         self._add(out, 0.0, start)
@@ -61,10 +63,12 @@ class FamilyRun:
             if end < leg.t0:
                 continue
             times = {leg.t0, end, *(b for b in leg.boundaries if leg.t0 <= b <= end)}
-            first = math.ceil(leg.t0 / SAMPLE_PERIOD - 1e-9)
-            last = math.floor(end / SAMPLE_PERIOD + 1e-9)
-            times.update(k * SAMPLE_PERIOD for k in range(first, last + 1)
-                         if leg.t0 <= k * SAMPLE_PERIOD <= end)
+            period = self.sample_period
+            if period is not None:
+                first = math.ceil(leg.t0 / period - 1e-9)
+                last = math.floor(end / period + 1e-9)
+                times.update(k * period for k in range(first, last + 1)
+                             if leg.t0 <= k * period <= end)
             for when in sorted(times):
                 self._add(out, when, leg.positions(when))
         self._add(out, self.time_s, tuple(float(p) for p in self.positions))
@@ -109,10 +113,14 @@ def pick_table(build: FamilyBuild, call: str | None) -> tuple[PositioningTable, 
     return found, step
 
 
-def run_build(build: FamilyBuild, call: str | None = None, max_time: float = 3600.0
-              ) -> FamilyRun:
+def run_build(build: FamilyBuild, call: str | None = None, max_time: float = 3600.0, *,
+              sample_period: float | None = SAMPLE_PERIOD) -> FamilyRun:
     """Run one table of the build (see `pick_table`) on a fresh virtual PLC until MEND, an
-    error, a wait that never ends, or `max_time` seconds of simulated time."""
+    error, a wait that never ends, or `max_time` seconds of simulated time. `sample_period`
+    is the grid of `FamilyRun.samples` (None: motion starts and ends only); the samples are
+    computed from the recorded legs when asked for, so the run itself is the same."""
+    if sample_period is not None and not sample_period > 0:
+        raise ValueError(f"the sampling period must be positive, got {sample_period}")
     if not build.ok:
         raise RunSetupError("the build has errors; the virtual PLC runs only checked tables")
     table, entry = pick_table(build, call)
@@ -142,4 +150,4 @@ def run_build(build: FamilyBuild, call: str | None = None, max_time: float = 360
         positions=tuple(round_half_up(p) for p in machine.rest),
         axis_names=profile.axis_names, registers=dict(machine.registers),
         relays=frozenset(machine.relays), legs=machine.legs, steps=machine.steps_run,
-        log=machine.log)
+        log=machine.log, sample_period=sample_period)

@@ -104,3 +104,19 @@ def test_immediate_motion_queries_and_parameters() -> None:
     assert csim.handle("?LL").status.startswith("ERR 7")
     assert csim.handle("TX=1").status == "OK"
     assert csim.handle("T1MA 0").status.startswith("ERR 8 run error: T1 is logical axis X")
+
+
+def test_preload_stores_a_program_as_a_download_would() -> None:
+    csim, _ = device()
+    assert csim.preload(["TX=0", "$TOP", "XMR 5", "JP $TOP"]) is None
+    assert csim.handle("ULP").data == ["TX=0", "$TOP", "XMR 5", "JP $TOP"]
+    assert csim.mode == "command"
+
+
+def test_preload_names_the_first_refused_line_and_leaves_edit_mode() -> None:
+    csim, _ = device()
+    text, reply = csim.preload(["MA 1", "MA 1,2", "MA 3"]) or ("", None)
+    assert text == "MA 1,2" and reply is not None and reply.status.startswith("ERR 3")
+    assert csim.mode == "command"
+    refused = csim.preload(["JP $NOWHERE"])
+    assert refused is not None and refused[0] == "" and refused[1].status.startswith("ERR 6")

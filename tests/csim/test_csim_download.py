@@ -124,3 +124,23 @@ def test_bad_port_and_bad_program() -> None:
     with pytest.raises(DownloadError) as bad:
         download(["MA 1", ""], "/dev/no-such-port", timeout=0.2)
     assert bad.value.kind == "program"
+
+
+def test_errors_name_the_program_line_they_concern(link: PtyLink) -> None:
+    with CsimServer(link.device_end), pytest.raises(DownloadError) as caught:
+        download(["MA 1", "MA 2", "MA 1,2"], link.client_end, timeout=2.0)
+    assert caught.value.line == 2
+    with CsimServer(link.device_end, device=ForgetfulCsim()), \
+            pytest.raises(DownloadError) as listed:
+        download(["MA 1", "MA 2"], link.client_end, timeout=2.0)
+    assert listed.value.line is None  # a missing line, not a different one
+    with pytest.raises(DownloadError) as bad:
+        download(["MA 1", "MA\u00e92"], "/dev/no-such-port", timeout=0.2)
+    assert (bad.value.kind, bad.value.line) == ("program", 1)
+
+
+def test_line_settings_reach_the_port(link: PtyLink) -> None:
+    with CsimServer(link.device_end, baudrate=19200, parity="O", stopbits=2):
+        report = download(["MA 1"], link.client_end, baud=19200, timeout=2.0, parity="O",
+                          stopbits=2)
+    assert report.verified

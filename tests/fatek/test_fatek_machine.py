@@ -313,3 +313,16 @@ def test_relative_moves_end_at_the_sum_of_their_strokes(moves: list[int], speed:
     assert times == sorted(times)
     for leg in run.legs:
         assert leg.speed((leg.t0 + leg.t_end) / 2) <= speed + 1e-6
+
+
+def test_the_sample_period_sets_the_grid_and_changes_nothing_else() -> None:
+    build = check_native([SAMPLES / "jog_forward.fbs"])
+    fine, coarse = run_build(build, None, 600.0), run_build(build, None, 600.0,
+                                                            sample_period=0.01)
+    bare = run_build(build, None, 600.0, sample_period=None)
+    assert fine.to_json() == coarse.to_json() == bare.to_json()
+    assert fine.samples[-1] == coarse.samples[-1] == bare.samples[-1]
+    assert 9 < len(fine.samples) / len(coarse.samples) < 11
+    assert len(bare.samples) < 10  # leg starts and ends only
+    with pytest.raises(ValueError, match="positive"):
+        run_build(build, None, 600.0, sample_period=0.0)

@@ -1,4 +1,6 @@
-"""`mpc build`: compile sources into an image JSON, a listing, hex frames or a link map."""
+"""`mpc build`: compile sources into an image JSON, a listing, hex frames or a link map; for
+the other controller families (`--target fbs-fun140|fbs-fun147|csim`, `.fbs`/`.csim` sources)
+their checked programs in the family's own formats."""
 
 from __future__ import annotations
 
@@ -8,6 +10,7 @@ from pathlib import Path
 import click
 
 from mplang.cli.common import (
+    LazyChoice,
     build_setup,
     guarded,
     project_option,
@@ -15,6 +18,7 @@ from mplang.cli.common import (
     with_common,
     write_output,
 )
+from mplang.cli.families import M8194H_FORMATS, all_formats, check_format, choose
 from mplang.compiler import compile_paths
 
 
@@ -22,24 +26,34 @@ from mplang.compiler import compile_paths
 @click.argument("files", nargs=-1)
 @click.option("-o", "--output", default=None, metavar="OUT",
               help="Write the result here ('-' or absent: standard output).")
-@click.option("--format", "fmt", type=click.Choice(["json", "listing", "hex", "map", "vars",
-                                                   "vars-h", "vars-py"]),
-              default="json", show_default=True, help="Image JSON, human listing, hex "
-              "frames, the link map, or the map of declared variables (JSON, C header, "
-              "Python module).")
+@click.option("--format", "fmt", type=LazyChoice(M8194H_FORMATS, all_formats), default=None,
+              help="M8194H: image JSON (the default), human listing, hex frames, the link "
+              "map, or the map of declared variables (JSON, C header, Python module). FATEK: "
+              "fbs (the default: the listing), listing, table (register table), json. CSIM: "
+              "csim (the default: the script), listing, json.")
 @project_option
 @with_common
 @click.pass_context
 @guarded
-def command(ctx: click.Context, files: tuple[str, ...], output: str | None, fmt: str,
+def command(ctx: click.Context, files: tuple[str, ...], output: str | None, fmt: str | None,
             project_file: Path | None, target: str, word_order: str | None, temp_vars: range,
             allow_outside_includes: bool, werror: bool) -> None:
     """Compile FILE... (files, directories or globs; without them, the sources of mpc.toml)
-    together into one download image."""
+    together into one download image, or, for a FATEK or CSIM target (or .fbs / .csim
+    listings), into that controller's checked programs."""
     from mplang import output as render
 
     setup = build_setup(ctx, files, project_file, target, word_order, temp_vars,
                         allow_outside_includes, werror)
+    selection = choose(setup)
+    fmt = check_format(selection, fmt)
+    if selection.family is not None:
+        build = selection.build(setup.options)
+        code = report(build, setup.werror)
+        if code:
+            sys.exit(code)
+        write_output(build.render(fmt), output)
+        return
     result = compile_paths(setup.paths, setup.options)
     code = report(result, setup.werror)
     if code:

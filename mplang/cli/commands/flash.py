@@ -4,6 +4,7 @@ What is flashed where comes from the command line first, then from the project f
 (sources or one image JSON) or `[project] sources`; `--tcp`/`--serial`, `--to NAME` (one of
 mpc.toml's `[targets]`), or `--fleet FILE` (every `[targets.NAME]` of FILE, concurrently).
 The work itself is `mplang.flash`; this module only resolves those choices and reports.
+A device of another controller family (a CSIM) goes to `mplang.cli.family_flash`.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from mplang.cli.common import (
     EXIT_FLEET_MIXED,
     EXIT_SOURCE_ERRORS,
     FLASH_EXIT,
+    BuildSetup,
     InputError,
     build_setup,
     guarded,
@@ -29,6 +31,7 @@ from mplang.cli.common import (
     with_common,
     with_serial_line,
 )
+from mplang.cli.families import Selection, select
 from mplang.compiler import Options, compile_paths
 from mplang.project import Project, ProjectError, Target, load_fleet
 
@@ -46,7 +49,7 @@ DEFAULT_TIMEOUT, DEFAULT_RETRIES = 1.0, 3
 @click.option("--tcp", callback=parse_device_address, default=None, metavar="HOST[:PORT]",
               help="The device's Modbus TCP address (ET-M8194H) [default port: 502].")
 @click.option("--serial", default=None, metavar="PORT",
-              help="The serial port of a Modbus RTU device (RS-M8194H).")
+              help="The serial port of a Modbus RTU device (RS-M8194H), or of a CSIM.")
 @click.option("--unit", type=click.IntRange(1, 247), default=1, show_default=True,
               help="Modbus unit id: the RTU slave address (the ET-M8194H answers as 1).")
 @with_serial_line
@@ -84,7 +87,12 @@ def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | N
     """Download FILE... (.mp sources built together, or one image JSON; without FILE, the
     sources of mpc.toml) into a device over Modbus TCP or RTU, and verify every program
     through its download-status registers. Programs the flash record says the device already
-    holds are not written again (--force writes them)."""
+    holds are not written again (--force writes them).
+
+    A CSIM (--target csim, or a .csim FILE) takes its one program over --serial PORT: sent
+    with DLP, listed back with ULP and compared, then saved with SAVE P. FATEK FBs-PLC
+    tables cannot be flashed (the manual documents no transport): see mpc build --format
+    table."""
     from mplang import flash as flashing
     from mplang.modbus import Endpoint
 
@@ -99,6 +107,9 @@ def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | N
         raise click.UsageError("give one device: --tcp HOST[:PORT] or --serial PORT")
     setup = build_setup(ctx, files, project_file, target, word_order, temp_vars,
                         allow_outside_includes, werror, need_sources=False)
+    if fleet is None and to is None:  # what cannot be flashed is refused before the device
+        _refuse_early(select(setup.paths, setup.options.target, setup.target_given),
+                      tcp is not None)
     targets = _targets(setup.project, tcp, serial, unit, baud, parity, int(stopbits), to,
                        fleet, dry_run)
     seen: dict[str, str] = {}
@@ -107,6 +118,29 @@ def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | N
             raise click.UsageError(f"targets {seen[device.address()]} and {device.name} are "
                                    f"the same device ({device.address()})")
         seen[device.address()] = device.name
+    chosen = [(device, _selection(setup, device, given("target"))) for device in targets]
+    others = [(device, selection) for device, selection in chosen
+              if selection.family is not None]
+    if others and fleet is not None:
+        from mplang.cli.family_flash import refuse_transport
+
+        for _, selection in others:
+            refuse_transport(selection, False)  # a family nothing can flash: say why
+        names = ", ".join(f"{device.name} ({selection.describe})" for device, selection in others)
+        raise click.UsageError(f"--fleet flashes M8194H devices, and {fleet} also lists {names}: "
+                               "flash each of those on its own (--to NAME, or --serial PORT "
+                               "--target TARGET)")
+    if others:
+        from mplang.cli.family_flash import FlashRequest, flash_family
+
+        device, selection = others[0]
+        settings = setup.project.flash if setup.project is not None else None
+        flash_family(selection, setup, device, FlashRequest(
+            tcp_given=tcp is not None, dry_run=dry_run, as_json=as_json,
+            timeout=timeout if given("timeout") else device.timeout
+            or (settings.timeout if settings else None) or DEFAULT_TIMEOUT,
+            m8194h_options={option: given(name) for option, name in M8194H_FLASH_OPTIONS}))
+        return
     images = _Images(setup.paths, setup.options, setup.werror, word_order is not None
                      or (setup.project is not None and setup.project.word_order is not None))
     settings = setup.project.flash if setup.project is not None else None
@@ -135,6 +169,35 @@ def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | N
         _flash_one(devices[0], as_json)
     else:
         _flash_fleet(devices, as_json)
+
+
+M8194H_FLASH_OPTIONS = (("--unit", "unit"), ("--word-order", "word_order"),
+                        ("--set-word-order", "set_word_order"), ("--record", "record_file"),
+                        ("--retries", "retries"))
+"""Options of `mpc flash` that only an M8194H (Modbus, image frames, flash record) has."""
+
+
+def _refuse_early(selection: Selection, tcp_given: bool) -> None:
+    """A family without a transport (FATEK), or a CSIM asked for over --tcp: refused at once,
+    whatever the device options."""
+    family = selection.family
+    if family is not None and (not family.TRANSPORTS
+                               or (tcp_given and "tcp" not in family.TRANSPORTS)):
+        from mplang.cli.family_flash import refuse_transport
+
+        refuse_transport(selection, tcp_given)
+
+
+def _selection(setup: BuildSetup, device: Target, cli_target: bool) -> Selection:
+    """The controller family flashed into `device`: its own `target` (mpc.toml), else
+    --target or the project's; native listings imply theirs (`families.select`)."""
+    own = device.target
+    if own is not None and cli_target and setup.options.target != own:
+        raise click.UsageError(f"--target {setup.options.target} contradicts target = "
+                               f"\"{own}\" of [targets.{device.name}]")
+    target = own if own is not None else setup.options.target
+    paths = [device.image] if device.image is not None else list(device.sources) or setup.paths
+    return select(paths, target, setup.target_given or own is not None)
 
 
 def _first_int(*values: int | None) -> int:
@@ -187,7 +250,7 @@ class _Images:
     fixed_order: bool
 
     def __post_init__(self) -> None:
-        self._cache: dict[tuple[tuple[Path, ...], int | None],
+        self._cache: dict[tuple[tuple[Path, ...], int | None, str],
                           tuple[flashing.FlashImage,
                                 Callable[[int], flashing.FlashImage] | None]] = {}
 
@@ -201,7 +264,9 @@ class _Images:
                                    "mpc.toml ([project] sources or the target's own)")
         options = self.options if device.word_order is None \
             else replace(self.options, word_order=device.word_order)
-        key = (tuple(paths), options.word_order)
+        if device.target is not None:  # an M8194H here: families are flashed elsewhere
+            options = replace(options, target=device.target)
+        key = (tuple(paths), options.word_order, options.target)
         if key not in self._cache:
             self._cache[key] = self._build(paths, options, device.word_order is not None)
         return self._cache[key]

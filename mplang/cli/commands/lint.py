@@ -1,4 +1,6 @@
-"""`mpc lint`: the compiler's checks alone, as text, JSON or SARIF."""
+"""`mpc lint`: the compiler's checks alone, as text, JSON or SARIF; for the other controller
+families (`.fbs`/`.csim` listings, `.mp` with their `--target`) their checks, reported the
+same way."""
 
 from __future__ import annotations
 
@@ -15,6 +17,7 @@ from mplang.cli.common import (
     with_common,
     write_output,
 )
+from mplang.cli.families import choose
 from mplang.compiler import compile_paths
 from mplang.diagnostics import Severity
 
@@ -31,15 +34,19 @@ from mplang.diagnostics import Severity
 def command(ctx: click.Context, files: tuple[str, ...], fmt: str, output: str | None,
             project_file: Path | None, target: str, word_order: str | None, temp_vars: range,
             allow_outside_includes: bool, werror: bool) -> None:
-    """Check FILE... (without them, the sources of mpc.toml) without producing an image.
-    Exit 1 if any error is found."""
+    """Check FILE... (without them, the sources of mpc.toml) without producing an image:
+    .mp sources for --target, or FATEK .fbs / CSIM .csim listings. Exit 1 if any error is
+    found."""
     from mplang import output as render
 
     setup = build_setup(ctx, files, project_file, target, word_order, temp_vars,
                         allow_outside_includes, werror)
     werror = setup.werror
-    result = compile_paths(setup.paths, setup.options)
-    diagnostics = result.diagnostics
+    selection = choose(setup)
+    if selection.family is None:
+        diagnostics = compile_paths(setup.paths, setup.options).diagnostics
+    else:
+        diagnostics = selection.build(setup.options).diagnostics
     if fmt == "text":
         text = render.render_text(diagnostics)
         if output is None:

@@ -1,5 +1,6 @@
 """`mpc plot`: run one program on a fresh virtual controller and draw its tool path and the
-position and velocity of every moving axis against time (PNG or SVG)."""
+position and velocity of every moving axis against time (PNG or SVG); FATEK and CSIM builds
+are drawn from their family's samples."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ import click
 
 from mplang.cli.common import (
     EXIT_RUN_FAILED,
+    BuildSetup,
     OutputError,
     build_setup,
     guarded,
@@ -17,6 +19,7 @@ from mplang.cli.common import (
     report,
     with_common,
 )
+from mplang.cli.families import Selection, build_and_run, choose
 from mplang.compiler import BuildResult, compile_paths
 
 IMAGE_SUFFIXES = {".png": "png", ".svg": "svg"}
@@ -53,7 +56,8 @@ def program_title(build: BuildResult, called: str) -> str:
 @click.command("plot", short_help="Plot the simulated tool path and axis motion (PNG/SVG).")
 @click.argument("files", nargs=-1)
 @click.option("--call", "call", default=None, metavar="MPn|NAME",
-              help="Program to call [default: the first MP of the first file].")
+              help="Program to call [default: the first MP of the first file]; FATEK: a "
+              "table NAME[:STEP]; CSIM: a program, an MP's name or a $LABEL.")
 @click.option("-o", "--output", required=True, metavar="OUT.png|OUT.svg",
               help="Image to write; the format follows the suffix.")
 @click.option("--width", type=click.IntRange(300, 8000), default=1200, show_default=True,
@@ -82,8 +86,13 @@ def command(ctx: click.Context, files: tuple[str, ...], call: str | None, output
     fmt = image_format(output)
     setup = build_setup(ctx, files, project_file, target, word_order, temp_vars,
                         allow_outside_includes, werror)
+    selection = choose(setup)
     paths = setup.paths
     check_output_place(Path(output))
+    if selection.family is not None:
+        _plot_family(selection, setup, call, output, fmt, width, height, trace_period,
+                     max_time)
+        return
     result = compile_paths(paths, setup.options)
     code = report(result, setup.werror)
     if code:
@@ -110,6 +119,35 @@ def command(ctx: click.Context, files: tuple[str, ...], call: str | None, output
     except OSError as exc:
         raise OutputError(f"cannot write {output}: {exc.strerror or exc}") from None
     click.echo(f"{outcome.called}: {state} after {round(run.time_s * 1000, 3)} ms simulated; "
+               f"{len(trace)} samples plotted to {output}")
+    if not run.finished:
+        click.echo(f"error: {run.error}", err=True)
+        sys.exit(EXIT_RUN_FAILED)
+
+
+def _plot_family(selection: Selection, setup: BuildSetup, call: str | None, output: str,
+                 fmt: str, width: int, height: int, trace_period: float,
+                 max_time: float) -> None:
+    """`mpc plot` of a FATEK or CSIM build: the same drawing, from the family's samples."""
+    from mplang.plot import PlotRequest, render
+    from mplang.trace import trace_from_samples
+
+    family = selection.family
+    assert family is not None
+    run = build_and_run(selection, setup, call, max_time, trace_period)
+    trace = trace_from_samples(run.samples, trace_period, family.POSITION_UNIT)
+    state = "finished" if run.finished else "FAILED"
+    sources = ", ".join(str(p) for p in setup.paths)
+    title = (f"{run.called} ({sources}) on the virtual {selection.describe}\n{state} after "
+             f"{run.time_s:.3f} s simulated, sampled every {trace_period * 1000:g} ms")
+    if run.error:
+        title += f"\n{run.error}"
+    image = render(trace, PlotRequest(title, fmt, width, height))
+    try:
+        Path(output).write_bytes(image)
+    except OSError as exc:
+        raise OutputError(f"cannot write {output}: {exc.strerror or exc}") from None
+    click.echo(f"{run.called}: {state} after {round(run.time_s * 1000, 3)} ms simulated; "
                f"{len(trace)} samples plotted to {output}")
     if not run.finished:
         click.echo(f"error: {run.error}", err=True)

@@ -1,5 +1,6 @@
 """`mpc run`: build, load into a fresh virtual controller, call one program; `--trace` also
-writes every axis's position and velocity over the run as CSV."""
+writes every axis's position and velocity over the run as CSV. FATEK and CSIM builds run on
+their family's virtual controller, with the same summary and trace columns."""
 
 from __future__ import annotations
 
@@ -17,6 +18,7 @@ from mplang.cli.common import (
     report,
     with_common,
 )
+from mplang.cli.families import FamilyRun, Selection, build_and_run, choose
 from mplang.compiler import compile_paths
 
 
@@ -36,7 +38,8 @@ def check_trace_place(trace_file: str) -> None:
 @click.command("run", short_help="Run one program on a fresh virtual controller.")
 @click.argument("files", nargs=-1)
 @click.option("--call", "call", default=None, metavar="MPn|NAME",
-              help="Program to call [default: the first MP of the first file].")
+              help="Program to call [default: the first MP of the first file]; FATEK: a "
+              "table NAME[:STEP]; CSIM: a program, an MP's name or a $LABEL.")
 @click.option("--json", "as_json", is_flag=True, help="Print variables, axes, time and error "
               "as JSON.")
 @click.option("--max-time", type=click.FloatRange(min=0.001), default=3600.0, show_default=True,
@@ -64,9 +67,16 @@ def command(ctx: click.Context, files: tuple[str, ...], call: str | None, as_jso
         raise click.UsageError("--trace-period needs --trace FILE.csv")
     setup = build_setup(ctx, files, project_file, target, word_order, temp_vars,
                         allow_outside_includes, werror)
+    selection = choose(setup)
     paths = setup.paths
     if trace_file is not None:
         check_trace_place(trace_file)
+    if selection.family is not None:
+        period = None if trace_file is None \
+            else DEFAULT_PERIOD if trace_period is None else trace_period
+        run = build_and_run(selection, setup, call, max_time, period)
+        _report_family(selection, run, as_json, trace_file, period)
+        return
     result = compile_paths(paths, setup.options)
     code = report(result, setup.werror)
     if code:
@@ -102,4 +112,39 @@ def command(ctx: click.Context, files: tuple[str, ...], call: str | None, as_jso
         if outcome.result.error:
             click.echo(f"error: {outcome.result.error}", err=True)
     if not outcome.result.finished:
+        sys.exit(EXIT_RUN_FAILED)
+
+
+def _report_family(selection: Selection, run: FamilyRun, as_json: bool,
+                   trace_file: str | None, period: float | None) -> None:
+    """The family run's summary (the keys of the M8194H's), its trace, and exit 5 unless it
+    finished."""
+    import json
+
+    from mplang.trace import trace_from_samples
+
+    assert selection.family is not None
+    trace = None
+    if trace_file is not None and period is not None:
+        trace = trace_from_samples(run.samples, period, selection.family.POSITION_UNIT)
+        try:
+            with open(trace_file, "w", encoding="utf-8", newline="") as stream:
+                trace.write_csv(stream)
+        except OSError as exc:
+            raise OutputError(f"cannot write {trace_file}: {exc.strerror or exc}") from None
+    summary = run.to_json()
+    if as_json:
+        click.echo(json.dumps(summary, indent=1))
+    else:
+        click.echo(f"{run.called}: {'finished' if run.finished else 'FAILED'} after "
+                   f"{summary['time_ms']} ms simulated on the virtual {selection.describe}")
+        for name, value in summary["vars"].items():  # type: ignore[attr-defined]
+            click.echo(f"  {name} = {value}")
+        for name, pos in summary["axes"].items():  # type: ignore[attr-defined]
+            click.echo(f"  {name}: lp {pos['lp']}, ep {pos['ep']}")
+        if trace is not None:
+            click.echo(f"  trace: {len(trace)} samples written to {trace_file}")
+        if run.error:
+            click.echo(f"error: {run.error}", err=True)
+    if not run.finished:
         sys.exit(EXIT_RUN_FAILED)

@@ -1,4 +1,5 @@
-"""`mpc sim`: serve a virtual M8194H over Modbus TCP and/or RTU."""
+"""`mpc sim`: serve a virtual M8194H over Modbus TCP and/or RTU, or a virtual CSIM on a
+serial line (`--target csim`, `mplang.cli.family_sim`)."""
 
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ from mplang.cli.common import (
     EXIT_NO_INPUT,
     EXIT_RUN_FAILED,
     EXIT_TRANSPORT,
+    BuildSetup,
     build_options,
     expand_inputs,
     guarded,
@@ -19,6 +21,7 @@ from mplang.cli.common import (
     with_common,
     with_serial_line,
 )
+from mplang.cli.families import select
 from mplang.compiler import compile_paths
 
 
@@ -28,8 +31,8 @@ from mplang.compiler import compile_paths
               help="Serve Modbus TCP here (port 0: any free port) [default without --serial: "
               "127.0.0.1:1502].")
 @click.option("--serial", default=None, metavar="PORT|pty",
-              help="Serve Modbus RTU on this serial device; 'pty' makes a linked pseudo-"
-              "terminal pair and prints the end to open.")
+              help="Serve Modbus RTU (a CSIM: its RS232 protocol) on this serial device; "
+              "'pty' makes a linked pseudo-terminal pair and prints the end to open.")
 @click.option("--unit", type=click.IntRange(1, 247), default=1, show_default=True,
               help="RTU slave address.")
 @with_serial_line
@@ -41,14 +44,37 @@ from mplang.compiler import compile_paths
               help="Stop after this many seconds [default: run until interrupted].")
 @click.option("-v", "--verbose", is_flag=True, help="Print what the device does.")
 @with_common
+@click.pass_context
 @guarded
-def command(files: tuple[str, ...], tcp: tuple[str, int] | None, serial: str | None, unit: int,
-        baud: int, parity: str, stopbits: str, speed: float, memory: Path | None,
-        duration: float | None, verbose: bool, target: str, word_order: str | None,
-        temp_vars: range, allow_outside_includes: bool, werror: bool) -> None:
-    """Serve a virtual M8194H over Modbus TCP and/or RTU (FILE...: programs to preload)."""
+def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | None,
+            serial: str | None, unit: int, baud: int, parity: str, stopbits: str, speed: float,
+            memory: Path | None, duration: float | None, verbose: bool, target: str,
+            word_order: str | None, temp_vars: range, allow_outside_includes: bool,
+            werror: bool) -> None:
+    """Serve a virtual M8194H over Modbus TCP and/or RTU (FILE...: programs to preload).
+
+    With --target csim (or a .csim FILE) a virtual CSIM answers its RS232 ASCII protocol on
+    --serial PORT|pty instead. FATEK FBs-PLC tables have no device service (mpc run runs
+    them)."""
     import asyncio
     import signal
+
+    def given(name: str) -> bool:
+        source = ctx.get_parameter_source(name)
+        return source is not None and source is not click.core.ParameterSource.DEFAULT
+
+    selection = select(expand_inputs(files) if files else [], target, given("target"))
+    if selection.family is not None:
+        from mplang.cli.family_sim import SimRequest, serve_family
+
+        setup = BuildSetup(selection.paths, build_options(target, None, temp_vars,
+                                                          allow_outside_includes), werror, None)
+        serve_family(selection, setup, SimRequest(
+            tcp_given=tcp is not None, serial=serial, baud=baud, parity=parity,
+            stopbits=int(stopbits), speed=speed, duration=duration, verbose=verbose,
+            m8194h_options={"--unit": given("unit"), "--memory": given("memory"),
+                            "--word-order": given("word_order")}))
+        return
 
     from mplang.sim.controller import VirtualController
     from mplang.sim.service import (
@@ -66,7 +92,7 @@ def command(files: tuple[str, ...], tcp: tuple[str, int] | None, serial: str | N
             load_memory(controller, memory)
             click.echo(f"mpc sim: macro memory {memory}: {len(controller.tables)} program(s)")
         if files:
-            result = compile_paths(expand_inputs(files), build_options(
+            result = compile_paths(selection.paths, build_options(
                 target, word_order, temp_vars, allow_outside_includes))
             code = report(result, werror)
             if code:
