@@ -229,6 +229,15 @@ def _check_filled(placements: list[Placement], wired: list[Wire],
             warned.add(mp)
 
 
+def configuration_blocks(unit: ast.Unit) -> list[tuple[str, Span]]:
+    """("INIT" | "INTERRUPTS" | "TRIGGERS", header span) of every configuration block: the
+    other families have no counterpart for them and must say so, never drop them."""
+    blocks: list[tuple[str, Span]] = [("INIT", b.span) for b in unit.inits]
+    blocks += [("INTERRUPTS", b.span) for b in unit.interrupts]
+    blocks += [("TRIGGERS", b.span) for b in unit.triggers]
+    return sorted(blocks, key=lambda item: (item[1].file, item[1].line))
+
+
 @dataclass
 class LoweredUnit:
     """A build lowered up to the linker: programs (interrupt wiring injected), the INIT

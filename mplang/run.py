@@ -61,14 +61,13 @@ def run_build(build: BuildResult, call: str | None = None, first_file: str | Non
     """Load the build into a fresh virtual controller and run one MP to its end. With
     `trace_period` (seconds) every axis is also sampled over the run (`RunReport.trace`);
     the run itself comes out the same either way."""
+    from mplang.sim.preload import ServiceError, preload
+
     controller = VirtualController(word_order=build.word_order)
-    for image in build.programs:
-        error = controller.load_frames(image.program.kind, image.placement.slot, image.frames)
-        if error is not None:
-            reason = controller.profile.download_errors.get(error.code, "unknown")
-            raise RunSetupError(f"the virtual controller refused {image.program.label}: "
-                                f"download error {error.code:#04x} ({reason}) at line "
-                                f"{error.line}")
+    try:  # the programs, then the INIT table (loaded) and the TRIGGERS table, as flashed
+        preload(controller, build)
+    except ServiceError as exc:
+        raise RunSetupError(str(exc)) from None
     slot = pick_program(build, call, first_file)
     controller.call(slot)
     if trace_period is None:

@@ -298,3 +298,15 @@ def test_any_on_line_compiles_or_says_why(axis: str, factor: str, target: str) -
         assert go.frames[len(wired) + 1] == [0x0CAA]
     else:
         assert errors <= {"E413", "E811", "E812"}
+
+
+def test_other_families_refuse_configuration_blocks_instead_of_dropping_them() -> None:
+    from mplang import csim, fatek
+
+    for family, target, code in ((csim, "csim", "E721"), (fatek, "fbs-fun140", "E640"),
+                                 (fatek, "fbs-fun147", "E640")):
+        build = family.compile_mp([CONTROLLER_SAMPLE], Options(), target)
+        lines = sorted(d.span.line for d in build.diagnostics if d.code == code
+                       and "block cannot be expressed" in d.message)
+        assert lines == [20, 31, 35], (target, [d.render() for d in build.diagnostics])
+        assert not build.ok

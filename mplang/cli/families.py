@@ -26,7 +26,7 @@ from mplang.compiler import Options
 from mplang.diagnostics import Diagnostic
 
 M8194H_TITLE = "M8194H"
-M8194H_FORMATS = ("json", "listing", "hex", "map", "vars", "vars-h", "vars-py")
+M8194H_FORMATS = ("json", "listing", "hex", "map", "vars", "vars-h", "vars-py", "triggers")
 """`mpc build --format` values of an M8194H build (the image and its views)."""
 
 

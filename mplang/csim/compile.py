@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from mplang import catalogue as catalogue_module
-from mplang.compiler import Options, suppressed
+from mplang.compiler import Options, configuration_blocks, suppressed
 from mplang.csim import profile as profile_module
 from mplang.csim.build import TARGETS, CsimProgram, FamilyBuild
 from mplang.csim.check import Checker
@@ -480,12 +480,19 @@ def _angle(degrees: float) -> str:
     return text if text not in ("-0", "") else "0"
 
 
-def _lower(paths: list[Path], options: Options, sink: DiagnosticSink
+def _lower(paths: list[Path], options: Options, sink: DiagnosticSink,
+           texts: dict[Path, str] | None = None
            ) -> tuple[list[LoweredProgram], dict[str, list[str]]]:
     """The M8194H front end and lowering, as compile_paths runs them (without linking)."""
     catalogue = catalogue_module.load()
-    sources = load_sources(paths, sink, allow_outside=options.allow_outside_includes)
+    sources = load_sources(paths, sink, allow_outside=options.allow_outside_includes,
+                           texts=texts)
     unit = build_unit(sources, sink)
+    for what, span in configuration_blocks(unit):
+        sink.add("E721", span, f"an {what} block cannot be expressed on the CSIM: the "
+                 "M8194H's initial table, interrupts and DI triggers have no CSIM counterpart",
+                 hint="set CSIM parameters with PN/PR lines in a .csim script; build this "
+                 "block for an M8194H target")
     scope = Scope(catalogue, sink, options.var_pool, options.temps)
     try:
         scope.declare(unit)
@@ -495,8 +502,7 @@ def _lower(paths: list[Path], options: Options, sink: DiagnosticSink
     names = {p.name.upper(): p for p in unit.programs if p.name}
     lowered = [ProgramLowerer(scope, program, options.temps, LOWERING_TARGET, names)
                .lower_program() for program in unit.programs]
-    texts = {f.display: f.text.splitlines() for f in sources.files}
-    return lowered, texts
+    return lowered, {f.display: f.text.splitlines() for f in sources.files}
 
 
 def _default_first(programs: list[LoweredProgram], first: Path | None) -> list[LoweredProgram]:
@@ -517,13 +523,15 @@ def _default_first(programs: list[LoweredProgram], first: Path | None) -> list[L
     return [head, *(p for p in programs if p is not head)]
 
 
-def compile_mp(paths: list[Path], options: Options, target: str) -> FamilyBuild:
-    """Compile `.mp` sources into one CSIM program (see the module docstring)."""
+def compile_mp(paths: list[Path], options: Options, target: str, *,
+               texts: dict[Path, str] | None = None) -> FamilyBuild:
+    """Compile `.mp` sources into one CSIM program (see the module docstring). `texts`:
+    editor buffers read instead of the files."""
     if target not in TARGETS:
         raise ValueError(f"unknown CSIM target {target!r}: choose one of {', '.join(TARGETS)}")
     profile = profile_module.load()
     sink = DiagnosticSink()
-    lowered, texts = _lower(paths, options, sink)
+    lowered, source_lines = _lower(paths, options, sink, texts)
     ordered = _default_first(lowered, paths[0] if paths else None)
     translator = Translator(profile, sink, ordered)
     translator.translate()
@@ -539,7 +547,7 @@ def compile_mp(paths: list[Path], options: Options, target: str) -> FamilyBuild:
     sources = sorted({p.source for p in lowered})
     name = ordered[0].name if ordered and ordered[0].name else (
         Path(paths[0]).stem if paths else "program")
-    diagnostics = [d for d in sink.sorted() if not suppressed(d, texts)]
+    diagnostics = [d for d in sink.sorted() if not suppressed(d, source_lines)]
     build = FamilyBuild(diagnostics)
     if lowered:
         build.programs.append(CsimProgram(name, str(paths[0]) if paths else "", script, origins,

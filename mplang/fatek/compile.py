@@ -18,7 +18,7 @@ from pathlib import Path
 
 from mplang import catalogue as catalogue_module
 from mplang.catalogue import Catalogue
-from mplang.compiler import Options, suppressed
+from mplang.compiler import Options, configuration_blocks, suppressed
 from mplang.diagnostics import DiagnosticSink, Span
 from mplang.fatek.build import FUN_OF_TARGET, FamilyBuild, check_target
 from mplang.fatek.check import Checker
@@ -779,25 +779,33 @@ def steps_of(drafts: list[Draft], sink: DiagnosticSink, profile: Profile) -> lis
     return steps
 
 
-def compile_mp(paths: list[Path], options: Options, target: str) -> FamilyBuild:
+def compile_mp(paths: list[Path], options: Options, target: str, *,
+               texts: dict[Path, str] | None = None) -> FamilyBuild:
     """Compile `.mp` sources to FUN140 (one axis per table) or FUN147 (interpolation) tables:
-    one table per MP that no other MP calls; called MPs are inlined."""
+    one table per MP that no other MP calls; called MPs are inlined. `texts`: editor buffers
+    read instead of the files."""
     check_target(target)
     fun = FUN_OF_TARGET[target]
     catalogue = catalogue_module.load()
     profile = load()
     sink = DiagnosticSink()
-    sources = load_sources(paths, sink, allow_outside=options.allow_outside_includes)
+    sources = load_sources(paths, sink, allow_outside=options.allow_outside_includes,
+                           texts=texts)
     unit = build_unit(sources, sink)
+    for what, span in configuration_blocks(unit):
+        sink.add("E640", span, f"an {what} block cannot be expressed on the FBs-PLC: the "
+                 "M8194H's initial table, interrupts and DI triggers have no counterpart in "
+                 "a positioning program", hint="configure the PLC through FUN141 MPARA and "
+                 "its ladder; build this block for an M8194H target")
     lowered = _lower(unit, catalogue, sink, options)
-    texts = {f.display: f.text.splitlines() for f in sources.files}
+    lines = {f.display: f.text.splitlines() for f in sources.files}
     tables: list[Table] = []
     if not any(not d.code.startswith("E6") for d in sink.errors):  # the .mp itself is sound
         tables = _tables(lowered, catalogue, profile, sink, fun)
         Checker(profile, sink).check(tables, SimSetup())
-    diagnostics = [d for d in sink.sorted() if not suppressed(d, texts)
+    diagnostics = [d for d in sink.sorted() if not suppressed(d, lines)
                    and d.code not in M8194H_ONLY_WARNINGS]
-    return FamilyBuild(diagnostics, tables, SimSetup(), target, texts)
+    return FamilyBuild(diagnostics, tables, SimSetup(), target, lines)
 
 
 def _lower(unit: ast.Unit, catalogue: Catalogue, sink: DiagnosticSink,

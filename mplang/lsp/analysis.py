@@ -16,6 +16,7 @@ import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import Protocol, cast
 
 from mplang import catalogue as catalogue_module
 from mplang.catalogue import Catalogue
@@ -210,7 +211,9 @@ def analyse(path: Path, text: str, context: BuildContext | None = None,
 
 def _analyse(path: Path, text: str, context: BuildContext, open_texts: Mapping[Path, str],
              catalogue: Catalogue) -> Analysis:
-    options = context.options
+    family = _family_of(context.options.target)
+    # a FATEK or CSIM project: its .mp files are M8194H language, checked by that family
+    options = context.options if family is None else replace(context.options, target="et")
     resolved = path.resolve()
     texts = OpenTexts({p.resolve(): t for p, t in open_texts.items()})
     texts[resolved] = text
@@ -218,7 +221,8 @@ def _analyse(path: Path, text: str, context: BuildContext, open_texts: Mapping[P
     paths = [path if p.resolve() == resolved else p for p in context.sources]
     if resolved not in {p.resolve() for p in paths}:
         paths = [path]
-    result = compile_paths(paths, options, texts=texts)
+    diagnostics = compile_paths(paths, options, texts=texts).diagnostics if family is None \
+        else family.compile_mp(paths, options, context.options.target, texts=texts).diagnostics
     scratch = DiagnosticSink()  # the compiler's own run above reports; this one is discarded
     sources = load_sources(paths, scratch, allow_outside=options.allow_outside_includes,
                            texts=texts)
@@ -237,12 +241,36 @@ def _analyse(path: Path, text: str, context: BuildContext, open_texts: Mapping[P
                          for i in analysis.includes]
     _measure_programs(analysis, sources.files, by_display, catalogue, options)
     graph = _include_graph(sources.files, analysis, by_display)
-    placed = (_place_diagnostic(analysis, d, by_display, graph) for d in result.diagnostics)
+    placed = (_place_diagnostic(analysis, d, by_display, graph) for d in diagnostics)
     analysis.diagnostics = [d for d in placed if d is not None]
     if context.problem:
         analysis.diagnostics.insert(0, EditorDiagnostic(line_range(0, 0, 0), "error", "",
                                                         context.problem, "", (), None))
     return analysis
+
+
+class _Family(Protocol):
+    TARGETS: tuple[str, ...]
+
+    def compile_mp(self, paths: list[Path], options: Options, target: str, *,
+                   texts: dict[Path, str] | None = None) -> _FamilyBuild: ...
+
+
+class _FamilyBuild(Protocol):
+    @property
+    def diagnostics(self) -> list[Diagnostic]: ...
+
+
+def _family_of(target: str) -> _Family | None:
+    """The FATEK or CSIM package a project's target names, None for the M8194H."""
+    if target in ("et", "rs"):
+        return None
+    from mplang import csim, fatek
+
+    for family in (fatek, csim):
+        if target in family.TARGETS:
+            return cast(_Family, family)
+    return None
 
 
 def _code_text(line: str, tokens: list[Token]) -> str:

@@ -181,3 +181,21 @@ def test_interrupt_wiring_counts_in_the_setup_programs_budget() -> None:
     use = analysis.slot_use(go)
     # INTFACTOR_ENABLE for X and for Y, ENABLE_INT, SET_V and END MP
     assert use is not None and use.summary == "MP1: 5/8 lines"
+
+
+@pytest.mark.parametrize(("target", "code"), [("csim", "E721"), ("fbs-fun140", "E640")])
+def test_a_family_project_is_checked_by_its_family(tmp_path: Path, target: str,
+                                                   code: str) -> None:
+    from mplang.lsp.workspace import context_for
+
+    (tmp_path / "mpc.toml").write_text(f'[project]\nsources = ["job.mp"]\ntarget = "{target}"\n')
+    job = tmp_path / "job.mp"
+    text = "INIT\n    SERVO_ON X\nEND INIT\nMP 1 go\n    SET_V X, 1000\n" \
+        "    FIXED_MOVE X, 100\nEND MP\n"
+    job.write_text(text)
+    analysis = analyse(job, text, context_for(job))
+    found = [(d.code, d.range.start.line) for d in analysis.diagnostics]
+    assert (code, 0) in found, found
+    assert not any("could not check" in d.message for d in analysis.diagnostics)
+    go = analysis.program_named("go")
+    assert go is not None and analysis.slot_use(go) is not None

@@ -66,5 +66,6 @@ def command(ctx: click.Context, files: tuple[str, ...], output: str | None, fmt:
         "vars": lambda: render.render_variables_json(result),
         "vars-h": lambda: render.render_variables_c(result),
         "vars-py": lambda: render.render_variables_python(result),
+        "triggers": lambda: render.render_triggers(result),
     }[fmt]()
     write_output(text, output)

@@ -348,7 +348,11 @@ def _flash_one(device: flashing.FleetDevice, as_json: bool) -> None:
     written, unchanged = report_.count("verified"), report_.count("unchanged")
     if report_.ok:
         kept = f", {unchanged} unchanged" if unchanged else ""
-        display.say(f"{written} program(s) written and verified{kept} on {report_.device}"
+        steps = "".join(text for step, text in ((report_.init, ", initial table loaded"),
+                                                (report_.triggers, ", DI triggering set"))
+                        if step is not None)
+        display.say(f"{written} program(s) written and verified{kept}{steps} on "
+                    f"{report_.device}"
                     + (f" (build {report_.build_id})" if report_.build_id else ""))
     else:
         where = f"{report_.where}: " if report_.where else ""

@@ -175,7 +175,7 @@ def test_help_lists_every_family_target_and_format() -> None:
     flat = " ".join(out.split())
     assert code == EXIT_OK
     assert "[et|rs|fbs-fun140|fbs-fun147|csim]" in flat
-    assert "vars-py|fbs|table|csim]" in flat
+    assert "vars-py|triggers|fbs|table|csim]" in flat
 
 
 def test_mpc_help_and_m8194h_builds_do_not_import_the_families() -> None:
