@@ -5,7 +5,9 @@ their family's virtual controller, with the same summary and trace columns."""
 from __future__ import annotations
 
 import sys
+from collections.abc import Mapping
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import click
 
@@ -20,6 +22,9 @@ from mplang.cli.common import (
 )
 from mplang.cli.families import FamilyRun, Selection, build_and_run, choose
 from mplang.compiler import compile_paths
+
+if TYPE_CHECKING:
+    from mplang.trace import Trace
 
 
 def check_trace_place(trace_file: str) -> None:
@@ -58,7 +63,6 @@ def command(ctx: click.Context, files: tuple[str, ...], call: str | None, as_jso
             project_file: Path | None, target: str, word_order: str | None,
             temp_vars: range, allow_outside_includes: bool, werror: bool) -> None:
     """Build FILE..., load every program into a fresh virtual controller and run one."""
-    import json
 
     from mplang.run import NoSuchProgram, RunSetupError, run_build
     from mplang.trace import DEFAULT_PERIOD
@@ -92,34 +96,47 @@ def command(ctx: click.Context, files: tuple[str, ...], call: str | None, as_jso
         click.echo(f"mpc: {exc}", err=True)
         sys.exit(EXIT_RUN_FAILED)
     if trace_file is not None and outcome.trace is not None:
-        try:
-            with open(trace_file, "w", encoding="utf-8", newline="") as stream:
-                outcome.trace.write_csv(stream)
-        except OSError as exc:
-            raise OutputError(f"cannot write {trace_file}: {exc.strerror or exc}") from None
+        _write_trace(outcome.trace, trace_file)
     summary = outcome.to_json()
-    if as_json:
-        click.echo(json.dumps(summary, indent=1))
-    else:
-        click.echo(f"{outcome.called}: {'finished' if outcome.result.finished else 'FAILED'} "
-                   f"after {summary['time_ms']} ms simulated, {outcome.result.steps} lines")
-        for name, value in summary["vars"].items():  # type: ignore[attr-defined]
-            click.echo(f"  {name} = {value}")
-        for name, pos in summary["axes"].items():  # type: ignore[attr-defined]
-            click.echo(f"  {name}: lp {pos['lp']}, ep {pos['ep']}")
-        if outcome.trace is not None:
-            click.echo(f"  trace: {len(outcome.trace)} samples written to {trace_file}")
-        if outcome.result.error:
-            click.echo(f"error: {outcome.result.error}", err=True)
+    headline = (f"{outcome.called}: {'finished' if outcome.result.finished else 'FAILED'} "
+                f"after {summary['time_ms']} ms simulated, {outcome.result.steps} lines")
+    _summarise(summary, as_json, headline, outcome.trace, trace_file, outcome.result.error)
     if not outcome.result.finished:
         sys.exit(EXIT_RUN_FAILED)
+
+
+def _write_trace(trace: Trace, trace_file: str) -> None:
+    try:
+        with open(trace_file, "w", encoding="utf-8", newline="") as stream:
+            trace.write_csv(stream)
+    except OSError as exc:
+        raise OutputError(f"cannot write {trace_file}: {exc.strerror or exc}") from None
+
+
+def _summarise(summary: Mapping[str, Any], as_json: bool, headline: str, trace: Trace | None,
+               trace_file: str | None, error: str | None) -> None:
+    """`mpc run`'s output for every family: the JSON summary, or the headline, variables,
+    axes and trace file in words (the error on standard error)."""
+    import json
+
+    if as_json:
+        click.echo(json.dumps(summary, indent=1))
+        return
+    click.echo(headline)
+    for name, value in summary["vars"].items():
+        click.echo(f"  {name} = {value}")
+    for name, pos in summary["axes"].items():
+        click.echo(f"  {name}: lp {pos['lp']}, ep {pos['ep']}")
+    if trace is not None:
+        click.echo(f"  trace: {len(trace)} samples written to {trace_file}")
+    if error:
+        click.echo(f"error: {error}", err=True)
 
 
 def _report_family(selection: Selection, run: FamilyRun, as_json: bool,
                    trace_file: str | None, period: float | None) -> None:
     """The family run's summary (the keys of the M8194H's), its trace, and exit 5 unless it
     finished."""
-    import json
 
     from mplang.trace import trace_from_samples
 
@@ -127,24 +144,10 @@ def _report_family(selection: Selection, run: FamilyRun, as_json: bool,
     trace = None
     if trace_file is not None and period is not None:
         trace = trace_from_samples(run.samples, period, selection.family.POSITION_UNIT)
-        try:
-            with open(trace_file, "w", encoding="utf-8", newline="") as stream:
-                trace.write_csv(stream)
-        except OSError as exc:
-            raise OutputError(f"cannot write {trace_file}: {exc.strerror or exc}") from None
+        _write_trace(trace, trace_file)
     summary = run.to_json()
-    if as_json:
-        click.echo(json.dumps(summary, indent=1))
-    else:
-        click.echo(f"{run.called}: {'finished' if run.finished else 'FAILED'} after "
-                   f"{summary['time_ms']} ms simulated on the virtual {selection.describe}")
-        for name, value in summary["vars"].items():  # type: ignore[attr-defined]
-            click.echo(f"  {name} = {value}")
-        for name, pos in summary["axes"].items():  # type: ignore[attr-defined]
-            click.echo(f"  {name}: lp {pos['lp']}, ep {pos['ep']}")
-        if trace is not None:
-            click.echo(f"  trace: {len(trace)} samples written to {trace_file}")
-        if run.error:
-            click.echo(f"error: {run.error}", err=True)
+    headline = (f"{run.called}: {'finished' if run.finished else 'FAILED'} after "
+                f"{summary['time_ms']} ms simulated on the virtual {selection.describe}")
+    _summarise(summary, as_json, headline, trace, trace_file, run.error)
     if not run.finished:
         sys.exit(EXIT_RUN_FAILED)
