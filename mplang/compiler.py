@@ -271,12 +271,7 @@ def _finish(unit: object, catalogue: Catalogue, sink: DiagnosticSink,
     assert isinstance(unit, ast.Unit)
     profile = catalogue.profile
     word_order = profile.word_order_default if options.word_order is None else options.word_order
-    scope = Scope(catalogue, sink, options.var_pool, options.temps)
-    try:
-        scope.declare(unit)
-    except ConstError as err:
-        if err.code:
-            sink.add(err.code, err.span, err.message)
+    scope = Scope.declared(unit, catalogue, sink, options.var_pool, options.temps)
     lowered_unit = lower_unit(unit, scope, sink, options)
     lowered, init = lowered_unit.programs, lowered_unit.init
     wiring, triggers = lowered_unit.wiring, lowered_unit.triggers

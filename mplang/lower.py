@@ -98,6 +98,19 @@ class Scope:
     declared_indices: set[int] = field(default_factory=set)
     _evaluating: set[str] = field(default_factory=set)
 
+    @classmethod
+    def declared(cls, unit: ast.Unit, catalogue: Catalogue, sink: DiagnosticSink,
+                 var_pool: range = DEFAULT_VAR_POOL, temps: range = range(0)) -> Scope:
+        """The build's names, declared; a constant that cannot be evaluated is reported to
+        `sink` (every lowering of a unit starts here)."""
+        scope = cls(catalogue, sink, var_pool, temps)
+        try:
+            scope.declare(unit)
+        except ConstError as err:
+            if err.code:
+                sink.add(err.code, err.span, err.message)
+        return scope
+
     def reserved(self, name: str) -> str | None:
         upper = name.upper()
         profile = self.catalogue.profile

@@ -30,7 +30,7 @@ from mplang.diagnostics import Diagnostic, DiagnosticSink, Span
 from mplang.frontend.sources import load_sources
 from mplang.frontend.structure import build_unit
 from mplang.ir import LoweredProgram, MacroLine, Operand, ProgramRef, VarRef
-from mplang.lower import ConstError, ProgramLowerer, Scope
+from mplang.lower import ProgramLowerer, Scope
 
 AXIS_MODULE = {"X": 0, "Y": 1, "Z": 2, "U": 3}
 LOGICAL_OF = {"X": "X", "Y": "Y", "Z": "Z", "U": "W"}
@@ -493,12 +493,7 @@ def _lower(paths: list[Path], options: Options, sink: DiagnosticSink,
                  "M8194H's initial table, interrupts and DI triggers have no CSIM counterpart",
                  hint="set CSIM parameters with PN/PR lines in a .csim script; build this "
                  "block for an M8194H target")
-    scope = Scope(catalogue, sink, options.var_pool, options.temps)
-    try:
-        scope.declare(unit)
-    except ConstError as err:
-        if err.code:
-            sink.add(err.code, err.span, err.message)
+    scope = Scope.declared(unit, catalogue, sink, options.var_pool, options.temps)
     names = {p.name.upper(): p for p in unit.programs if p.name}
     lowered = [ProgramLowerer(scope, program, options.temps, LOWERING_TARGET, names)
                .lower_program() for program in unit.programs]

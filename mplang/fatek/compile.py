@@ -42,7 +42,7 @@ from mplang.frontend import ast
 from mplang.frontend.sources import load_sources
 from mplang.frontend.structure import build_unit
 from mplang.ir import BVarRef, LoweredProgram, MacroLine, Operand, ProgramRef, VarRef
-from mplang.lower import ConstError, ProgramLowerer, Scope, apply_operator
+from mplang.lower import ProgramLowerer, Scope, apply_operator
 
 FUEL = 200_000
 """Macro lines evaluated per program before the evaluation is declared endless (E645)."""
@@ -810,12 +810,7 @@ def compile_mp(paths: list[Path], options: Options, target: str, *,
 
 def _lower(unit: ast.Unit, catalogue: Catalogue, sink: DiagnosticSink,
            options: Options) -> list[LoweredProgram]:
-    scope = Scope(catalogue, sink, options.var_pool, options.temps)
-    try:
-        scope.declare(unit)
-    except ConstError as err:
-        if err.code:
-            sink.add(err.code, err.span, err.message)
+    scope = Scope.declared(unit, catalogue, sink, options.var_pool, options.temps)
     names = {p.name.upper(): p for p in unit.programs if p.name}
     lowered = []
     for program in unit.programs:

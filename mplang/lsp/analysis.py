@@ -10,7 +10,6 @@ answers hover, completion and definition from the result.
 
 from __future__ import annotations
 
-import contextlib
 import logging
 import re
 from collections.abc import Mapping
@@ -26,7 +25,7 @@ from mplang.frontend import ast
 from mplang.frontend.sources import SourceFile, SourceSet, load_sources
 from mplang.frontend.structure import build_unit
 from mplang.link import Placement, link
-from mplang.lower import ConstError, Scope
+from mplang.lower import Scope
 from mplang.lsp.positions import Location, Range, line_range, span_range, split_lines
 from mplang.lsp.tokens import Token, lex_line
 from mplang.lsp.workspace import BuildContext
@@ -360,9 +359,7 @@ def _measure_programs(analysis: Analysis, files: list[SourceFile],
     """
     sink = DiagnosticSink()
     unit = build_unit(SourceSet(files), sink)
-    scope = Scope(catalogue, sink, options.var_pool, options.temps)
-    with contextlib.suppress(ConstError):  # reported by the compiler's own run
-        scope.declare(unit)
+    scope = Scope.declared(unit, catalogue, sink, options.var_pool, options.temps)
     analysis.const_values = dict(scope.const_values)
     analysis.alias_targets = dict(scope.aliases)
     analysis.pinned = {v.name.upper() for v in scope.variables if v.pinned}
