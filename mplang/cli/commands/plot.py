@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 
@@ -21,6 +22,9 @@ from mplang.cli.common import (
 )
 from mplang.cli.families import Selection, build_and_run, choose
 from mplang.compiler import BuildResult, compile_paths
+
+if TYPE_CHECKING:
+    from mplang.trace import Trace
 
 IMAGE_SUFFIXES = {".png": "png", ".svg": "svg"}
 
@@ -80,7 +84,6 @@ def command(ctx: click.Context, files: tuple[str, ...], call: str | None, output
     """Build FILE..., run one program on a fresh virtual controller and plot what the axes
     did: the XY path (XZ and YZ too when Z moves) and position and velocity against time.
     A program that fails or does not finish is plotted up to that point, and exits 5."""
-    from mplang.plot import PlotRequest, render
     from mplang.run import NoSuchProgram, RunSetupError, run_build
 
     fmt = image_format(output)
@@ -108,20 +111,31 @@ def command(ctx: click.Context, files: tuple[str, ...], call: str | None, output
     trace = outcome.trace
     assert trace is not None  # asked for with trace_period
     run = outcome.result
-    state = "finished" if run.finished else "FAILED"
-    title = (f"{program_title(result, outcome.called)}\n{state} after {run.time_s:.3f} s "
-             f"simulated, sampled every {trace_period * 1000:g} ms")
-    if run.error:
-        title += f"\n{run.error}"
-    image = render(trace, PlotRequest(title, fmt, width, height))
+    _draw(trace, program_title(result, outcome.called), outcome.called, run.finished,
+          run.time_s, run.error, (fmt, width, height), trace_period, output)
+
+
+def _draw(trace: Trace, heading: str, called: str, finished: bool, time_s: float,
+          error: str | None, image_shape: tuple[str, int, int], trace_period: float,
+          output: str) -> None:
+    """Render the run's trace under `heading` into `output` (format, width, height from
+    `image_shape`), say so, and exit 5 unless the run finished (every family plots here)."""
+    from mplang.plot import PlotRequest, render
+
+    state = "finished" if finished else "FAILED"
+    title = (f"{heading}\n{state} after {time_s:.3f} s simulated, sampled every "
+             f"{trace_period * 1000:g} ms")
+    if error:
+        title += f"\n{error}"
+    image = render(trace, PlotRequest(title, *image_shape))
     try:
         Path(output).write_bytes(image)
     except OSError as exc:
         raise OutputError(f"cannot write {output}: {exc.strerror or exc}") from None
-    click.echo(f"{outcome.called}: {state} after {round(run.time_s * 1000, 3)} ms simulated; "
+    click.echo(f"{called}: {state} after {round(time_s * 1000, 3)} ms simulated; "
                f"{len(trace)} samples plotted to {output}")
-    if not run.finished:
-        click.echo(f"error: {run.error}", err=True)
+    if not finished:
+        click.echo(f"error: {error}", err=True)
         sys.exit(EXIT_RUN_FAILED)
 
 
@@ -129,26 +143,12 @@ def _plot_family(selection: Selection, setup: BuildSetup, call: str | None, outp
                  fmt: str, width: int, height: int, trace_period: float,
                  max_time: float) -> None:
     """`mpc plot` of a FATEK or CSIM build: the same drawing, from the family's samples."""
-    from mplang.plot import PlotRequest, render
     from mplang.trace import trace_from_samples
 
     family = selection.family
     assert family is not None
     run = build_and_run(selection, setup, call, max_time, trace_period)
     trace = trace_from_samples(run.samples, trace_period, family.POSITION_UNIT)
-    state = "finished" if run.finished else "FAILED"
     sources = ", ".join(str(p) for p in setup.paths)
-    title = (f"{run.called} ({sources}) on the virtual {selection.describe}\n{state} after "
-             f"{run.time_s:.3f} s simulated, sampled every {trace_period * 1000:g} ms")
-    if run.error:
-        title += f"\n{run.error}"
-    image = render(trace, PlotRequest(title, fmt, width, height))
-    try:
-        Path(output).write_bytes(image)
-    except OSError as exc:
-        raise OutputError(f"cannot write {output}: {exc.strerror or exc}") from None
-    click.echo(f"{run.called}: {state} after {round(run.time_s * 1000, 3)} ms simulated; "
-               f"{len(trace)} samples plotted to {output}")
-    if not run.finished:
-        click.echo(f"error: {run.error}", err=True)
-        sys.exit(EXIT_RUN_FAILED)
+    _draw(trace, f"{run.called} ({sources}) on the virtual {selection.describe}", run.called,
+          run.finished, run.time_s, run.error, (fmt, width, height), trace_period, output)
