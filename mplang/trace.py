@@ -180,7 +180,7 @@ def run_traced(controller: VirtualController, period: float = DEFAULT_PERIOD,
         tick = _next_tick(controller.clock, start, period, tick)
         if controller.clock < target or controller.clock >= limit:
             break  # idle (finished or failed), out of steps, or out of time
-    result = _outcome(controller, limit, steps)
+    result = controller.outcome(limit, steps)
     if result.finished:
         _record_until_rest(controller, trace, start, period, tick)
         result = RunResult(True, controller.clock, steps)
@@ -201,25 +201,6 @@ def _next_tick(now: float, start: float, period: float, tick: int) -> int:
     while start + tick * period <= now:
         tick += 1
     return tick
-
-
-def _outcome(controller: VirtualController, limit: float, steps: int) -> RunResult:
-    """What `VirtualController.run` reports once its advance has returned (the motion still
-    running after a finished program is let come to rest by the caller)."""
-    if controller.error is not None:
-        return RunResult(False, controller.clock, steps, controller.error)
-    if controller.stack:
-        frame = controller.stack[-1]
-        if frame.wait is not None and frame.wait() == math.inf:
-            line = frame.table.lines[frame.pc - 1]
-            controller.clock = limit
-            return RunResult(False, controller.clock, steps,
-                             f"{line.command.short_name} at line {line.slot_line} of "
-                             f"{frame.table.kind.upper()}{frame.table.slot} waits for ever")
-        return RunResult(False, controller.clock, steps,
-                         f"stopped after {steps} lines and {controller.clock:.3f} s of "
-                         "simulated time without finishing")
-    return RunResult(True, controller.clock, steps)
 
 
 def _record_until_rest(controller: VirtualController, trace: Trace, start: float,

@@ -386,6 +386,20 @@ class VirtualController:
         """Execute the called program until it (and its callees) finish."""
         limit = self.clock + max_time
         steps = self.advance(limit, max_steps, until_idle=True)
+        outcome = self.outcome(limit, steps)
+        if not outcome.finished:
+            return outcome
+        # let motion started by the program finish, as the machine would
+        end = self.motion.idle_at(15, self.clock)
+        if end is not None:
+            self.clock = max(self.clock, end)
+            self.motion.settle(self.clock)
+        return RunResult(True, self.clock, steps)
+
+    def outcome(self, limit: float, steps: int) -> RunResult:
+        """What a run that advanced `steps` lines towards `limit` comes to: finished, failed
+        with an execution error, waiting for ever, or out of time (motion still running
+        after a finished program is left to the caller)."""
         if self.error is not None:
             return RunResult(False, self.clock, steps, self.error)
         if self.stack:
@@ -399,11 +413,6 @@ class VirtualController:
             return RunResult(False, self.clock, steps,
                              f"stopped after {steps} lines and {self.clock:.3f} s of "
                              "simulated time without finishing")
-        # let motion started by the program finish, as the machine would
-        end = self.motion.idle_at(15, self.clock)
-        if end is not None:
-            self.clock = max(self.clock, end)
-            self.motion.settle(self.clock)
         return RunResult(True, self.clock, steps)
 
     def _record_error(self, frame: Frame, line: StoredLine, code: int) -> None:
