@@ -264,13 +264,7 @@ def image_from_json(data: object, name: str, catalogue: Catalogue | None = None)
         frames = raw.get("frames")
         if not isinstance(frames, list) or len(frames) < 2:
             raise fail(f"{at}.frames", "must be a list of frames, create and close included")
-        for k, frame in enumerate(frames):
-            where = f"{at}.frames[{k}]"
-            if not isinstance(frame, list) or not 1 <= len(frame) <= MAX_WRITE_REGISTERS:
-                raise fail(where, f"must be a list of 1..{MAX_WRITE_REGISTERS} registers")
-            for w, word in enumerate(frame):
-                if not _is_int(word) or not 0 <= word <= 0xFFFF:
-                    raise fail(f"{where}[{w}]", f"{word!r} is not a 16-bit register value")
+        _check_frames(frames, f"{at}.frames", fail)
         create, close = encoder.create_frame(kind, slot), encoder.close_frame(kind)
         if frames[0] != create:
             raise fail(f"{at}.frames[0]", f"must be the create frame {create} of "
@@ -281,19 +275,26 @@ def image_from_json(data: object, name: str, catalogue: Catalogue | None = None)
             if frames[k][0] == close[0]:
                 # the rest would reach the device as real-time commands, and run
                 raise fail(f"{at}.frames[{k}]", "a close frame before the last frame")
-        lines = raw.get("frame_lines")
-        if lines is None:
-            lines = [None] * len(frames)
-        elif not isinstance(lines, list) or len(lines) != len(frames) or \
-                not all(v is None or (_is_int(v) and v > 0) for v in lines):
-            raise fail(f"{at}.frame_lines", "must list one source line (or null) per frame")
+        lines = _frame_lines(raw.get("frame_lines"), len(frames), f"{at}.frame_lines", fail)
         programs.append(FlashProgram(kind, slot, label, source, frames, lines))
     return FlashImage(word_order, programs, build_id if isinstance(build_id, str) else None,
                       _init_from_json(data.get("init"), catalogue, fail),
                       _triggers_from_json(data.get("triggers"), fail))
 
 
+def _frame_lines(lines: object, count: int, at: str, fail: Callable[[str, str], ImageError]
+                 ) -> list[int | None]:
+    """An image's "frame_lines": one source line (or null) per frame; absent: all unknown."""
+    if lines is None:
+        return [None] * count
+    if not isinstance(lines, list) or len(lines) != count or \
+            not all(v is None or (_is_int(v) and v > 0) for v in lines):
+        raise fail(at, "must list one source line (or null) per frame")
+    return lines
+
+
 def _check_frames(frames: object, at: str, fail: Callable[[str, str], ImageError]) -> None:
+    """Every frame a list of 1..MAX_WRITE_REGISTERS 16-bit register values."""
     if not isinstance(frames, list) or not frames:
         raise fail(at, "must be a non-empty list of frames")
     for k, frame in enumerate(frames):
@@ -330,13 +331,8 @@ def _init_from_json(raw: object, catalogue: Catalogue, fail: Callable[[str, str]
     source = raw.get("source")
     if source is not None and not isinstance(source, str):
         raise fail("init.source", "must be a string or null")
-    lines = raw.get("frame_lines")
-    if lines is None:
-        lines = [None] * len(frames)
-    elif not isinstance(lines, list) or len(lines) != len(frames) or \
-            not all(v is None or (_is_int(v) and v > 0) for v in lines):
-        raise fail("init.frame_lines", "must list one source line (or null) per frame")
-    return FlashInit(source, frames, lines)
+    return FlashInit(source, frames,
+                     _frame_lines(raw.get("frame_lines"), len(frames), "init.frame_lines", fail))
 
 
 def _triggers_from_json(raw: object, fail: Callable[[str, str], ImageError]
