@@ -50,8 +50,8 @@ lint: $(STAMP)
 	$(BIN)/mypy
 
 docs: $(STAMP)
-	$(BIN)/python -m mplang.docgen
-	$(BIN)/python -m mplang.editors
+	$(BIN)/python -m mplang.tools.docgen
+	$(BIN)/python -m mplang.tools.editors
 
 bench: $(STAMP)
 	$(BIN)/python bench/compile.py

@@ -12,9 +12,9 @@ import statistics
 import time
 from collections.abc import Callable
 
-from mplang import catalogue
-from mplang.compiler import compile_source
-from mplang.frontend.parser import _parser
+from mplang.ir import catalogue
+from mplang.lang.parser import _parser
+from mplang.m8194h.compiler import compile_source
 
 BODY = [
     "  SET_V X, 2000",

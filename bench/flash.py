@@ -10,7 +10,7 @@ Targets (issue 4), each a ratio to a baseline measured in the same run:
    the bytes of every request and answer on the line (start bit, 8 data bits, parity and
    stop bits) plus a 3.5-character silence before each frame. Ptys ignore the baud rate, so
    the line here is a pty pair whose relay holds every chunk for its time on the wire.
-3. A fleet of 20 virtual devices flashed at once (20 `mplang.flash.flash` calls under
+3. A fleet of 20 virtual devices flashed at once (20 `mplang.m8194h.flash.flash` calls under
    asyncio.gather) against one device with the same image: target at most 2x. The image is
    the samples build (788 frames; the full device 20 times over would take minutes). Three
    fleets: TCP devices served by this process's event loop, TCP devices served by a child
@@ -33,12 +33,20 @@ from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from mplang import catalogue
-from mplang.compiler import compile_paths, compile_source
-from mplang.flash import FlashImage, FlashReport, flash, image_from_build
-from mplang.modbus import DeviceFace, DeviceLink, Endpoint, SimClock, serve_rtu, serve_tcp, stop
-from mplang.sim.controller import VirtualController
-from mplang.sim.ptylink import PtyLink
+from mplang.family.ptylink import PtyLink
+from mplang.ir import catalogue
+from mplang.m8194h.compiler import compile_paths, compile_source
+from mplang.m8194h.flash import FlashImage, FlashReport, flash, image_from_build
+from mplang.m8194h.modbus import (
+    DeviceFace,
+    DeviceLink,
+    Endpoint,
+    SimClock,
+    serve_rtu,
+    serve_tcp,
+    stop,
+)
+from mplang.m8194h.sim.controller import VirtualController
 
 ROOT = Path(__file__).resolve().parent.parent
 BAUD = 115200

@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import time
 
-from mplang.compiler import compile_source
-from mplang.run import run_build
+from mplang.m8194h.compiler import compile_source
+from mplang.m8194h.run import run_build
 
 ARITH = """MP 156
   VAR1 = 0

@@ -13,8 +13,8 @@ from pymodbus.client import AsyncModbusTcpClient
 from pymodbus.server import ModbusTcpServer
 from pymodbus.simulator import DataType, SimData, SimDevice
 
-from mplang.modbus import DeviceFace, serve_tcp, stop
-from mplang.sim.controller import VirtualController
+from mplang.m8194h.modbus import DeviceFace, serve_tcp, stop
+from mplang.m8194h.sim.controller import VirtualController
 
 REQUESTS = 400
 

@@ -42,7 +42,7 @@ def test_installed_package_compiles(wheel: Path, tmp_path: Path) -> None:
     script = (
         "import mplang, sys\n"
         "assert mplang.__file__.startswith(sys.argv[1]), mplang.__file__\n"
-        "from mplang.compiler import compile_source\n"
+        "from mplang.m8194h.compiler import compile_source\n"
         "r = compile_source('MP 21\\n  FIXED_MOVE X, 1000\\nEND MP\\n')\n"
         "print(r.programs[0].frames)\n"
     )

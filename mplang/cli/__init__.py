@@ -1,4 +1,5 @@
-"""`mpc`: the command line, a thin shell over the library (`mplang.compiler`, `mplang.flash`, ...).
+"""`mpc`: the command line, a thin shell over the library and the family registry
+(`mplang.family.registry`).
 
 Every command lives in its own module of `mplang.cli.commands` and defines `command`; the group
 finds them there (module `import_` is command `import`), so adding a command touches no other

@@ -15,9 +15,9 @@ from typing import Any, Protocol, TypeVar
 
 import click
 
-from mplang import project as project_module
-from mplang.compiler import DEFAULT_TEMPS, Options
-from mplang.diagnostics import Diagnostic, Severity
+from mplang.lang.diagnostics import Diagnostic, Severity
+from mplang.m8194h.compiler import DEFAULT_TEMPS, Options
+from mplang.tools import project as project_module
 
 EXIT_OK = 0
 EXIT_SOURCE_ERRORS = 1

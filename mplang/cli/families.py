@@ -20,10 +20,10 @@ from typing import TYPE_CHECKING, Any, Protocol
 
 import click
 
-from mplang import project as project_module
 from mplang.cli.common import EXIT_RUN_FAILED, BuildSetup, report
-from mplang.compiler import Options
-from mplang.diagnostics import Diagnostic
+from mplang.lang.diagnostics import Diagnostic
+from mplang.m8194h.compiler import Options
+from mplang.tools import project as project_module
 
 M8194H_TITLE = "M8194H"
 M8194H_FORMATS = ("json", "listing", "hex", "map", "vars", "vars-h", "vars-py", "triggers")
@@ -119,7 +119,7 @@ if TYPE_CHECKING:  # every family package has the face the CLI uses
 
 
 def families() -> list[Family]:
-    """Every family package, in the order of `mplang.project.FAMILY_PACKAGES`."""
+    """Every family package, in the order of `mplang.tools.project.FAMILY_PACKAGES`."""
     found: list[Family] = [importlib.import_module(name)
                            for name in project_module.FAMILY_PACKAGES]
     return found
@@ -161,7 +161,7 @@ class Selection:
 
     def build(self, options: Options) -> FamilyBuild:
         family = self.family
-        assert family is not None, "the M8194H builds through mplang.compiler"
+        assert family is not None, "the M8194H builds through mplang.m8194h.compiler"
         if self.native:
             return family.check_native(self.paths, self.target)
         assert self.target is not None

@@ -28,7 +28,7 @@ from mplang.cli.common import (
 from mplang.cli.families import Selection, refuse_m8194h_options
 from mplang.csim import CsimProgram
 from mplang.csim.download import DownloadError, download
-from mplang.project import Target
+from mplang.tools.project import Target
 
 DOWNLOAD_EXIT = {"port": EXIT_TRANSPORT, "no-answer": EXIT_NO_DEVICE,
                  "device-error": EXIT_REJECTED, "program": EXIT_REJECTED,

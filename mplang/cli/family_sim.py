@@ -2,7 +2,7 @@
 pair), and the reason there is no FATEK FBs-PLC service.
 
 The CSIM speaks RS232 ASCII (`mplang.csim.device`), not Modbus: one serial line, one host.
-`--serial pty` makes a linked pseudo-terminal pair (`mplang.sim.ptylink.PtyLink`), serves
+`--serial pty` makes a linked pseudo-terminal pair (`mplang.family.ptylink.PtyLink`), serves
 the device end and prints the end to open, as the M8194H's `mpc sim --serial pty` does.
 """
 
@@ -24,7 +24,7 @@ from mplang.cli.common import EXIT_RUN_FAILED, EXIT_TRANSPORT, BuildSetup, repor
 from mplang.cli.families import Selection, refuse_m8194h_options
 from mplang.csim import CsimProgram
 from mplang.csim.device import CsimServer, Reply, VirtualCsim
-from mplang.sim.ptylink import PtyLink
+from mplang.family.ptylink import PtyLink
 
 
 @dataclass(frozen=True)

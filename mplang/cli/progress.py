@@ -13,7 +13,7 @@ import time
 from collections.abc import Callable
 from typing import TextIO
 
-from mplang.flash import FlashReport
+from mplang.m8194h.flash import FlashReport
 
 REDRAW_S = 0.1
 BAR_WIDTH = 24

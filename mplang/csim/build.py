@@ -8,11 +8,11 @@ import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from mplang.compiler import suppressed
 from mplang.csim import profile as profile_module
 from mplang.csim.check import check_script
 from mplang.csim.syntax import Script, parse_file
-from mplang.diagnostics import Diagnostic, DiagnosticSink, Severity, Span
+from mplang.lang.diagnostics import Diagnostic, DiagnosticSink, Severity, Span
+from mplang.m8194h.compiler import suppressed
 
 BUILD_FORMAT = "mplang-csim/1"
 TARGETS: tuple[str, ...] = ("csim",)

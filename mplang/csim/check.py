@@ -13,7 +13,7 @@ import difflib
 
 from mplang.csim.profile import CommandSpec, OperandSpec, ParameterSpec, Profile
 from mplang.csim.syntax import Operand, Script, Statement
-from mplang.diagnostics import DiagnosticSink, Span
+from mplang.lang.diagnostics import DiagnosticSink, Span
 
 KIND_TEXT = {
     "real": "a number", "int": "an integer", "rvar": "a real variable Rn",

@@ -1,8 +1,8 @@
 """`.mp` -> CSIM (`--target csim`): the real front end and lowering, then one CSIM program.
 
 The `.mp` sources go through the same front end, names, checks and lowering as for the
-M8194H (mplang/frontend, mplang/lower.py), so every `.mp` diagnostic still applies. The
-lowered macro lines (mplang/ir.py) are then translated line by line following
+M8194H (mplang/lang, mplang/ir/lower.py), so every `.mp` diagnostic still applies. The
+lowered macro lines (mplang/ir/macro.py) are then translated line by line following
 stdlib/csim/from_mp.toml: moves, speeds, waits, interpolation and arcs to their CSIM
 commands, FOR/IF/GOTO/CALL to labels and jumps, variables to R variables. What the CSIM
 cannot express is reported at the `.mp` line (E721-E724), what it does not need is left
@@ -19,18 +19,18 @@ import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from mplang import catalogue as catalogue_module
-from mplang.compiler import Options, configuration_blocks, suppressed
 from mplang.csim import profile as profile_module
 from mplang.csim.build import TARGETS, CsimProgram, FamilyBuild
 from mplang.csim.check import Checker
 from mplang.csim.profile import Profile
 from mplang.csim.syntax import Script, parse_line
-from mplang.diagnostics import Diagnostic, DiagnosticSink, Span
-from mplang.frontend.sources import load_sources
-from mplang.frontend.structure import build_unit
-from mplang.ir import LoweredProgram, MacroLine, Operand, ProgramRef, VarRef
-from mplang.lower import ProgramLowerer, Scope
+from mplang.ir import catalogue as catalogue_module
+from mplang.ir.lower import ProgramLowerer, Scope
+from mplang.ir.macro import LoweredProgram, MacroLine, Operand, ProgramRef, VarRef
+from mplang.lang.diagnostics import Diagnostic, DiagnosticSink, Span
+from mplang.lang.sources import load_sources
+from mplang.lang.structure import build_unit
+from mplang.m8194h.compiler import Options, configuration_blocks, suppressed
 
 AXIS_MODULE = {"X": 0, "Y": 1, "Z": 2, "U": 3}
 LOGICAL_OF = {"X": "X", "Y": "Y", "Z": "Z", "U": "W"}

@@ -29,7 +29,7 @@ from mplang.csim.machine import Machine, NotModelled, RunError, format_number
 from mplang.csim.motion import MotionError
 from mplang.csim.profile import Profile
 from mplang.csim.syntax import Script, Statement, parse_line
-from mplang.diagnostics import DiagnosticSink
+from mplang.lang.diagnostics import DiagnosticSink
 
 # Diagnostic codes of a refused line -> the device's error number (device.toml errors).
 ERROR_OF_CODE = {"E701": 1, "E702": 2, "E703": 3, "E704": 3, "E705": 3, "E706": 3, "E707": 3,

@@ -1,7 +1,7 @@
 """Motion of the virtual CSIM: up to eight modules, trapezoid profiles along lines, arcs
 given by centre and angle, helices, jogs, with the buffer and the blending of CM 1/CM 2.
 
-Why not mplang/sim/motion.py: that model is the M8194H's, in integer pulses with its speed
+Why not mplang/m8194h/sim/motion.py: that model is the M8194H's, in integer pulses with its speed
 quantisation, four axes, arcs given by a finish point (no multi-turn arcs such as the
 manual's `AA 50,150,-720`), start speeds and S-curves. The CSIM list describes none of that:
 user units as reals, PR3 path speed with PR2 acceleration (CS 246-249), arcs by centre and

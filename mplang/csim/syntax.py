@@ -14,7 +14,7 @@ import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from mplang.diagnostics import DiagnosticSink, Span
+from mplang.lang.diagnostics import DiagnosticSink, Span
 
 COMMENT = "#"
 LABEL_LINE = re.compile(r"\$([A-Za-z_][A-Za-z0-9_]*)")

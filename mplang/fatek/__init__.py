@@ -22,7 +22,7 @@ from mplang.fatek.build import (
 )
 from mplang.fatek.compile import compile_mp
 from mplang.fatek.run import FamilyRun, NoSuchTable, run_build
-from mplang.run import NoSuchProgram, RunSetupError
+from mplang.m8194h.run import NoSuchProgram, RunSetupError
 
 __all__ = ["DEFAULT_FORMAT", "FORMATS", "NO_TRANSPORT", "POSITION_UNIT", "SUFFIXES", "TARGETS",
            "TITLE", "TRANSPORTS", "FamilyBuild", "FamilyRun", "NoSuchProgram", "NoSuchTable",

@@ -11,13 +11,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from mplang.compiler import suppressed
-from mplang.diagnostics import Diagnostic, DiagnosticSink, Severity, Span
 from mplang.fatek import render
 from mplang.fatek.check import Checker, settle_implicit
 from mplang.fatek.model import PositioningTable, SimSetup, Table
 from mplang.fatek.parser import parse_text
 from mplang.fatek.profile import Profile, load
+from mplang.lang.diagnostics import Diagnostic, DiagnosticSink, Severity, Span
+from mplang.m8194h.compiler import suppressed
 
 BUILD_FORMAT = "mplang-fatek/1"
 TARGETS = ("fbs-fun140", "fbs-fun147")

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 
-from mplang.diagnostics import DiagnosticSink, Span
 from mplang.fatek.model import (
     NEXT,
     Contact,
@@ -27,6 +26,7 @@ from mplang.fatek.model import (
 )
 from mplang.fatek.profile import Area, FunLimits, Profile
 from mplang.fatek.units import MECHANICAL_UNITS, AxisParams
+from mplang.lang.diagnostics import DiagnosticSink, Span
 
 
 def settle_implicit(tables: Iterable[Table], fun: int | None) -> None:

@@ -1,6 +1,6 @@
 """`.mp` sources to FBs-PLC positioning tables (`--target fbs-fun140` / `fbs-fun147`).
 
-The real front end and lowering (mplang.frontend, mplang.lower) turn the sources into macro
+The real front end and lowering (mplang.lang, mplang.ir.lower) turn the sources into macro
 lines, with every `.mp` check. The positioning language then has no variables, arithmetic,
 conditional branches or calls (FB 863-1149), so the macro lines are *evaluated* here at
 compile time: constants and known variables fold, FOR loops and IFs on known values unroll,
@@ -16,10 +16,6 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from mplang import catalogue as catalogue_module
-from mplang.catalogue import Catalogue
-from mplang.compiler import Options, configuration_blocks, suppressed
-from mplang.diagnostics import DiagnosticSink, Span
 from mplang.fatek.build import FUN_OF_TARGET, FamilyBuild, check_target
 from mplang.fatek.check import Checker
 from mplang.fatek.model import (
@@ -38,11 +34,15 @@ from mplang.fatek.model import (
     Value,
 )
 from mplang.fatek.profile import Profile, load
-from mplang.frontend import ast
-from mplang.frontend.sources import load_sources
-from mplang.frontend.structure import build_unit
-from mplang.ir import BVarRef, LoweredProgram, MacroLine, Operand, ProgramRef, VarRef
-from mplang.lower import ProgramLowerer, Scope, apply_operator
+from mplang.ir import catalogue as catalogue_module
+from mplang.ir.catalogue import Catalogue
+from mplang.ir.lower import ProgramLowerer, Scope, apply_operator
+from mplang.ir.macro import BVarRef, LoweredProgram, MacroLine, Operand, ProgramRef, VarRef
+from mplang.lang import ast
+from mplang.lang.diagnostics import DiagnosticSink, Span
+from mplang.lang.sources import load_sources
+from mplang.lang.structure import build_unit
+from mplang.m8194h.compiler import Options, configuration_blocks, suppressed
 
 FUEL = 200_000
 """Macro lines evaluated per program before the evaluation is declared endless (E645)."""

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from mplang.diagnostics import Span
+from mplang.lang.diagnostics import Span
 
 
 @dataclass(frozen=True, order=True)

@@ -1,7 +1,7 @@
 """The FBs-PLC's pulse output as closed-form motion: speed profiles over a path and the legs
 that carry them out on the axes.
 
-Why not `mplang.sim.motion`: the M8194H model quantises speeds to MAX_V/8000, ramps with
+Why not `mplang.m8194h.sim.motion`: the M8194H model quantises speeds to MAX_V/8000, ramps with
 accelerations given directly (and S-curves), and plans one command at a time. The PLC ramps
 with a constant slope set as a *time* to the maximum speed (FUN141 parameters 4, 5, 8, 12;
 FB 1597-1602, 1700-1732), starts and stops at the start/stop speed, and chains DRVC segments

@@ -12,7 +12,6 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass, field
 
-from mplang.diagnostics import DiagnosticSink, Span
 from mplang.fatek.model import (
     NEXT,
     Condition,
@@ -33,6 +32,7 @@ from mplang.fatek.model import (
     WindowSensor,
     split32,
 )
+from mplang.lang.diagnostics import DiagnosticSink, Span
 
 _FULLWIDTH_FIRST, _FULLWIDTH_LAST, _FULLWIDTH_SHIFT = 0xFF01, 0xFF5E, 0xFEE0
 _EXTRA = {"\u2212": "-", "\u2013": "-", "\u3000": " ", "\u00a0": " "}

@@ -1,6 +1,6 @@
 """`mpc run` for FBs-PLC tables: one EN=1 of one table on a fresh virtual PLC.
 
-`run_build` answers in the shape of the M8194H's `mpc run --json` (`mplang.run`): the keys
+`run_build` answers in the shape of the M8194H's `mpc run --json` (`mplang.m8194h.run`): the keys
 called, vars, axes (X/Y/Z/U = Ps0-Ps3, lp and ep), time_ms and error. `vars` lists every
 non-zero 16-bit register of the virtual PLC (the work registers, DR4088..., the SIM values).
 """
@@ -15,7 +15,7 @@ from mplang.fatek.build import FamilyBuild
 from mplang.fatek.machine import Machine, PlcError, Stuck, axis_params
 from mplang.fatek.model import Contact, ParamTable, PositioningTable, Register
 from mplang.fatek.motion import Leg, round_half_up
-from mplang.run import NoSuchProgram, RunSetupError
+from mplang.m8194h.run import NoSuchProgram, RunSetupError
 
 SAMPLE_PERIOD = 0.001
 """By default samples fall at least every millisecond of simulated time while an axis moves."""
@@ -43,7 +43,7 @@ class FamilyRun:
     sample_period: float | None = SAMPLE_PERIOD  # None: leg starts, ends and boundaries only
 
     def to_json(self) -> dict[str, object]:
-        """The `mpc run --json` shape of the M8194H (mplang/run.py)."""
+        """The `mpc run --json` shape of the M8194H (mplang/m8194h/run.py)."""
         registers = {str(r): v for r, v in sorted(self.registers.items()) if v}
         axes = {name: {"lp": pos, "ep": pos}
                 for name, pos in zip(self.axis_names, self.positions, strict=True)}

@@ -6,7 +6,7 @@ import asyncio
 import io
 
 from mplang.cli.progress import FlashDisplay, bar, frames_per_second
-from mplang.flash import FlashReport
+from mplang.m8194h.flash import FlashReport
 
 
 def reports(written: int, planned: int, devices: int = 1) -> list[FlashReport]:

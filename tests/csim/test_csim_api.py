@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 from mplang import csim
-from mplang.compiler import Options
+from mplang.m8194h.compiler import Options
 
 ROOT = Path(__file__).resolve().parents[2]
 SAMPLES = ROOT / "samples" / "csim"

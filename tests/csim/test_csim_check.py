@@ -7,7 +7,7 @@ import pytest
 from mplang.csim import profile
 from mplang.csim.check import Checker
 from mplang.csim.syntax import parse_text
-from mplang.diagnostics import DiagnosticSink
+from mplang.lang.diagnostics import DiagnosticSink
 
 
 def codes(text: str, context: str = "program") -> list[str]:

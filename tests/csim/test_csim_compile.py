@@ -9,8 +9,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from mplang import csim
-from mplang.compiler import Options, compile_paths
-from mplang.run import run_build as run_m8194h
+from mplang.m8194h.compiler import Options, compile_paths
+from mplang.m8194h.run import run_build as run_m8194h
 
 ROOT = Path(__file__).resolve().parents[2]
 SAMPLE = ROOT / "samples" / "csim" / "cross_target.mp"

@@ -13,7 +13,7 @@ import serial  # type: ignore[import-untyped]
 from mplang import csim
 from mplang.csim.device import CsimServer, Reply, VirtualCsim
 from mplang.csim.download import DownloadError, download
-from mplang.sim.ptylink import PtyLink
+from mplang.family.ptylink import PtyLink
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -40,7 +40,7 @@ def test_round_trip_lists_back_exactly_what_was_downloaded(link: PtyLink) -> Non
 
 
 def csim_options():  # type: ignore[no-untyped-def]
-    from mplang.compiler import Options
+    from mplang.m8194h.compiler import Options
     return Options()
 
 

@@ -6,7 +6,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from mplang.csim.syntax import parse_line, parse_text, strip_comment
-from mplang.diagnostics import DiagnosticSink
+from mplang.lang.diagnostics import DiagnosticSink
 
 
 def parse(text: str):  # type: ignore[no-untyped-def]

@@ -10,10 +10,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from mplang.compiler import Options, compile_paths, compile_source
 from mplang.fatek import FamilyBuild, check_native, compile_mp, run_build
 from mplang.fatek.model import Condition, Drive, Line, ParamTable, PositioningTable, Register
-from mplang.run import run_build as run_m8194h
+from mplang.m8194h.compiler import Options, compile_paths, compile_source
+from mplang.m8194h.run import run_build as run_m8194h
 
 SAMPLES = Path(__file__).resolve().parents[2] / "samples" / "fatek"
 TARGETS = ("fbs-fun140", "fbs-fun147")

@@ -11,14 +11,14 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from mplang.diagnostics import DiagnosticSink
 from mplang.fatek import FamilyRun, check_native, run_build
 from mplang.fatek.machine import Machine, PlcError, axis_params
 from mplang.fatek.model import Contact, ParamTable, PositioningTable, Register
 from mplang.fatek.parser import parse_text
 from mplang.fatek.profile import load
 from mplang.fatek.run import NoSuchTable
-from mplang.run import NoSuchProgram, RunSetupError
+from mplang.lang.diagnostics import DiagnosticSink
+from mplang.m8194h.run import NoSuchProgram, RunSetupError
 
 SAMPLES = Path(__file__).resolve().parents[2] / "samples" / "fatek"
 

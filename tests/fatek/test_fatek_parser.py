@@ -8,7 +8,6 @@ from pathlib import Path
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from mplang.diagnostics import DiagnosticSink
 from mplang.fatek.model import (
     NEXT,
     Condition,
@@ -30,6 +29,7 @@ from mplang.fatek.model import (
 from mplang.fatek.parser import normalise, parse_number, parse_text
 from mplang.fatek.profile import load
 from mplang.fatek.render import render_fbs
+from mplang.lang.diagnostics import DiagnosticSink
 
 SAMPLES = Path(__file__).resolve().parents[2] / "samples" / "fatek"
 

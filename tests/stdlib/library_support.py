@@ -7,9 +7,9 @@ one MP and looks at positions and at the library's declared variables by name.
 
 from __future__ import annotations
 
-from mplang.compiler import BuildResult, compile_source
-from mplang.sim.axis_io import AxisSensors
-from mplang.sim.controller import VirtualController
+from mplang.m8194h.compiler import BuildResult, compile_source
+from mplang.m8194h.sim.axis_io import AxisSensors
+from mplang.m8194h.sim.controller import VirtualController
 
 X, Y, Z, U = 1, 2, 4, 8
 AXIS_BITS = (X, Y, Z, U)

@@ -14,9 +14,9 @@ from pathlib import Path
 import pytest
 from library_support import TEMPORARY_POOL, build, consts, load, run
 
-from mplang.compiler import BuildResult, compile_paths, compile_source
-from mplang.frontend import sources
-from mplang.sim.axis_io import AxisSensors
+from mplang.lang import sources
+from mplang.m8194h.compiler import BuildResult, compile_paths, compile_source
+from mplang.m8194h.sim.axis_io import AxisSensors
 
 ROOT = Path(__file__).resolve().parents[2]
 DOCS = ROOT / "docs" / "stdlib.md"
@@ -205,7 +205,7 @@ def test_std_includes_work_from_an_installed_wheel(tmp_path: Path) -> None:
     script = (
         "import json, sys, mplang\n"
         "assert mplang.__file__.startswith(sys.argv[1]), mplang.__file__\n"
-        "from mplang.compiler import compile_source\n"
+        "from mplang.m8194h.compiler import compile_source\n"
         "r = compile_source(sys.argv[2])\n"
         "print(json.dumps([[d.render() for d in r.diagnostics],\n"
         "                  [[p.program.source, p.frames] for p in r.programs]]))\n"

@@ -9,9 +9,9 @@ from functools import cache
 
 from library_support import Variables, X, Y, build, consts, load, lp, run, slot
 
-from mplang.compiler import BuildResult
-from mplang.sim.axis_io import AxisSensors
-from mplang.sim.controller import VirtualController
+from mplang.m8194h.compiler import BuildResult
+from mplang.m8194h.sim.axis_io import AxisSensors
+from mplang.m8194h.sim.controller import VirtualController
 
 SAFE = 0x0008  # alarm lamp on, everything else off
 RUNNING = 0x0013  # spindle and valves on

@@ -6,8 +6,8 @@ from __future__ import annotations
 
 from library_support import Variables, X, Y, build, consts, ep, load, lp, machine, move_to, run
 
-from mplang.compiler import BuildResult
-from mplang.sim.axis_io import AxisSensors
+from mplang.m8194h.compiler import BuildResult
+from mplang.m8194h.sim.axis_io import AxisSensors
 
 OFFSET = 1000
 PROFILE = """

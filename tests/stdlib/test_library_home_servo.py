@@ -11,8 +11,8 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from library_support import Variables, X, Y, build, consts, ep, load, lp, machine, move_to, run
 
-from mplang.compiler import BuildResult
-from mplang.sim.axis_io import AxisSensors
+from mplang.m8194h.compiler import BuildResult
+from mplang.m8194h.sim.axis_io import AxisSensors
 
 OFFSET = 3500  # the manual's example offset
 

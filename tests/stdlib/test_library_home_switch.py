@@ -26,8 +26,8 @@ from library_support import (
     run,
 )
 
-from mplang.compiler import BuildResult
-from mplang.sim.axis_io import AxisSensors
+from mplang.m8194h.compiler import BuildResult
+from mplang.m8194h.sim.axis_io import AxisSensors
 
 OFFSET = 5000
 

@@ -13,8 +13,8 @@ from functools import cache
 import pytest
 from library_support import Variables, X, build, consts, load, lp, run, slot
 
-from mplang.compiler import BuildResult
-from mplang.sim.axis_io import AxisSensors
+from mplang.m8194h.compiler import BuildResult
+from mplang.m8194h.sim.axis_io import AxisSensors
 
 JOG_V, RAMP = 5000, 240
 START = 20_000

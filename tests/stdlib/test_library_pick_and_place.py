@@ -8,8 +8,8 @@ from functools import cache
 
 from library_support import Variables, X, Y, build, consts, load, lp, run, slot
 
-from mplang.compiler import BuildResult
-from mplang.sim.controller import VirtualController
+from mplang.m8194h.compiler import BuildResult
+from mplang.m8194h.sim.controller import VirtualController
 
 PICK, PLACE = (50_000, 20_000), (300_000, 250_000)
 DO_Z, DO_GRIP, LAMP = 1, 0, 1 << 2  # channels of DO group 0; the lamp is not the routine's

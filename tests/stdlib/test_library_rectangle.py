@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from library_support import Variables, X, Y, Z, build, consts, load, lp, move_to, trace
 
-from mplang.compiler import BuildResult
+from mplang.m8194h.compiler import BuildResult
 
 WIDTH, HEIGHT = 30_000, -20_000
 

@@ -1,7 +1,7 @@
 'use strict';
 // Tests of extension.js without VS Code: the `vscode` module and the language client are
 // replaced by recording fakes, so that what the extension asks for can be checked.
-// Run with `node --test tests/` (tests/test_editors.py does).
+// Run with `node --test tests/` (tests/tools/test_editors.py does).
 
 const assert = require('node:assert/strict');
 const Module = require('node:module');

@@ -19,7 +19,7 @@ from mplang.cli.common import (
     write_output,
 )
 from mplang.cli.families import M8194H_FORMATS, all_formats, check_format, choose
-from mplang.compiler import compile_paths
+from mplang.m8194h.compiler import compile_paths
 
 
 @click.command("build", short_help="Compile sources into one download image.")
@@ -41,7 +41,7 @@ def command(ctx: click.Context, files: tuple[str, ...], output: str | None, fmt:
     """Compile FILE... (files, directories or globs; without them, the sources of mpc.toml)
     together into one download image, or, for a FATEK or CSIM target (or .fbs / .csim
     listings), into that controller's checked programs."""
-    from mplang import output as render
+    from mplang.m8194h import image as render
 
     setup = build_setup(ctx, files, project_file, target, word_order, temp_vars,
                         allow_outside_includes, werror)

@@ -30,8 +30,8 @@ def command(image: str, output: str | None, temp_vars: range) -> None:
     Every program is rebuilt from the text and compared frame for frame with the image;
     frames that cannot be carried over exactly are named on standard error (exit 14).
     """
-    from mplang.disasm import disassemble_file
-    from mplang.flash import ImageError
+    from mplang.m8194h.disasm import disassemble_file
+    from mplang.m8194h.flash import ImageError
 
     path = Path(image)
     try:

@@ -3,7 +3,7 @@
 What is flashed where comes from the command line first, then from the project file: FILE...
 (sources or one image JSON) or `[project] sources`; `--tcp`/`--serial`, `--to NAME` (one of
 mpc.toml's `[targets]`), or `--fleet FILE` (every `[targets.NAME]` of FILE, concurrently).
-The work itself is `mplang.flash`; this module only resolves those choices and reports.
+The work itself is `mplang.m8194h.flash`; this module only resolves those choices and reports.
 A device of another controller family (a CSIM) goes to `mplang.cli.family_flash`.
 """
 
@@ -32,12 +32,12 @@ from mplang.cli.common import (
     with_serial_line,
 )
 from mplang.cli.families import Selection, select
-from mplang.compiler import Options, compile_paths
-from mplang.project import Project, ProjectError, Target, load_fleet
+from mplang.m8194h.compiler import Options, compile_paths
+from mplang.tools.project import Project, ProjectError, Target, load_fleet
 
 if TYPE_CHECKING:
-    from mplang import flash as flashing
     from mplang.cli.progress import FlashDisplay
+    from mplang.m8194h import flash as flashing
 
 T = TypeVar("T")
 
@@ -93,8 +93,8 @@ def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | N
     with DLP, listed back with ULP and compared, then saved with SAVE P. FATEK FBs-PLC
     tables cannot be flashed (the manual documents no transport): see mpc build --format
     table."""
-    from mplang import flash as flashing
-    from mplang.modbus import Endpoint
+    from mplang.m8194h import flash as flashing
+    from mplang.m8194h.modbus import Endpoint
 
     def given(name: str) -> bool:
         source = ctx.get_parameter_source(name)
@@ -272,7 +272,7 @@ class _Images:
         return self._cache[key]
 
     def _load(self, path: Path, word_order: int | None) -> flashing.FlashImage:
-        from mplang import flash as flashing
+        from mplang.m8194h import flash as flashing
 
         try:
             image = flashing.load_image(path)
@@ -287,7 +287,7 @@ class _Images:
 
     def _build(self, paths: list[Path], options: Options, target_fixes_order: bool
                ) -> tuple[flashing.FlashImage, Callable[[int], flashing.FlashImage] | None]:
-        from mplang import flash as flashing
+        from mplang.m8194h import flash as flashing
 
         images = [p for p in paths if p.suffix.lower() == ".json"]
         if images:
@@ -317,7 +317,7 @@ def _dry_run(devices: list[flashing.FleetDevice],
              record: flashing.FlashRecord, as_json: bool) -> None:
     import json
 
-    from mplang import flash as flashing
+    from mplang.m8194h import flash as flashing
 
     plans = []
     for device in devices:
@@ -336,9 +336,9 @@ def _dry_run(devices: list[flashing.FleetDevice],
 def _flash_one(device: flashing.FleetDevice, as_json: bool) -> None:
     import json
 
-    from mplang import flash as flashing
     from mplang.cli.progress import FlashDisplay
-    from mplang.modbus import DeviceLink
+    from mplang.m8194h import flash as flashing
+    from mplang.m8194h.modbus import DeviceLink
 
     flasher: flashing.Flasher | None = None
     display = FlashDisplay(lambda: [flasher.report] if flasher else [])
@@ -395,8 +395,8 @@ def _drive(work: Callable[[], Awaitable[T]], display: FlashDisplay,
 def _flash_fleet(devices: list[flashing.FleetDevice], as_json: bool) -> None:
     import json
 
-    from mplang import flash as flashing
     from mplang.cli.progress import FlashDisplay
+    from mplang.m8194h import flash as flashing
 
     fleet: flashing.Fleet | None = None
     display = FlashDisplay(lambda: fleet.reports if fleet else [])

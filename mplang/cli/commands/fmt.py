@@ -32,11 +32,11 @@ from mplang.cli.common import (
     load_project_file,
     project_option,
 )
-from mplang.diagnostics import DiagnosticSink, Span
-from mplang.project import find_project
+from mplang.lang.diagnostics import DiagnosticSink, Span
+from mplang.tools.project import find_project
 
 if TYPE_CHECKING:
-    from mplang.fmt import FormatOptions
+    from mplang.tools.fmt import FormatOptions
 
 STDIN = "-"
 STDIN_NAME = "<stdin>"
@@ -72,7 +72,7 @@ def _options(indent: int | None, keyword_case: str | None,
              base: FormatOptions | None = None) -> FormatOptions:
     """The command line's settings over `base`: the defaults, or the options a project's
     [fmt] table gives (`FormatOptions.from_mapping`)."""
-    from mplang.fmt import FormatOptions, FormatOptionsError, KeywordCase
+    from mplang.tools.fmt import FormatOptions, FormatOptionsError, KeywordCase
 
     options = base or FormatOptions()
     try:
@@ -99,7 +99,7 @@ def _decode(data: bytes, display: str) -> str | None:
 
 def _formatted(text: str, display: str, options: FormatOptions) -> str | None:
     """The canonical text, or None after printing the syntax errors that prevent it."""
-    from mplang.fmt import SourceNotFormattable, format_source
+    from mplang.tools.fmt import SourceNotFormattable, format_source
 
     try:
         return format_source(text, options, name=display)
@@ -216,7 +216,7 @@ def command(files: tuple[str, ...], check: bool, show_diff: bool, indent: int | 
     in place; '-' formats standard input to standard output. Comments, blank-line groups and
     every token are kept; files with syntax errors are left untouched (exit 1). The [fmt]
     table of mpc.toml (here or above) sets the defaults."""
-    from mplang.fmt import FormatOptions, FormatOptionsError
+    from mplang.tools.fmt import FormatOptions, FormatOptionsError
 
     found = project_file or find_project(Path.cwd())
     project = load_project_file(found) if found is not None else None

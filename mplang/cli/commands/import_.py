@@ -36,7 +36,7 @@ def command(file: str, output: str | None, encoding: str | None, check: bool) ->
     """
     import codecs
 
-    from mplang.importc import convert, read_c_file
+    from mplang.m8194h.importc import convert, read_c_file
 
     if encoding is not None:
         try:
@@ -75,8 +75,8 @@ def command(file: str, output: str | None, encoding: str | None, check: bool) ->
 def _check(text: str, line_map: list[int | None], target: str, file: str,
            output: str | None) -> int:
     """Compile the converted text; report each diagnostic at its C line (and .mp line)."""
-    from mplang.compiler import Options, compile_source
-    from mplang.diagnostics import Severity
+    from mplang.lang.diagnostics import Severity
+    from mplang.m8194h.compiler import Options, compile_source
 
     name = output if output not in (None, "-") else Path(file).with_suffix(".mp").name
     result = compile_source(text, str(name), Options(target=target))

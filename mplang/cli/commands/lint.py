@@ -18,8 +18,8 @@ from mplang.cli.common import (
     write_output,
 )
 from mplang.cli.families import choose
-from mplang.compiler import compile_paths
-from mplang.diagnostics import Severity
+from mplang.lang.diagnostics import Severity
+from mplang.m8194h.compiler import compile_paths
 
 
 @click.command("lint", short_help="Run every check without producing an image.")
@@ -37,7 +37,7 @@ def command(ctx: click.Context, files: tuple[str, ...], fmt: str, output: str | 
     """Check FILE... (without them, the sources of mpc.toml) without producing an image:
     .mp sources for --target, or FATEK .fbs / CSIM .csim listings. Exit 1 if any error is
     found."""
-    from mplang import output as render
+    from mplang.m8194h import image as render
 
     setup = build_setup(ctx, files, project_file, target, word_order, temp_vars,
                         allow_outside_includes, werror)

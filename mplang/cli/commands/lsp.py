@@ -62,8 +62,8 @@ def command(listen: tuple[str, int] | None, target: str | None, temp_vars: range
             allow_outside_includes: bool | None, verbose: bool) -> None:
     """Run the language server: diagnostics, hover, completion, go to definition and slot
     budgets for .mp files. Editors start it and speak LSP over its standard input/output."""
-    from mplang.lsp.server import create_server
-    from mplang.lsp.workspace import Overrides
+    from mplang.tools.lsp.server import create_server
+    from mplang.tools.lsp.workspace import Overrides
 
     handler = logging.StreamHandler(sys.stderr)
     handler.setFormatter(logging.Formatter(LOG_FORMAT) if verbose

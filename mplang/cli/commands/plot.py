@@ -21,10 +21,10 @@ from mplang.cli.common import (
     with_common,
 )
 from mplang.cli.families import Selection, build_and_run, choose
-from mplang.compiler import BuildResult, compile_paths
+from mplang.m8194h.compiler import BuildResult, compile_paths
 
 if TYPE_CHECKING:
-    from mplang.trace import Trace
+    from mplang.m8194h.trace import Trace
 
 IMAGE_SUFFIXES = {".png": "png", ".svg": "svg"}
 
@@ -84,7 +84,7 @@ def command(ctx: click.Context, files: tuple[str, ...], call: str | None, output
     """Build FILE..., run one program on a fresh virtual controller and plot what the axes
     did: the XY path (XZ and YZ too when Z moves) and position and velocity against time.
     A program that fails or does not finish is plotted up to that point, and exits 5."""
-    from mplang.run import NoSuchProgram, RunSetupError, run_build
+    from mplang.m8194h.run import NoSuchProgram, RunSetupError, run_build
 
     fmt = image_format(output)
     setup = build_setup(ctx, files, project_file, target, word_order, temp_vars,
@@ -120,7 +120,7 @@ def _draw(trace: Trace, heading: str, called: str, finished: bool, time_s: float
           output: str) -> None:
     """Render the run's trace under `heading` into `output` (format, width, height from
     `image_shape`), say so, and exit 5 unless the run finished (every family plots here)."""
-    from mplang.plot import PlotRequest, render
+    from mplang.tools.plot import PlotRequest, render
 
     state = "finished" if finished else "FAILED"
     title = (f"{heading}\n{state} after {time_s:.3f} s simulated, sampled every "
@@ -143,7 +143,7 @@ def _plot_family(selection: Selection, setup: BuildSetup, call: str | None, outp
                  fmt: str, width: int, height: int, trace_period: float,
                  max_time: float) -> None:
     """`mpc plot` of a FATEK or CSIM build: the same drawing, from the family's samples."""
-    from mplang.trace import trace_from_samples
+    from mplang.m8194h.trace import trace_from_samples
 
     family = selection.family
     assert family is not None

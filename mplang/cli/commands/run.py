@@ -21,10 +21,10 @@ from mplang.cli.common import (
     with_common,
 )
 from mplang.cli.families import FamilyRun, Selection, build_and_run, choose
-from mplang.compiler import compile_paths
+from mplang.m8194h.compiler import compile_paths
 
 if TYPE_CHECKING:
-    from mplang.trace import Trace
+    from mplang.m8194h.trace import Trace
 
 
 def check_trace_place(trace_file: str) -> None:
@@ -64,8 +64,8 @@ def command(ctx: click.Context, files: tuple[str, ...], call: str | None, as_jso
             temp_vars: range, allow_outside_includes: bool, werror: bool) -> None:
     """Build FILE..., load every program into a fresh virtual controller and run one."""
 
-    from mplang.run import NoSuchProgram, RunSetupError, run_build
-    from mplang.trace import DEFAULT_PERIOD
+    from mplang.m8194h.run import NoSuchProgram, RunSetupError, run_build
+    from mplang.m8194h.trace import DEFAULT_PERIOD
 
     if trace_period is not None and trace_file is None:
         raise click.UsageError("--trace-period needs --trace FILE.csv")
@@ -138,7 +138,7 @@ def _report_family(selection: Selection, run: FamilyRun, as_json: bool,
     """The family run's summary (the keys of the M8194H's), its trace, and exit 5 unless it
     finished."""
 
-    from mplang.trace import trace_from_samples
+    from mplang.m8194h.trace import trace_from_samples
 
     assert selection.family is not None
     trace = None

@@ -22,7 +22,7 @@ from mplang.cli.common import (
     with_serial_line,
 )
 from mplang.cli.families import select
-from mplang.compiler import compile_paths
+from mplang.m8194h.compiler import compile_paths
 
 
 @click.command("sim", short_help="Serve a virtual M8194H over Modbus TCP and/or RTU.")
@@ -76,8 +76,8 @@ def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | N
                             "--word-order": given("word_order")}))
         return
 
-    from mplang.sim.controller import VirtualController
-    from mplang.sim.service import (
+    from mplang.m8194h.sim.controller import VirtualController
+    from mplang.m8194h.sim.service import (
         ServiceError,
         SimOptions,
         load_memory,

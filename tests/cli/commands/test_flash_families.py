@@ -24,10 +24,10 @@ from mplang.cli import (
     family_flash,
     main,
 )
-from mplang.compiler import Options
 from mplang.csim.device import CsimServer, Reply, VirtualCsim
 from mplang.csim.download import DownloadError
-from mplang.sim.ptylink import PtyLink
+from mplang.family.ptylink import PtyLink
+from mplang.m8194h.compiler import Options
 
 ROOT = Path(__file__).resolve().parents[3]
 SAMPLES = ROOT / "samples"

@@ -9,7 +9,6 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner, Result
 
-from mplang import fmt
 from mplang.cli import (
     EXIT_INTERNAL,
     EXIT_NO_INPUT,
@@ -19,6 +18,7 @@ from mplang.cli import (
     EXIT_WOULD_REFORMAT,
     main,
 )
+from mplang.tools import fmt
 
 MESSY = "mp 21 square\nset_v X,2000   # speed\n\n\n  fixed_move X,1000\nend mp\n"
 TIDY = "MP 21 square\n    SET_V X, 2000  # speed\n\n    FIXED_MOVE X, 1000\nEND MP\n"

@@ -22,8 +22,8 @@ from mplang.cli import (
     EXIT_USAGE,
     main,
 )
-from mplang.compiler import Options
 from mplang.csim.device import Reply, VirtualCsim
+from mplang.m8194h.compiler import Options
 
 ROOT = Path(__file__).resolve().parents[3]
 SAMPLES = ROOT / "samples"

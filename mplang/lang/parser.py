@@ -1,0 +1,320 @@
+"""Text -> flat list of line statements, with every syntax error reported at once.
+
+A whole file is parsed in one LALR pass (fast path). If that fails, every line is parsed on
+its own with the grammar's `line` start symbol, so one run reports all bad lines, not only
+the first; the good lines still reach the later passes.
+"""
+
+from __future__ import annotations
+
+import re
+from functools import cache
+from importlib import resources
+from typing import Any
+
+from lark import Lark, Token, Transformer, v_args
+from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedToken, VisitError
+
+from mplang.lang import ast
+from mplang.lang.diagnostics import DiagnosticSink, Span
+
+# What the user sees instead of lark's terminal names.
+TOKEN_WORDS = {
+    "NAME": "a name", "INT": "a number", "STRING": "a string", "CMP": "a comparison",
+    "_NL": "end of line", "$END": "end of line", "LPAR": "'('", "RPAR": "')'",
+    "COMMA": "','", "EQUAL": "'='", "PLUS": "'+'", "MINUS": "'-'", "STAR": "'*'",
+    "SLASH": "'/'", "AMP": "'&'", "BAR": "'|'", "THEN": "THEN", "AT": "'@'",
+    "DI_PIN": "a DI channel (DI 8.0)", "CONDITION": "an interrupt factor or trigger condition",
+}
+
+
+class _SyntaxProblem(Exception):
+    """Raised inside the transformer for lexically valid but malformed constructs."""
+
+    def __init__(self, token: Token, message: str) -> None:
+        super().__init__(message)
+        self.token = token
+        self.message = message
+
+
+def _int(token: Token) -> int:
+    """INT is hex (0x1F) or decimal; leading zeros are decimal (int(.., 0) refuses them)."""
+    text = str(token)
+    return int(text, 16) if text[:2].lower() == "0x" else int(text, 10)
+
+
+@v_args(inline=True)
+class _Builder(Transformer[Token, Any]):
+    """Builds AST nodes straight from tokens (no intermediate tree, no position propagation)."""
+
+    def __init__(self, file: str, line_offset: int = 0) -> None:
+        super().__init__()
+        self.file = file
+        self.line_offset = line_offset
+
+    def _span(self, token: Token) -> Span:
+        line = (token.line or 1) + self.line_offset
+        col = token.column or 1
+        return Span(self.file, line, col, col + len(str(token)))
+
+    def _first_span(self, *items: Any) -> Span:
+        for item in items:
+            if isinstance(item, Token):
+                return self._span(item)
+            span = getattr(item, "span", None)
+            if isinstance(span, Span):
+                return span
+        return Span(self.file, 1 + self.line_offset)
+
+    # -------------------------------------------------------------- expressions
+    def number(self, tok: Token) -> ast.Num:
+        return ast.Num(_int(tok), self._span(tok))
+
+    def name(self, tok: Token) -> ast.Name:
+        return ast.Name(str(tok), self._span(tok))
+
+    def string(self, tok: Token) -> ast.Str:
+        return ast.Str(str(tok)[1:-1], self._span(tok))
+
+    def binop(self, left: ast.Expr, op: Token, right: ast.Expr) -> ast.BinOp:
+        return ast.BinOp(str(op), left, right, left.span)
+
+    def neg(self, op: Token, operand: ast.Expr) -> ast.Expr:
+        if isinstance(operand, ast.Num):
+            return ast.Num(-operand.value, self._span(op))
+        return ast.Neg(operand, self._span(op))
+
+    def pos(self, op: Token, operand: ast.Expr) -> ast.Expr:
+        return operand
+
+    def call(self, name: Token, lpar: Token, *rest: Any) -> ast.Call:
+        args = [a for a in rest if a is not None and not isinstance(a, Token)]
+        return ast.Call(str(name), args, self._span(name))
+
+    def group(self, lpar: Token, *rest: Any) -> ast.Group:
+        items = [a for a in rest if a is not None and not isinstance(a, Token)]
+        return ast.Group(items, self._span(lpar))
+
+    # --------------------------------------------------------------- statements
+    def const_decl(self, kw: Token, name: Token, value: ast.Expr) -> ast.Const:
+        return ast.Const(str(name), value, self._span(kw), self._span(name))
+
+    def alias_decl(self, kw: Token, name: Token, target: Token) -> ast.Alias:
+        return ast.Alias(str(name), str(target), self._span(kw), self._span(name),
+                         self._span(target))
+
+    def var_decl(self, kw: Token, name: Token, _at: Token | None, pin: Token | None
+                 ) -> ast.VarDecl:
+        return ast.VarDecl(str(name), str(pin) if pin else None, self._span(kw),
+                           self._span(name), self._span(pin) if pin else None)
+
+    def include(self, kw: Token, path: Token) -> ast.Include:
+        return ast.Include(str(path)[1:-1], self._span(kw))
+
+    def program_header(self, kw: Token, number: Token | None, name: Token | None
+                       ) -> ast.ProgramHeader:
+        return ast.ProgramHeader(str(kw.type).lower(), _int(number) if number else None,
+                                 str(name) if name else None, self._span(kw))
+
+    def end_stmt(self, kw: Token, what: Token) -> ast.End:
+        return ast.End(str(what.type).lower(), self._span(kw))
+
+    def for_stmt(self, kw: Token, count: ast.Expr) -> ast.ForStmt:
+        return ast.ForStmt(count, self._span(kw))
+
+    def while_stmt(self, kw: Token, left: ast.Expr, op: Token, right: ast.Expr
+                   ) -> ast.WhileStmt:
+        return ast.WhileStmt(left, str(op), right, self._span(kw))
+
+    def repeat_stmt(self, kw: Token, count: ast.Expr) -> ast.RepeatStmt:
+        return ast.RepeatStmt(count, self._span(kw))
+
+    def next_stmt(self, kw: Token) -> ast.Next:
+        return ast.Next(self._span(kw))
+
+    def exit_stmt(self, kw: Token, loop: Token | None) -> ast.Exit | ast.ExitFor:
+        return ast.ExitFor(self._span(kw)) if loop else ast.Exit(self._span(kw))
+
+    def if_stmt(self, kw: Token, left: ast.Expr, op: Token, right: ast.Expr,
+                then: Token | None) -> ast.IfStmt:
+        return ast.IfStmt(left, str(op), right, self._span(kw))
+
+    def else_stmt(self, kw: Token) -> ast.Else:
+        return ast.Else(self._span(kw))
+
+    def label_stmt(self, kw: Token, label: Token) -> ast.LabelStmt:
+        return ast.LabelStmt(str(label), self._span(kw))
+
+    def goto_stmt(self, kw: Token, label: Token) -> ast.Goto:
+        return ast.Goto(str(label), self._span(kw))
+
+    def call_stmt(self, kw: Token, target: Token) -> ast.CallStmt:
+        return ast.CallStmt(str(target), self._span(kw))
+
+    def terminate_stmt(self, kw: Token) -> ast.Terminate:
+        return ast.Terminate(self._span(kw))
+
+    def assign(self, target: Token, value: ast.Expr) -> ast.Assign:
+        return ast.Assign(str(target), self._span(target), value, self._span(target))
+
+    def command(self, name: Token, *args: ast.Expr | None) -> ast.Command:
+        items = [a for a in args if a is not None]
+        # `NAME(a, b)` arrives as one parenthesised group: it is the argument list.
+        if len(items) == 1 and isinstance(items[0], ast.Group):
+            items = list(items[0].items)
+        for item in items:
+            if isinstance(item, ast.Group) and len(item.items) != 1:
+                raise _SyntaxProblem(name, "a parenthesised list can only be the whole "
+                                     "argument list")
+        return ast.Command(str(name), items, self._span(name), self._span(name))
+
+    def init_header(self, kw: Token) -> ast.InitHeader:
+        return ast.InitHeader(self._span(kw))
+
+    def interrupts_header(self, kw: Token, mp: Token | None, target: Token
+                          ) -> ast.InterruptsHeader:
+        text = f"MP{target}" if mp is not None else str(target)
+        return ast.InterruptsHeader(text, self._span(kw), self._span(mp or target))
+
+    def triggers_header(self, kw: Token) -> ast.TriggersHeader:
+        return ast.TriggersHeader(self._span(kw))
+
+    def on_stmt(self, kw: Token, subject: Token, condition: Token,
+                action: tuple[str, str | None, str | None, Span]) -> ast.OnStmt:
+        word, argument, kind, span = action
+        text = str(subject)
+        if subject.type == "DI_PIN":
+            text = "DI " + text[2:].strip()
+        return ast.OnStmt(text, self._span(subject), str(condition), self._span(condition),
+                          word, argument, kind, span, self._span(kw))
+
+    def on_call(self, kw: Token, kind: Token | None, target: Token
+                ) -> tuple[str, str | None, str | None, Span]:
+        return ("CALL", str(target), str(kind.type).lower() if kind else None,
+                self._span(target))
+
+    def on_words(self, first: Token, second: Token | None
+                 ) -> tuple[str, str | None, str | None, Span]:
+        return (str(first).upper(), str(second) if second else None, None, self._span(first))
+
+    def start(self, *statements: Any) -> list[ast.Statement]:
+        return [s for s in statements if s is not None]
+
+    def line(self, statement: Any = None) -> list[ast.Statement]:
+        return [] if statement is None else [statement]
+
+
+@cache
+def _parser() -> tuple[Lark, _Builder]:
+    """One parser per process; the inline builder is re-pointed at each file before use."""
+    grammar = resources.files("mplang.grammar").joinpath("mplang.lark").read_text("utf-8")
+    builder = _Builder("<none>")
+    lark = Lark(grammar, parser="lalr", lexer="contextual", start=["start", "line"],
+                maybe_placeholders=True, transformer=builder)
+    return lark, builder
+
+
+def _describe_expected(expected: set[str]) -> str:
+    """Turn terminal names into words, most useful first: values, then keywords, then
+    punctuation."""
+    values = sorted(TOKEN_WORDS[t] for t in expected if t in TOKEN_WORDS and not
+                    TOKEN_WORDS[t].startswith("'"))
+    punctuation = sorted(TOKEN_WORDS[t] for t in expected if t in TOKEN_WORDS and
+                         TOKEN_WORDS[t].startswith("'"))
+    keywords = sorted(t for t in expected if t not in TOKEN_WORDS and t.isalpha())
+    if len(keywords) > 5:
+        keywords = ["a statement keyword"]
+    shown = values + keywords + punctuation
+    return ", ".join(shown) if shown else "something else"
+
+
+def _report(err: UnexpectedInput, file: str, line_no: int, text: str,
+            sink: DiagnosticSink) -> None:
+    col = err.column if isinstance(err.column, int) and err.column > 0 else 1
+    if isinstance(err, UnexpectedToken) and err.token.type in ("_NL", "$END"):
+        col = len(text.rstrip()) + 1  # point just past the last character
+    span = Span(file, line_no, col, col + 1)
+    if isinstance(err, UnexpectedCharacters):
+        char = text[col - 1] if 0 < col <= len(text) else "?"
+        sink.add("E101", span, f"unexpected character {char!r}",
+                 hint="remove it, or write a comment with '#' or '//'")
+        return
+    if isinstance(err, UnexpectedToken):
+        token = err.token
+        if token.type in ("_NL", "$END"):
+            found = "end of line"
+        elif token.type in ("NAME", "INT", "STRING") or (token.type.isalpha() and len(token) > 1):
+            kind = {"NAME": "name", "INT": "number", "STRING": "string"}.get(token.type, "keyword")
+            found = f"{kind} {str(token)!r}"
+        else:
+            found = repr(str(token))
+        expected = _describe_expected(set(err.accepts or err.expected) - {"$END"}
+                                      | ({"_NL"} if "$END" in (err.accepts or err.expected)
+                                         else set()))
+        accepted = set(err.accepts or err.expected)
+        hint = ("compare with '==' (a single '=' assigns)" if str(token) == "=" and
+                "CMP" in accepted else
+                "separate arguments with ','" if "COMMA" in accepted and token.type in
+                ("NAME", "INT", "STRING") else
+                "one statement per line; see docs/language.md for the statement forms")
+        sink.add("E101", span, f"unexpected {found}; expected {expected}", hint=hint)
+        return
+    sink.add("E101", span, "syntax error")
+
+
+_BLOCK_WORD = re.compile(r"\s*([A-Za-z]+)\b(?:\s+([A-Za-z]+)\b)?")
+
+
+def _placeholder(text: str, span: Span) -> list[ast.Statement]:
+    """Stand-in for a line that failed to parse but opens or closes a block.
+
+    Keeping the block keyword keeps the structure balanced, so one typo in an IF line is not
+    followed by a cascade of "IF not closed" reports. Operands are harmless dummies; the
+    build has already failed with E101.
+    """
+    match = _BLOCK_WORD.match(text)
+    if not match:
+        return []
+    first, second = match.group(1).lower(), (match.group(2) or "").lower()
+    zero = ast.Num(0, span)
+    made: dict[str, ast.Statement] = {
+        "if": ast.IfStmt(zero, "==", zero, span), "for": ast.ForStmt(ast.Num(1, span), span),
+        "else": ast.Else(span), "next": ast.Next(span),
+        "mp": ast.ProgramHeader("mp", None, None, span),
+        "isr": ast.ProgramHeader("isr", None, None, span),
+        "init": ast.InitHeader(span), "triggers": ast.TriggersHeader(span),
+        "interrupts": ast.InterruptsHeader("?", span, span),
+    }
+    if first == "end" and second in ("mp", "isr", "if", "for", "init", "interrupts",
+                                     "triggers"):
+        return [ast.End(second, span)]
+    return [made[first]] if first in made else []
+
+
+def parse_text(text: str, file: str, sink: DiagnosticSink) -> list[ast.Statement]:
+    """Parse a whole source text; syntax errors go to `sink`, good lines are returned."""
+    parser, builder = _parser()
+    builder.file, builder.line_offset = file, 0
+    try:
+        result: list[ast.Statement] = parser.parse(text, start="start")  # type: ignore[assignment]
+        return result
+    except (UnexpectedInput, VisitError, _SyntaxProblem):
+        pass
+    statements: list[ast.Statement] = []
+    for index, line_text in enumerate(text.split("\n")):
+        line_text = line_text.rstrip("\r")
+        if not line_text.strip():
+            continue
+        builder.line_offset = index
+        try:
+            statements.extend(parser.parse(line_text, start="line"))  # type: ignore[arg-type]
+        except UnexpectedInput as err:
+            _report(err, file, index + 1, line_text, sink)
+            statements.extend(_placeholder(line_text, Span(file, index + 1)))
+        except (VisitError, _SyntaxProblem) as err:
+            problem = err.orig_exc if isinstance(err, VisitError) else err
+            if not isinstance(problem, _SyntaxProblem):
+                raise
+            sink.add("E101", Span(file, index + 1, problem.token.column or 1), problem.message,
+                     hint="write NAME(a, b) or NAME a, b")
+    return statements

@@ -1,0 +1,159 @@
+"""Reading the files of a build, following INCLUDEs.
+
+Each file joins a build once, however often it is included (so two programs may both
+include a shared constants file). Include paths are relative to the including file and
+must stay inside the project root (the nearest directory with `mpc.toml` or `.git` above
+the file named on the command line, else that file's directory) unless allowed.
+
+`INCLUDE "std:NAME.mp"` names a file of the routine library shipped inside the package
+(`mplang.stdlib`, read through importlib.resources so it works from a wheel too). Library
+files are outside every project by nature, so the project check does not apply to them,
+and an INCLUDE inside a library file names another library file.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from importlib import resources
+from importlib.resources.abc import Traversable
+from pathlib import Path
+
+from mplang.lang import ast
+from mplang.lang.diagnostics import DiagnosticSink, Span
+from mplang.lang.parser import parse_text
+
+
+@dataclass
+class SourceFile:
+    path: Path
+    display: str  # how the file is named in diagnostics and the image
+    text: str
+    statements: list[ast.Statement] = field(default_factory=list)
+
+
+LIBRARY_PREFIX = "std:"
+LIBRARY_PACKAGE = "mplang.stdlib"
+
+
+def library_files() -> dict[str, Traversable]:
+    """The `.mp` files of the routine library, by file name."""
+    root = resources.files(LIBRARY_PACKAGE)
+    return {entry.name: entry for entry in root.iterdir()
+            if entry.name.endswith(".mp") and entry.is_file()}
+
+
+def project_root(path: Path) -> Path:
+    for parent in [path.parent, *path.parent.parents]:
+        if (parent / "mpc.toml").exists() or (parent / ".git").exists():
+            return parent
+    return path.parent
+
+
+def _display(path: Path) -> str:
+    try:
+        return str(path.relative_to(Path.cwd()))
+    except ValueError:
+        return str(path)
+
+
+@dataclass
+class SourceSet:
+    """All files of one build in the order their declarations join it."""
+
+    files: list[SourceFile] = field(default_factory=list)
+
+
+def load_sources(paths: list[Path], sink: DiagnosticSink, *,
+                 allow_outside: bool = False,
+                 texts: dict[Path, str] | None = None) -> SourceSet:
+    """Read and parse `paths` and everything they include.
+
+    `texts` supplies in-memory contents for some paths (editors, tests); other files are read
+    from disk.
+    """
+    result = SourceSet()
+    seen: set[Path] = set()
+    library: dict[Path, Traversable] = {}  # resolved path -> library entry, once included
+
+    def read(path: Path, display: str, at: Span | None) -> str | None:
+        if texts is not None and path in texts:
+            return texts[path]
+        try:
+            entry = library.get(path.resolve())
+            if entry is not None:
+                return entry.read_text(encoding="utf-8")
+            return path.read_text(encoding="utf-8")
+        except UnicodeDecodeError as exc:
+            sink.add("E105", at or Span(display, 1), f"{display} is not UTF-8 text ({exc.reason})")
+        except OSError as exc:
+            reason = exc.strerror or str(exc)
+            if at is None:
+                sink.add("E102", Span(display, 1), f"cannot read {display}: {reason}")
+            else:
+                sink.add("E102", at, f"cannot include {display}: {reason}",
+                         hint="include paths are relative to the including file")
+        return None
+
+    def visit(path: Path, root: Path, at: Span | None, stack: list[Path]) -> None:
+        resolved = path.resolve()
+        if resolved in stack:
+            chain = " -> ".join(LIBRARY_PREFIX + library[p].name if p in library else _display(p)
+                                for p in [*stack[stack.index(resolved):], resolved])
+            assert at is not None
+            sink.add("E103", at, f"include cycle: {chain}",
+                     hint="remove one INCLUDE of the cycle")
+            return
+        if resolved in seen:
+            return
+        entry = library.get(resolved)
+        display = LIBRARY_PREFIX + entry.name if entry is not None else _display(path)
+        text = read(path, display, at)
+        if text is None:
+            return
+        seen.add(resolved)
+        source = SourceFile(path, display, text, parse_text(text, display, sink))
+        result.files.append(source)
+        depth = 0
+        for statement in source.statements:
+            if isinstance(statement, ast.ProgramHeader):
+                depth += 1
+            elif isinstance(statement, ast.End) and statement.what in ("mp", "isr"):
+                depth = max(0, depth - 1)
+            elif isinstance(statement, ast.Include):
+                if depth:
+                    sink.add("E106", statement.span, "INCLUDE must stand at the top level, "
+                             "outside MP/ISR blocks")
+                    continue
+                if statement.path.startswith(LIBRARY_PREFIX) or entry is not None:
+                    target_entry = library_entry(statement)
+                    if target_entry is not None:
+                        target = Path(str(target_entry))
+                        library[target.resolve()] = target_entry
+                        visit(target, root, statement.span, [*stack, resolved])
+                    continue
+                target = (path.parent / statement.path)
+                if "\0" in statement.path:  # no file can have it; Path.resolve would raise
+                    sink.add("E102", statement.span, f"cannot include {statement.path!r}: a "
+                             "path cannot contain a NUL character")
+                    continue
+                if not allow_outside and not target.resolve().is_relative_to(root.resolve()):
+                    sink.add("E104", statement.span,
+                             f"{statement.path!r} is outside the project ({_display(root)})",
+                             hint="pass --allow-outside-includes to permit it")
+                    continue
+                visit(target, root, statement.span, [*stack, resolved])
+
+    def library_entry(statement: ast.Include) -> Traversable | None:
+        name = statement.path.removeprefix(LIBRARY_PREFIX)
+        available = library_files()
+        found = available.get(name)
+        if found is None:
+            sink.add("E102", statement.span,
+                     f"cannot include {statement.path}: the library has no file {name!r}",
+                     hint="library files: " + ", ".join(LIBRARY_PREFIX + n
+                                                         for n in sorted(available)))
+        return found
+
+    for path in paths:
+        visit(path, project_root(path.resolve()), None, [])
+    return result

@@ -1,0 +1,303 @@
+"""Flat line statements -> programs with nested FOR and IF blocks.
+
+This is where MP/END MP, FOR/NEXT and IF/ELSE/END IF are matched. Every imbalance is
+reported (the device's download errors 0x03-0x05 and 0x08-0x0A) and the pass carries on, so
+that one run lists all of them. The raw command spellings of block commands (`END_IF`,
+`EXIT_FOR`, `MP_CALL`, ...) are turned into the same statements as the keywords.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from mplang.lang import ast
+from mplang.lang.diagnostics import DiagnosticSink, Span
+from mplang.lang.sources import SourceSet
+
+BLOCK_WORD = {"mp": "END MP", "isr": "END ISR", "for": "NEXT", "if": "END IF",
+              "while": "END WHILE", "repeat": "END REPEAT", "init": "END INIT",
+              "interrupts": "END INTERRUPTS", "triggers": "END TRIGGERS"}
+# Top-level configuration blocks (docs/configuration.md): not programs, no nesting.
+CONFIG_KINDS = ("init", "interrupts", "triggers")
+CONFIG_HEADERS = (ast.InitHeader, ast.InterruptsHeader, ast.TriggersHeader)
+STRAY_CLOSE = {"for": "E304", "if": "E308", "while": "E315", "repeat": "E315"}
+
+
+@dataclass
+class _Open:
+    """A block being built: the program, a FOR or an IF (with its two branches)."""
+
+    kind: str  # "mp" | "isr" | "for" | "if" | "while" | "repeat"
+    head: ast.Statement
+    body: list[ast.Node] = field(default_factory=list)
+    otherwise: list[ast.Node] | None = None
+    else_span: Span | None = None
+
+    @property
+    def target(self) -> list[ast.Node]:
+        return self.otherwise if self.otherwise is not None else self.body
+
+
+def normalise(statement: ast.Statement) -> ast.Statement:
+    """Raw spellings of block commands become the statements their keywords make."""
+    if not isinstance(statement, ast.Command):
+        return statement
+    name = statement.name.upper()
+    for prefix in ("RSM_MACRO_", "ETM_MACRO_"):
+        if name.startswith(prefix):
+            name = name[len(prefix):]
+    span, args = statement.span, statement.args
+    if not args:
+        simple: dict[str, ast.Statement] = {
+            "END_IF": ast.End("if", span), "ELSE": ast.Else(span),
+            "EXIT_FOR": ast.ExitFor(span), "EXIT_MACRO": ast.Exit(span),
+            "MP_TERMINATE": ast.Terminate(span),
+        }
+        if name in simple:
+            return simple[name]
+    if name == "NEXT" and not args:
+        return ast.Next(span)
+    if name == "FOR" and len(args) == 1:
+        return ast.ForStmt(args[0], span)
+    if name == "IF" and len(args) == 3 and isinstance(args[1], ast.Str):
+        return ast.IfStmt(args[0], args[1].value, args[2], span)
+    if len(args) == 1 and isinstance(args[0], ast.Name | ast.Num):
+        target = args[0].name if isinstance(args[0], ast.Name) else str(args[0].value)
+        if name == "MP_CALL":
+            return ast.CallStmt(target, span)
+        if name in ("GOTO", "LABEL"):
+            return ast.Goto(target, span) if name == "GOTO" else ast.LabelStmt(target, span)
+    return statement
+
+
+def build_unit(sources: SourceSet, sink: DiagnosticSink) -> ast.Unit:
+    unit = ast.Unit()
+    for source in sources.files:
+        _build_file(source.statements, source.display, unit, sink)
+    return unit
+
+
+def _build_file(statements: list[ast.Statement], file: str, unit: ast.Unit,
+                sink: DiagnosticSink) -> None:
+    stack: list[_Open] = []
+
+    def close_program(end_span: Span) -> None:
+        block = stack.pop()
+        header = block.head
+        assert isinstance(header, ast.ProgramHeader)
+        unit.programs.append(ast.Program(header.kind, header.number, header.name, block.body,
+                                         header.span, end_span, file))
+
+    def unclosed(block: _Open, at: Span) -> None:
+        code = {"for": "E305", "if": "E309", "mp": "E302", "isr": "E302", "while": "E314",
+                "repeat": "E314"}[block.kind]
+        what = block.kind.upper()
+        sink.add(code, block.head.span, f"{what} is not closed by {BLOCK_WORD[block.kind]}",
+                 hint=f"add {BLOCK_WORD[block.kind]} before line {at.line}"
+                 if block.kind not in ("mp", "isr") else f"add {BLOCK_WORD[block.kind]}")
+
+    def close_inner(block: _Open, end_span: Span) -> None:
+        node: ast.Node
+        if block.kind == "for":
+            assert isinstance(block.head, ast.ForStmt)
+            node = ast.ForBlock(block.head.count, block.body, block.head.span, end_span)
+        elif block.kind == "while":
+            assert isinstance(block.head, ast.WhileStmt)
+            node = ast.WhileBlock(block.head.left, block.head.op, block.head.right, block.body,
+                                  block.head.span, end_span)
+        elif block.kind == "repeat":
+            assert isinstance(block.head, ast.RepeatStmt)
+            node = ast.RepeatBlock(block.head.count, block.body, block.head.span, end_span)
+        else:
+            assert isinstance(block.head, ast.IfStmt)
+            node = ast.IfBlock(block.head.left, block.head.op, block.head.right, block.body,
+                               block.otherwise, block.head.span, block.else_span, end_span)
+        stack[-1].target.append(node)
+
+    def in_program() -> bool:
+        return bool(stack)
+
+    def close_config(end_span: Span) -> None:
+        block = stack.pop()
+        head = block.head
+        if isinstance(head, ast.InitHeader):
+            unit.inits.append(ast.InitBlock(
+                [s for s in block.body if isinstance(s, ast.Command)], head.span, end_span, file))
+        elif isinstance(head, ast.InterruptsHeader):
+            unit.interrupts.append(ast.InterruptsBlock(
+                head.target, head.target_span,
+                [s for s in block.body if isinstance(s, ast.OnStmt)], head.span, end_span,
+                file))
+        else:
+            assert isinstance(head, ast.TriggersHeader)
+            unit.triggers.append(ast.TriggersBlock(
+                [s for s in block.body if isinstance(s, ast.OnStmt)], head.span, end_span,
+                file))
+
+    def config_line(statement: ast.Statement) -> bool:
+        """A line inside INIT/INTERRUPTS/TRIGGERS; False when it ends the block instead
+        (a header of any kind, or an END), to be handled by the normal rules."""
+        block = stack[0]
+        kind = block.kind
+        if isinstance(statement, ast.End) and statement.what == kind:
+            close_config(statement.span)
+            return True
+        if isinstance(statement, (ast.ProgramHeader, ast.End, *CONFIG_HEADERS)):
+            sink.add("E805", block.head.span, f"{kind.upper()} is not closed by "
+                     f"{BLOCK_WORD[kind]}", hint=f"add {BLOCK_WORD[kind]} before line "
+                     f"{statement.span.line}")
+            close_config(statement.span)
+            return False
+        wanted = {"init": ast.Command, "interrupts": ast.OnStmt, "triggers": ast.OnStmt}[kind]
+        fits = isinstance(statement, wanted)
+        if isinstance(statement, ast.OnStmt) and fits:
+            fits = statement.is_trigger == (kind == "triggers")
+        if fits:
+            block.body.append(statement)
+            return True
+        allowed = {"init": "initial-table commands (SET_MAX_V X, 200000)",
+                   "interrupts": "interrupt factors (ON X P>=C+ CALL ISR 3)",
+                   "triggers": "DI triggers (ON DI 8.0 OFF_TO_ON CALL cycle)"}[kind]
+        article = "a" if kind == "triggers" else "an"
+        sink.add("E802", statement.span, f"{article} {kind.upper()} block holds only {allowed}",
+                 hint="move this line into a program or the block where it belongs")
+        return True
+
+    def close_block(kind: str, at: Span) -> None:
+        """NEXT or END IF: close the innermost block of `kind`, reporting blocks left open
+        inside it (they are closed too, so the rest of the file still makes sense)."""
+        word = BLOCK_WORD[kind]
+        if not any(b.kind == kind for b in stack):
+            sink.add(STRAY_CLOSE[kind], at, f"{word} without an open {kind.upper()}")
+            return
+        while stack[-1].kind != kind:
+            inner = stack[-1]
+            sink.add("E303", at, f"{word} closes the {kind.upper()} of line "
+                     f"{_innermost(kind, stack).head.span.line} while the "
+                     f"{inner.kind.upper()} of line {inner.head.span.line} is still open",
+                     hint=f"write {BLOCK_WORD[inner.kind]} before {word}")
+            close_inner(stack.pop(), at)
+        close_inner(stack.pop(), at)
+
+    for raw in statements:
+        statement = normalise(raw)
+        if stack and stack[0].kind in CONFIG_KINDS and config_line(statement):
+            continue
+        match statement:
+            case ast.InitHeader() | ast.InterruptsHeader() | ast.TriggersHeader():
+                kind = {ast.InitHeader: "init", ast.InterruptsHeader: "interrupts",
+                        ast.TriggersHeader: "triggers"}[type(statement)]
+                if in_program():
+                    sink.add("E805", statement.span, f"{kind.upper()} block inside the "
+                             f"{stack[0].kind.upper()} that starts at line "
+                             f"{stack[0].head.span.line}",
+                             hint=f"close that program with {BLOCK_WORD[stack[0].kind]} first: "
+                             "configuration blocks stand at the top level")
+                    while len(stack) > 1:
+                        unclosed(stack[-1], statement.span)
+                        close_inner(stack.pop(), statement.span)
+                    close_program(statement.span)
+                stack.append(_Open(kind, statement))
+            case ast.End(what="init" | "interrupts" | "triggers"):
+                sink.add("E805", statement.span, f"END {statement.what.upper()} without an "
+                         f"open {statement.what.upper()} block")
+            case ast.OnStmt() if statement.is_trigger or not in_program():
+                where = "a TRIGGERS block" if statement.is_trigger else \
+                    "an INTERRUPTS block or a program"
+                sink.add("E802", statement.span, f"ON {statement.subject} belongs in {where}",
+                         hint="ON DI lines make the stand-alone trigger table: TRIGGERS ... "
+                         "END TRIGGERS" if statement.is_trigger else
+                         "INTERRUPTS setup ... END INTERRUPTS wires factors in program setup")
+            case ast.Const() | ast.Alias() | ast.VarDecl():
+                if in_program():
+                    sink.add("E301", statement.span, "CONST, ALIAS and VAR must stand at the "
+                             "top level, outside MP/ISR blocks")
+                elif isinstance(statement, ast.Const):
+                    unit.consts.append(statement)
+                elif isinstance(statement, ast.Alias):
+                    unit.aliases.append(statement)
+                else:
+                    unit.variables.append(statement)
+            case ast.Include():
+                pass  # handled while loading sources
+            case ast.ProgramHeader():
+                if in_program():
+                    # Close what is open so the rest of the file still parses sensibly.
+                    sink.add("E312", statement.span, f"{statement.kind.upper()} header inside "
+                             f"the {stack[0].kind.upper()} that starts at line "
+                             f"{stack[0].head.span.line}",
+                             hint=f"close that program with {BLOCK_WORD[stack[0].kind]} first")
+                    while len(stack) > 1:
+                        unclosed(stack[-1], statement.span)
+                        close_inner(stack.pop(), statement.span)
+                    close_program(statement.span)
+                stack.append(_Open(statement.kind, statement))
+            case ast.End(what="mp" | "isr"):
+                if not in_program():
+                    sink.add("E303", statement.span, f"END {statement.what.upper()} without an "
+                             f"open {statement.what.upper()} block")
+                    continue
+                while len(stack) > 1:
+                    unclosed(stack[-1], statement.span)
+                    close_inner(stack.pop(), statement.span)
+                if stack[0].kind != statement.what:
+                    sink.add("E303", statement.span, f"END {statement.what.upper()} closes the "
+                             f"{stack[0].kind.upper()} opened at line {stack[0].head.span.line}",
+                             hint=f"write {BLOCK_WORD[stack[0].kind]}")
+                close_program(statement.span)
+            case ast.ForStmt():
+                if not in_program():
+                    sink.add("E301", statement.span, "FOR outside an MP block")
+                    continue
+                stack.append(_Open("for", statement))
+            case ast.IfStmt():
+                if not in_program():
+                    sink.add("E301", statement.span, "IF outside an MP/ISR block")
+                    continue
+                stack.append(_Open("if", statement))
+            case ast.WhileStmt() | ast.RepeatStmt():
+                kind = "while" if isinstance(statement, ast.WhileStmt) else "repeat"
+                if not in_program():
+                    sink.add("E301", statement.span, f"{kind.upper()} outside an MP block")
+                    continue
+                stack.append(_Open(kind, statement))
+            case ast.End(what="while" | "repeat"):
+                close_block(statement.what, statement.span)
+            case ast.Next() | ast.End(what="for"):
+                close_block("for", statement.span)
+            case ast.End(what="if"):
+                close_block("if", statement.span)
+            case ast.Else():
+                if not stack or stack[-1].kind != "if":
+                    sink.add("E307", statement.span, "ELSE outside an IF block")
+                elif stack[-1].otherwise is not None:
+                    assert stack[-1].else_span is not None
+                    sink.add("E307", statement.span, f"second ELSE in the IF of line "
+                             f"{stack[-1].head.span.line} (first ELSE at line "
+                             f"{stack[-1].else_span.line})", hint="an IF takes one ELSE")
+                else:
+                    stack[-1].otherwise = []
+                    stack[-1].else_span = statement.span
+            case _:
+                if not in_program():
+                    sink.add("E301", statement.span, "statement outside an MP/ISR block",
+                             hint="put it between MP ... END MP")
+                    continue
+                stack[-1].target.append(statement)
+    while stack:
+        last = Span(file, (statements[-1].span.line if statements else 1))
+        block = stack[-1]
+        if block.kind in CONFIG_KINDS:
+            sink.add("E805", block.head.span, f"{block.kind.upper()} is not closed by "
+                     f"{BLOCK_WORD[block.kind]}", hint=f"add {BLOCK_WORD[block.kind]}")
+            close_config(last)
+            continue
+        unclosed(block, last)
+        if len(stack) > 1:
+            close_inner(stack.pop(), last)
+        else:
+            close_program(last)
+
+
+def _innermost(kind: str, stack: list[_Open]) -> _Open:
+    return next(b for b in reversed(stack) if b.kind == kind)

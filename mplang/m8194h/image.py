@@ -1,0 +1,286 @@
+"""Renderings of a build: image JSON, human listing, hex dump, link map, and diagnostics as
+text, JSON and SARIF 2.1.0."""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+from mplang import __version__
+from mplang.ir import catalogue as catalogue_module
+from mplang.lang.diagnostics import Diagnostic
+from mplang.lang.rules import RULES
+from mplang.m8194h.compiler import BuildResult
+
+VARIABLES_FORMAT = "mplang-variables/1"
+
+
+def _hex(frame: list[int]) -> str:
+    return " ".join(f"{word:04X}" for word in frame)
+
+
+def _slot_lines(first: int, cost: int) -> str:
+    return str(first) if cost == 1 else f"{first}-{first + cost - 1}"
+
+
+def _frames_object(obj: dict[str, Any], indent: str) -> str:
+    """A JSON object at `indent` whose frame_lines sit on one line and whose frames are one
+    per line (the object's first line carries no indent: the caller places it)."""
+    frames = obj.pop("frames")
+    lines = obj.pop("frame_lines")
+    body = json.dumps(obj, indent=2).replace("\n", "\n" + indent)[:-(len(indent) + 2)]
+    frame_text = ",\n".join(f"{indent}    {json.dumps(f)}" for f in frames)
+    return (f"{body},\n{indent}  \"frame_lines\": {json.dumps(lines)},\n"
+            f"{indent}  \"frames\": [\n{frame_text}\n{indent}  ]\n{indent}}}")
+
+
+def render_json(result: BuildResult) -> str:
+    """Indented JSON with each frame kept on one line, so images diff well."""
+    image = result.image()
+    programs = image.pop("programs")
+    assert isinstance(programs, list)
+    init = image.pop("init", None)
+    triggers = image.pop("triggers", None)
+    head = json.dumps(image, indent=2)[:-2]
+    if isinstance(init, dict):
+        head += ',\n  "init": ' + _frames_object(init, "  ")
+    if triggers is not None:
+        head += ',\n  "triggers": ' + json.dumps(triggers, indent=2).replace("\n", "\n  ")
+    parts = [f"    {_frames_object(program, '    ')}" for program in programs]
+    return head + ',\n  "programs": [\n' + ",\n".join(parts) + "\n  ]\n}\n"
+
+
+def render_listing(result: BuildResult, sources: dict[str, list[str]]) -> str:
+    """Per source line: slot line numbers it occupies, their cost, and the frames in hex."""
+    out = [f"; mplang listing  build {result.build_id()}  target {result.target.upper()}-M8194H"
+           f"  word order {result.word_order}"]
+    if result.init is not None:
+        init = result.init.program
+        out.append("")
+        out.append(f"INIT  ({init.span.file}:{init.span.line}, initial table: real-time "
+                   "commands, LOAD_INITIAL last)")
+        out.append(f"  {'source':<24} {'':>7} {'':>4}  frame")
+        for line, frame in zip(init.lines, result.init.frames, strict=True):
+            source_lines = sources.get(line.span.file, [])
+            text = source_lines[line.span.line - 1].strip() \
+                if 0 < line.span.line <= len(source_lines) else ""
+            out.append(f"  {line.span.file + ':' + str(line.span.line):<24} {'':>7} {'':>4}  "
+                       f"{_hex(frame):<44}  {text}".rstrip())
+    if result.triggers is not None:
+        out.append("")
+        out.append(render_triggers(result).rstrip("\n"))
+    for image in result.programs:
+        program, placement = image.program, image.placement
+        title = f"{program.kind.upper()}{placement.slot}" + (f" {program.name}" if program.name
+                                                              else "")
+        placed = "auto-placed" if placement.auto else "pinned"
+        out.append("")
+        out.append(f"{title}  ({program.span.file}:{program.span.line}, {placed})  "
+                   f"{placement.lines_used}/{placement.budget} lines")
+        out.append(f"  {'source':<24} {'lines':>7} {'cost':>4}  frame")
+        out.append(f"  {'(create)':<24} {'':>7} {'':>4}  {_hex(image.create)}")
+        previous: tuple[str, int] | None = None
+        for lf in image.lines:
+            span = lf.line.span
+            where = f"{span.file}:{span.line}"
+            key = (span.file, span.line)
+            text = ""
+            if key != previous:
+                lines = sources.get(span.file, [])
+                text = lines[span.line - 1].strip() if 0 < span.line <= len(lines) else ""
+            out.append(f"  {where if key != previous else '':<24} "
+                       f"{_slot_lines(lf.first_slot_line, lf.line.command.line_cost):>7} "
+                       f"{lf.line.command.line_cost:>4}  {_hex(lf.frame):<44}"
+                       f"{'  ' + text if text else ''}".rstrip())
+            previous = key
+        used = placement.lines_used
+        close_where = f"{image.close_span.file}:{image.close_span.line}"
+        close_line = str(used - 1) if result_close_counts(image) else "-"
+        out.append(f"  {close_where:<24} {close_line:>7} {'1' if close_line != '-' else '0':>4}  "
+                   f"{_hex(image.close):<44}  END {program.kind.upper()}")
+    return "\n".join(out) + "\n"
+
+
+def result_close_counts(image: Any) -> bool:
+    lines = sum(lf.line.command.line_cost for lf in image.lines)
+    return bool(image.placement.lines_used > lines)
+
+
+def render_hex(result: BuildResult) -> str:
+    """One frame per line: `<slot> <index>: <registers>`, for diffing and for other tools."""
+    out = [f"# mplang hex  build {result.build_id()}  word order {result.word_order}"]
+    if result.init is not None:
+        for index, frame in enumerate(result.init.frames):
+            out.append(f"{'INIT':<6} {index:>3}: {_hex(frame)}")
+    for image in result.programs:
+        label = f"{image.program.kind.upper()}{image.placement.slot}"
+        for index, frame in enumerate(image.frames):
+            out.append(f"{label:<6} {index:>3}: {_hex(frame)}")
+    return "\n".join(out) + "\n"
+
+
+def render_link_map(result: BuildResult) -> str:
+    out = [f"{'slot':<7} {'name':<20} {'lines':>9}  {'placed':<7} source"]
+    total_used = total_budget = 0
+    for image in result.programs:
+        p = image.placement
+        out.append(f"{image.program.kind.upper() + str(p.slot):<7} "
+                   f"{image.program.name or '-':<20} {p.lines_used:>4}/{p.budget:<4}  "
+                   f"{'auto' if p.auto else 'pinned':<7} "
+                   f"{image.program.span.file}:{image.program.span.line}")
+        total_used += p.lines_used
+        total_budget += p.budget
+    out.append(f"{len(result.programs)} programs, {total_used} of {total_budget} lines in their "
+               f"slots used")
+    return "\n".join(out) + "\n"
+
+
+def render_triggers(result: BuildResult) -> str:
+    """The TRIGGERS table as the vendor utility's "FRnet DI Setting" window shows it
+    (chapter 10): what to enter there, since no register layout of the table is documented."""
+    profile = catalogue_module.load().profile.raw["trigger_table"]
+    table = result.triggers
+    if table is None:
+        return "; no TRIGGERS block in this build\n"
+    out = [f"TRIGGERS  ({table.source}:{table.line}; enter in EzMove: Setting -> FRnet DI..., "
+           "then Send Table; mpc flash enables it through holding register "
+           f"{profile['enable_register']})",
+           f"  {'Group':<6} {'Channel':<8} {'Trigger Condition':<18} {'Event Type':<20} "
+           f"{'Axis':<5} line"]
+    names = {v.upper().replace(" ", "_"): v for v in profile["conditions"].values()}
+    axis_name = catalogue_module.load().profile.axis_name
+    for entry in table.entries:
+        condition = names.get(str(entry["condition"]).upper().replace("-", "_"),
+                              str(entry["condition"]))
+        event = str(profile["events"][entry["event"]])
+        if entry["event"] == "mp":
+            event = f"MP{entry['mp']}"
+        axes = axis_name(int(str(entry["axes"]))) if entry["event"] == "hold-drive" else ""
+        out.append(f"  {entry['group']:<6} {entry['channel']:<8} {condition:<18} {event:<20} "
+                   f"{axes:<5} {entry['line']}".rstrip())
+    out.append("  every other channel: None")
+    return "\n".join(out) + "\n"
+
+
+def render_text(diagnostics: list[Diagnostic]) -> str:
+    return "".join(d.render() + "\n" for d in diagnostics)
+
+
+def render_diagnostics_json(diagnostics: list[Diagnostic]) -> str:
+    return json.dumps([{
+        "code": d.code, "name": RULES[d.code].name, "severity": d.severity.value,
+        "message": d.message, "hint": d.hint, "file": d.span.file, "line": d.span.line,
+        "column": d.span.col, "end_column": d.span.end_col,
+    } for d in diagnostics], indent=1) + "\n"
+
+
+def render_sarif(diagnostics: list[Diagnostic]) -> str:
+    """SARIF 2.1.0, as code-scanning UIs (GitHub, VS Code SARIF viewer) read it."""
+    used = sorted({d.code for d in diagnostics})
+    rules = [{
+        "id": code, "name": RULES[code].name,
+        "shortDescription": {"text": RULES[code].summary},
+        "fullDescription": {"text": RULES[code].why},
+        "help": {"text": RULES[code].fix},
+        "helpUri": f"docs/checks/{code}.md",
+        "defaultConfiguration": {"level": RULES[code].severity.value},
+    } for code in used]
+    results = []
+    for d in diagnostics:
+        region: dict[str, int] = {"startLine": d.span.line, "startColumn": d.span.col}
+        if d.span.end_col:
+            region["endColumn"] = d.span.end_col
+        results.append({
+            "ruleId": d.code, "ruleIndex": used.index(d.code), "level": d.severity.value,
+            "message": {"text": d.message + (f" ({d.hint})" if d.hint else "")},
+            "locations": [{"physicalLocation": {
+                "artifactLocation": {"uri": d.span.file.replace("\\", "/")},
+                "region": region}}],
+        })
+    sarif = {
+        "$schema": "https://json.schemastore.org/sarif-2.1.0.json",
+        "version": "2.1.0",
+        "runs": [{"tool": {"driver": {"name": "mplang", "version": __version__,
+                                      "rules": rules}},
+                  "results": results}],
+    }
+    return json.dumps(sarif, indent=1) + "\n"
+
+
+# ------------------------------------------------------------------ variable maps
+def _holding_base() -> int:
+    """VARn lives at holding register base + 2n (device.toml [variables] holding_base)."""
+    return int(catalogue_module.load().profile.var("holding_base"))
+
+
+def _variable_rows(result: BuildResult) -> list[dict[str, Any]]:
+    base = _holding_base()
+    return [{"name": v.name, "var": v.index, "register": base + 2 * v.index,
+             "pinned": v.pinned, "source": f"{v.span.file}:{v.span.line}"}
+            for v in result.variables]
+
+
+def render_variables_json(result: BuildResult) -> str:
+    """`--format vars`: the declared variables, for host programs and HMIs."""
+    return json.dumps({"format": VARIABLES_FORMAT, "build_id": result.build_id(),
+                       "word_order": result.word_order, "holding_base": _holding_base(),
+                       "variables": _variable_rows(result)}, indent=2) + "\n"
+
+
+def render_variables_c(result: BuildResult) -> str:
+    """`--format vars-h`: a C header, for host programs written against the vendor DLL."""
+    out = [f"/* Variable map of mplang build {result.build_id()}: written by mpc build "
+           "--format vars-h. Do not edit. */",
+           "#ifndef MPC_VARIABLES_H", "#define MPC_VARIABLES_H", "",
+           "/* VARn is the signed 32-bit value in holding registers MPC_REG_x and MPC_REG_x + 1;",
+           "   MPC_WORD_ORDER 0: the first of them holds the high word, 1: the low word. */",
+           f"#define MPC_WORD_ORDER {result.word_order}",
+           f"#define MPC_HOLDING_BASE {_holding_base()}", ""]
+    for row in _variable_rows(result):
+        name = row["name"].upper()
+        out.append(f"#define MPC_VAR_{name} {row['var']}  /* {row['source']}"
+                   f"{', pinned' if row['pinned'] else ''} */")
+        out.append(f"#define MPC_REG_{name} {row['register']}")
+    out += ["", "#endif /* MPC_VARIABLES_H */"]
+    return "\n".join(out) + "\n"
+
+
+def render_variables_python(result: BuildResult) -> str:
+    """`--format vars-py`: a Python module with the map and the 32-bit word split."""
+    rows = _variable_rows(result)
+    names = ",\n".join(f"    {row['name']!r}: {row['var']}" for row in rows)
+    constants = "\n".join(f"{row['name'].upper()} = {row['var']}  # {row['source']}"
+                          for row in rows)
+    return f'''"""Variable map of mplang build {result.build_id()}: written by `mpc build --format
+vars-py`. Do not edit. VARn is a signed 32-bit value in holding registers HOLDING_BASE + 2n
+and the next one, in the device's word order (holding register 14)."""
+
+WORD_ORDER = {result.word_order}
+HOLDING_BASE = {_holding_base()}
+VARIABLES = {{
+{names}{"," if rows else ""}
+}}
+
+{constants}
+
+
+def register(name: str) -> int:
+    """The first holding register of a variable, by name."""
+    return HOLDING_BASE + 2 * VARIABLES[name]
+
+
+def to_registers(value: int) -> list[int]:
+    """A signed 32-bit value as the two registers to write (FC16), in the word order."""
+    if not -2**31 <= value < 2**31:
+        raise ValueError(f"{{value}} does not fit a 32-bit variable")
+    raw = value & 0xFFFFFFFF
+    high, low = raw >> 16, raw & 0xFFFF
+    return [high, low] if WORD_ORDER == 0 else [low, high]
+
+
+def from_registers(words: list[int]) -> int:
+    """The signed 32-bit value of the two registers read (FC3) from `register(name)`."""
+    high, low = (words[0], words[1]) if WORD_ORDER == 0 else (words[1], words[0])
+    raw = (high << 16) | low
+    return raw - 2**32 if raw >= 2**31 else raw
+'''

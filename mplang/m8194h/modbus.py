@@ -1,0 +1,526 @@
+"""Every pymodbus call of mplang lives here (pymodbus changes its API in minor releases).
+
+The server side puts a `RegisterMap` behind pymodbus's `SimDevice`: four separate blocks
+(coils, discrete inputs, holding and input registers) whose `action` hook runs the virtual
+controller up to the present moment, then answers from the register map or refuses with the
+device's Modbus exception. The controller's simulated clock follows the wall clock (times a
+speed factor), so a client sees programs run and axes move in real time.
+
+The client side (`DeviceLink`, below the server) is the downloader's transport to one real
+or virtual device over Modbus TCP or RTU. It raises mplang's own exceptions (`LinkError`
+and its kinds, `DeviceException`) so that `mplang.m8194h.flash` never sees a pymodbus type.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import time
+from collections.abc import Awaitable, Callable
+from dataclasses import dataclass, field
+
+from pymodbus.client import AsyncModbusSerialClient, AsyncModbusTcpClient
+from pymodbus.constants import ExcCodes
+from pymodbus.exceptions import ConnectionException, ModbusException, ModbusIOException
+from pymodbus.framer import FramerType
+from pymodbus.pdu import ModbusPDU
+from pymodbus.server import ModbusSerialServer, ModbusTcpServer
+from pymodbus.simulator import DataType, SimData, SimDevice
+
+from mplang.m8194h.sim.controller import VirtualController
+from mplang.m8194h.sim.registers import (
+    COIL_SPAN,
+    DISCRETE_SPAN,
+    HOLDING_SPAN,
+    INPUT_SPAN,
+    SIM_DI_FIRST,
+    SIM_DI_LAST,
+    SUBFUNCTION_FIRST,
+    SUBFUNCTION_LAST,
+    Refusal,
+    RegisterMap,
+)
+
+Server = ModbusTcpServer | ModbusSerialServer
+"""A running pymodbus server, as `serve_tcp` / `serve_rtu` return it."""
+PacketHook = Callable[[bool, bytes], bytes]
+"""Sees every Modbus frame a server receives (False) or sends (True) and returns what goes
+on: the frame, another one, or b"" to drop it. Tests inject link faults with it."""
+Interpose = Callable[[int, int, list[int] | None], int | None]
+"""Called with (function code, address, written values or None) before the device serves a
+request; a non-zero return refuses it with that Modbus exception code without carrying it
+out. Tests make a device busy with it."""
+
+MAX_LINES_PER_CATCH_UP = 200_000
+READ_COILS, READ_DISCRETE, READ_HOLDING, READ_INPUT = 1, 2, 3, 4
+WRITE_COIL, WRITE_REGISTER, WRITE_COILS, WRITE_REGISTERS = 5, 6, 15, 16
+
+
+@dataclass
+class SimClock:
+    """Simulated seconds as a function of wall time: `speed` simulated seconds pass per wall
+    second (1.0 = real time; below 1 the device runs in slow motion)."""
+
+    speed: float = 1.0
+    origin_wall: float = field(default_factory=time.monotonic)
+    origin_sim: float = 0.0
+
+    def now(self) -> float:
+        return self.origin_sim + (time.monotonic() - self.origin_wall) * self.speed
+
+
+def _words(bits: list[bool]) -> list[int]:
+    """Bits packed 16 to a register, bit 0 first (the layout of pymodbus's bit blocks)."""
+    padded = bits + [False] * (-len(bits) % 16)
+    return [sum(1 << k for k in range(16) if padded[16 * w + k]) for w in range(len(padded) // 16)]
+
+
+class DeviceFace:
+    """The Modbus answers of one virtual controller, clocked by a `SimClock`."""
+
+    def __init__(self, controller: VirtualController, clock: SimClock | None = None,
+                 interpose: Interpose | None = None) -> None:
+        self.controller = controller
+        self.registers = RegisterMap(controller)
+        self.clock = clock or SimClock(origin_sim=controller.clock)
+        self.interpose = interpose
+        self.requests = 0
+        self.refusals: list[Refusal] = []
+
+    def catch_up(self) -> None:
+        """Run the controller up to the present moment. A program that needs more lines than
+        `MAX_LINES_PER_CATCH_UP` to get there makes the device lag instead of blocking every
+        client: its simulated clock falls behind and catches up on later calls."""
+        now = self.clock.now()
+        if now > self.controller.clock:
+            self.controller.advance(now, MAX_LINES_PER_CATCH_UP)
+
+    async def action(self, function_code: int, start_address: int, address: int, count: int,
+                     current: list[int], values: list[int] | list[bool] | None) -> ExcCodes | None:
+        """pymodbus's hook, called before it answers a request from `current`."""
+        self.requests += 1
+        self.catch_up()
+        if self.interpose is not None:
+            written = None if values is None else [int(v) for v in values]
+            injected = self.interpose(function_code, address, written)
+            if injected:
+                self.refusals.append(Refusal(injected, reason="injected by interpose"))
+                return ExcCodes(injected)
+        try:
+            self._serve(function_code, start_address, address, count, current, values)
+        except Refusal as refusal:
+            self.refusals.append(refusal)
+            return ExcCodes(refusal.code)
+        return None
+
+    def _serve(self, fc: int, start: int, address: int, count: int, current: list[int],
+               values: list[int] | list[bool] | None) -> None:
+        regs = self.registers
+        if fc == READ_INPUT:
+            current[address - start:address - start + count] = regs.read_input(address, count)
+        elif fc in (WRITE_REGISTER, WRITE_REGISTERS) and values is not None:
+            regs.write_holding(address, [int(v) for v in values])
+        elif fc in (READ_HOLDING, WRITE_REGISTER, WRITE_REGISTERS):
+            # a read, or the read-back pymodbus makes to echo a register write
+            current[address - start:address - start + count] = regs.read_holding(address, count)
+        elif fc in (WRITE_COIL, WRITE_COILS) and values is not None:
+            regs.write_coils(address, [bool(v) for v in values])
+        elif fc in (READ_COILS, READ_DISCRETE, WRITE_COIL, WRITE_COILS):
+            # a read, or the read-back pymodbus makes to echo a coil write
+            # pymodbus passes the bit address and the number of 16-bit words it will read
+            coil = fc != READ_DISCRETE
+            bits = regs.coils() if coil else regs.discrete_inputs()
+            span = COIL_SPAN if coil else DISCRETE_SPAN
+            first_word = address // 16
+            last_bit = min(span, (first_word + count) * 16)
+            if address >= span:
+                raise Refusal(2, reason=f"bit {address} is outside the table")
+            words = _words(bits[first_word * 16:last_bit])
+            current[first_word - start:first_word - start + len(words)] = words
+        else:
+            raise Refusal(1, reason=f"function code {fc} is not supported")
+
+    def device(self, unit: int) -> SimDevice:
+        """The pymodbus device: separate coil, discrete input, holding and input blocks."""
+        coils = [SimData(0, values=[False] * COIL_SPAN, datatype=DataType.BITS)]
+        discrete = [SimData(0, values=[False] * DISCRETE_SPAN, datatype=DataType.BITS)]
+        holding = [
+            SimData(0, count=HOLDING_SPAN, datatype=DataType.REGISTERS),
+            SimData(SUBFUNCTION_FIRST, count=SUBFUNCTION_LAST - SUBFUNCTION_FIRST + 1,
+                    datatype=DataType.REGISTERS),
+            SimData(SIM_DI_FIRST, count=SIM_DI_LAST - SIM_DI_FIRST + 1,
+                    datatype=DataType.REGISTERS),
+        ]
+        inputs = [SimData(0, count=INPUT_SPAN, datatype=DataType.REGISTERS)]
+        return SimDevice(id=unit, simdata=(coils, discrete, holding, inputs),
+                         action=self.action)
+
+
+class RtuSilence:
+    """A real RTU slave does not answer frames addressed to another unit: drop them."""
+
+    def __init__(self, unit: int) -> None:
+        self.unit = unit
+
+    def __call__(self, sending: bool, data: bytes) -> bytes:
+        if sending and data and data[0] != self.unit:
+            return b""
+        return data
+
+
+async def serve_tcp(face: DeviceFace, host: str, port: int,
+                    trace_packet: PacketHook | None = None) -> tuple[ModbusTcpServer, int]:
+    """Listen for Modbus TCP on host:port (port 0: any free port); return the server and the
+    port it listens on. Every unit id is answered: the ET-M8194H is the only device there."""
+    server = ModbusTcpServer(face.device(0), address=(host, port), trace_packet=trace_packet)
+    await server.serve_forever(background=True)
+    sockets = getattr(server.transport, "sockets", None) or []
+    bound = sockets[0].getsockname()[1] if sockets else port
+    return server, int(bound)
+
+
+async def serve_rtu(face: DeviceFace, port: str, unit: int = 1, baudrate: int = 115200,
+                    parity: str = "N", stopbits: int = 1,
+                    trace_packet: PacketHook | None = None) -> ModbusSerialServer:
+    """Answer Modbus RTU as slave `unit` on a serial port (or one end of a pty link)."""
+    silence = RtuSilence(unit)
+    hook: PacketHook = silence
+    if trace_packet is not None:
+        extra = trace_packet
+
+        def chained(sending: bool, data: bytes) -> bytes:
+            data = silence(sending, data)
+            return extra(sending, data) if data else data
+
+        hook = chained
+    server = ModbusSerialServer(face.device(unit), framer=FramerType.RTU, port=port,
+                                baudrate=baudrate, parity=parity, stopbits=stopbits,
+                                bytesize=8, broadcast_enable=True, trace_packet=hook)
+    await server.serve_forever(background=True)
+    return server
+
+
+async def stop(server: Server) -> None:
+    await server.shutdown()  # type: ignore[no-untyped-call]
+    await asyncio.sleep(0)
+
+
+def drop_connections(server: Server) -> int:
+    """Close every client connection of a running server, as a network reset or a device
+    reboot does (the server keeps listening). Returns how many were closed."""
+    connections = list(server.active_connections.values())
+    for connection in connections:
+        connection.close()
+    return len(connections)
+
+
+# ================================================================================ client side
+# The downloader's transport to one device. pymodbus's own repeats are switched off: it would
+# send an unanswered FC16 again, and a sub-function frame carried out twice stores a macro line
+# twice. So only reads and idempotent holding writes are repeated here; a frame never is, and
+# the caller (mplang.m8194h.flash) decides what an unanswered frame means.
+
+MODBUS_EXCEPTIONS = {
+    0x01: "ILLEGAL FUNCTION", 0x02: "ILLEGAL DATA ADDRESS", 0x03: "ILLEGAL DATA VALUE",
+    0x04: "SLAVE DEVICE FAILURE", 0x05: "ACKNOWLEDGE", 0x06: "SLAVE DEVICE BUSY",
+    0x08: "MEMORY PARITY ERROR", 0x0A: "GATEWAY PATH UNAVAILABLE",
+    0x0B: "GATEWAY TARGET DEVICE FAILED TO RESPOND",
+}
+MAX_WRITE_REGISTERS = 123  # the Modbus limit for FC16, which pymodbus does not check
+ANSWER_GRACE_S = 1.0  # beyond pymodbus's own timeout, before a request is abandoned here
+DEVICE_BUSY = 0x06  # the exception that says "not carried out, send it again later"
+
+
+class LinkError(Exception):
+    """The link failed: whether the device carried the request out is unknown."""
+
+
+class LinkUnavailable(LinkError):
+    """The device cannot be reached: connection refused, no route, no such serial port."""
+
+
+class LinkTimeout(LinkError):
+    """No answer within the timeout, or an answer that belongs to another request."""
+
+
+class LinkLost(LinkError):
+    """The connection closed while a request was outstanding."""
+
+
+class DeviceException(Exception):
+    """The device refused a request with a Modbus exception response, so it did not carry it
+    out. `code` is the Modbus exception code (0x01 ILLEGAL FUNCTION ... 0x06 BUSY)."""
+
+    def __init__(self, code: int, function_code: int, address: int) -> None:
+        self.code = code
+        self.function_code = function_code
+        self.address = address
+        super().__init__(f"Modbus exception {code:#04x} ({self.name}) to function "
+                         f"{function_code} at register {address}")
+
+    @property
+    def name(self) -> str:
+        return MODBUS_EXCEPTIONS.get(self.code, "unknown exception")
+
+
+@dataclass(frozen=True)
+class Endpoint:
+    """Where and how to reach one device: Modbus TCP (`host`) or RTU (`serial`), one of them.
+    The ET-M8194H answers as unit 1 (its card number); an RS-M8194H as its slave address."""
+
+    host: str | None = None
+    port: int = 502
+    serial: str | None = None
+    baudrate: int = 115200
+    parity: str = "N"
+    stopbits: int = 1
+    unit: int = 1
+    timeout: float = 1.0  # seconds per answer; the ET manual suggests 1-2 s (ET 788)
+    retries: int = 3  # repeats of an idempotent request, and reconnection attempts
+
+    def __post_init__(self) -> None:
+        if (self.host is None) == (self.serial is None):
+            raise ValueError("an endpoint is either Modbus TCP (host) or Modbus RTU (serial)")
+
+    def describe(self) -> str:
+        if self.host is not None:
+            return f"Modbus TCP {self.host}:{self.port} unit {self.unit}"
+        return (f"Modbus RTU {self.serial} unit {self.unit} "
+                f"({self.baudrate} 8{self.parity}{self.stopbits})")
+
+
+def backoff(attempt: int, ceiling: float = 1.0, first: float = 0.05) -> float:
+    """The pause before repeat `attempt` (1, 2, ...): doubling from `first` up to `ceiling`,
+    so a glitch costs little and a device that restarts gets time."""
+    return float(min(ceiling, first * 2 ** (attempt - 1)))
+
+
+Client = AsyncModbusTcpClient | AsyncModbusSerialClient
+
+
+class DeviceLink:
+    """One connection to one device, one request at a time (the device matches an answer to
+    the request before it). A request is abandoned after a timeout, a lost connection or an
+    answer that belongs to another request; the connection (or serial port) is closed at once
+    and the next request opens a new one, so a late answer to the abandoned request is never
+    taken for the next one's. Over TCP the new connection is enough. An RTU line has no
+    connections and its answers no transaction id: there the port stays closed for a quiet
+    time of one `timeout` after the abandonment and is opened with its input discarded, so
+    an answer up to twice the timeout late is dropped; a later one is refused unless it has
+    the very shape (function, address, register count) of the answer being waited for.
+    Usable as `async with DeviceLink(endpoint) as link:`."""
+
+    def __init__(self, endpoint: Endpoint) -> None:
+        self.endpoint = endpoint
+        self._client: Client | None = None
+        self._lost = asyncio.Event()
+        self._stale = False
+        self._abandoned_at: float | None = None  # monotonic time of the last abandonment
+        self.opened = False  # the first connection succeeded
+        self.reconnects = 0
+        self.repeats = 0  # idempotent requests sent again after a link failure
+        self.foreign_answers = 0  # answers refused because they belong to another request
+
+    # ------------------------------------------------------------------ connection
+    def _make_client(self, lost: asyncio.Event) -> Client:
+        ep = self.endpoint
+
+        def on_connection(up: bool) -> None:
+            if not up:
+                lost.set()
+
+        if ep.host is not None:
+            return AsyncModbusTcpClient(ep.host, port=ep.port, timeout=ep.timeout, retries=0,
+                                        reconnect_delay=0, trace_connect=on_connection)
+        assert ep.serial is not None
+        return AsyncModbusSerialClient(ep.serial, framer=FramerType.RTU, baudrate=ep.baudrate,
+                                       bytesize=8, parity=ep.parity, stopbits=ep.stopbits,
+                                       timeout=ep.timeout, retries=0, reconnect_delay=0,
+                                       trace_connect=on_connection)
+
+    async def open(self) -> None:
+        """Connect (TCP) or open the port (RTU); raise LinkUnavailable if that fails."""
+        self.close()
+        lost = asyncio.Event()
+        client = self._make_client(lost)
+        try:
+            connected = await client.connect()
+        except (OSError, ModbusException, ValueError) as exc:
+            client.close()
+            raise LinkUnavailable(f"cannot connect to {self.endpoint.describe()}: {exc}"
+                                  ) from None
+        if not connected:
+            client.close()
+            raise LinkUnavailable(f"cannot connect to {self.endpoint.describe()}")
+        self._client, self._lost, self._stale = client, lost, False
+        self.opened = True
+
+    def close(self) -> None:
+        if self._client is not None:
+            self._client.close()
+            self._client = None
+
+    async def __aenter__(self) -> DeviceLink:
+        await self.open()
+        return self
+
+    async def __aexit__(self, *_exc: object) -> None:
+        self.close()
+
+    async def _ready(self) -> Client:
+        """The live client; reconnects first (with growing pauses, up to `retries` times)
+        after a lost connection or an abandoned request."""
+        client = self._client
+        if client is not None and client.connected and not self._stale \
+                and not self._lost.is_set():
+            return client
+        await self._quiet()
+        if not self.opened:
+            await self.open()
+        else:
+            attempt = 0
+            while True:
+                self.reconnects += 1
+                try:
+                    await self.open()
+                    break
+                except LinkUnavailable:
+                    attempt += 1
+                    if attempt > self.endpoint.retries:
+                        raise
+                    await asyncio.sleep(backoff(attempt, self.endpoint.timeout))
+        assert self._client is not None
+        return self._client
+
+    def _abandon(self) -> None:
+        """Give up on the request outstanding: close the link now (a late answer then reaches
+        a closed connection, or waits in a serial port's input buffer that is discarded when
+        the port opens) and make the next request open it again."""
+        self._stale = True
+        self._abandoned_at = time.monotonic()
+        self.close()
+
+    async def _quiet(self) -> None:
+        """Over RTU, keep the port closed until one `timeout` has passed since the last
+        abandoned request: a device that answers late answers into the closed port."""
+        if self.endpoint.serial is None or self._abandoned_at is None:
+            return
+        remaining = self._abandoned_at + self.endpoint.timeout - time.monotonic()
+        self._abandoned_at = None
+        if remaining > 0:
+            await asyncio.sleep(remaining)
+
+    # -------------------------------------------------------------------- requests
+    async def _exchange(self, request: Callable[[Client], Awaitable[ModbusPDU]],
+                        function_code: int, address: int,
+                        matches: Callable[[ModbusPDU], bool]) -> ModbusPDU:
+        """One request and its answer, or one of mplang's exceptions."""
+        client = await self._ready()
+        lost = self._lost
+        describe = self.endpoint.describe()
+        call = asyncio.ensure_future(request(client))
+        watch = asyncio.ensure_future(lost.wait())
+        try:
+            done, _ = await asyncio.wait((call, watch), return_when=asyncio.FIRST_COMPLETED,
+                                         timeout=self.endpoint.timeout + ANSWER_GRACE_S)
+        finally:
+            pending = [task for task in (call, watch) if not task.done()]
+            for task in pending:
+                task.cancel()
+            await asyncio.gather(*pending, return_exceptions=True)
+        if call not in done:
+            self._abandon()
+            if watch in done:
+                raise LinkLost(f"{describe}: connection lost")
+            raise LinkTimeout(f"{describe}: no answer within {self.endpoint.timeout:g} s")
+        try:
+            reply = call.result()
+        except ConnectionException as exc:
+            self._abandon()
+            raise LinkLost(f"{describe}: connection lost ({exc})") from None
+        except ModbusIOException:
+            self._abandon()
+            if lost.is_set():
+                raise LinkLost(f"{describe}: connection lost") from None
+            raise LinkTimeout(f"{describe}: no answer within {self.endpoint.timeout:g} s"
+                              ) from None
+        except (ModbusException, OSError) as exc:
+            self._abandon()
+            raise LinkLost(f"{describe}: {exc}") from None
+        # an exception answer carries the function code (plus 0x80) but no address: a late
+        # refusal of another function is told apart by that code alone
+        if reply.function_code & 0x7F != function_code or \
+                (not reply.isError() and not matches(reply)):
+            self._abandon()
+            self.foreign_answers += 1
+            raise LinkTimeout(f"{describe}: the answer belongs to another request")
+        if reply.isError():
+            raise DeviceException(reply.exception_code, function_code, address)
+        return reply
+
+    async def _repeating(self, request: Callable[[Client], Awaitable[ModbusPDU]],
+                         function_code: int, address: int,
+                         matches: Callable[[ModbusPDU], bool]) -> ModbusPDU:
+        """`_exchange`, repeated after a timeout, a lost link or a busy answer (exception
+        0x06: not carried out): only for requests that do the same thing however often they
+        arrive."""
+        attempt = 0
+        while True:
+            try:
+                return await self._exchange(request, function_code, address, matches)
+            except (LinkTimeout, LinkLost, DeviceException) as exc:
+                if isinstance(exc, DeviceException) and exc.code != DEVICE_BUSY:
+                    raise
+                attempt += 1
+                if attempt > self.endpoint.retries:
+                    raise
+                self.repeats += 1
+                await asyncio.sleep(backoff(attempt, self.endpoint.timeout))
+
+    @staticmethod
+    def _registers(values: list[int] | tuple[int, ...]) -> list[int]:
+        if not 1 <= len(values) <= MAX_WRITE_REGISTERS:
+            raise ValueError(f"an FC16 write takes 1..{MAX_WRITE_REGISTERS} registers, "
+                             f"not {len(values)}")
+        if any(not 0 <= int(v) <= 0xFFFF for v in values):
+            raise ValueError("register values are 16-bit: 0..65535")
+        return [int(v) for v in values]
+
+    async def write_frame(self, frame: list[int] | tuple[int, ...]) -> None:
+        """One sub-function frame, FC16 at holding register 8000. Never repeated here: an
+        unanswered frame may have been carried out (LinkTimeout / LinkLost say so)."""
+        values = self._registers(frame)
+        unit = self.endpoint.unit
+        await self._exchange(
+            lambda c: c.write_registers(SUBFUNCTION_FIRST, values, device_id=unit),
+            WRITE_REGISTERS, SUBFUNCTION_FIRST,
+            lambda r: r.address == SUBFUNCTION_FIRST and r.count == len(values))
+
+    async def read_input(self, address: int, count: int) -> list[int]:
+        """FC4: `count` input registers from `address` (repeated after link failures)."""
+        return await self._read(READ_INPUT, address, count)
+
+    async def read_holding(self, address: int, count: int) -> list[int]:
+        """FC3: `count` holding registers from `address` (repeated after link failures)."""
+        return await self._read(READ_HOLDING, address, count)
+
+    async def _read(self, function_code: int, address: int, count: int) -> list[int]:
+        unit = self.endpoint.unit
+
+        def request(c: Client) -> Awaitable[ModbusPDU]:
+            read = c.read_input_registers if function_code == READ_INPUT else \
+                c.read_holding_registers
+            return read(address, count=count, device_id=unit)
+
+        reply = await self._repeating(request, function_code, address,
+                                      lambda r: len(r.registers) == count)
+        return [int(v) for v in reply.registers[:count]]
+
+    async def write_holding(self, address: int, values: list[int]) -> None:
+        """FC16 to holding registers whose write is idempotent (the word order, variables),
+        repeated after link failures. Not for register 8 (a call) or the frame window."""
+        registers = self._registers(values)
+        unit = self.endpoint.unit
+        await self._repeating(
+            lambda c: c.write_registers(address, registers, device_id=unit),
+            WRITE_REGISTERS, address,
+            lambda r: r.address == address and r.count == len(registers))

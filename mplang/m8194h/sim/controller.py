@@ -1,0 +1,798 @@
+"""The virtual M8194H: macro memory, download protocol, variables, FRnet and the interpreter.
+
+The interpreter executes what the device stores, the decoded frames of each table, not the
+compiler's AST, so encoder and interpreter check each other. Time is simulated: every line
+costs the profile's line time, waits (TIMER, STOP_WAIT, FRNET_WAIT) jump the clock straight
+to the moment they end, and motion is computed analytically by `mplang.m8194h.sim.motion`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import re
+from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from mplang.ir import catalogue as catalogue_module
+from mplang.ir.catalogue import Catalogue, Command
+from mplang.ir.lower import apply_operator, wrap32
+from mplang.ir.macro import BVarRef, Operand, VarRef
+from mplang.m8194h.encode import Encoder
+from mplang.m8194h.sim import axis_commands, initial_table, interpolation_commands
+from mplang.m8194h.sim.initial_table import AxisColumn, InitialTable
+from mplang.m8194h.sim.motion import MotionModel
+from mplang.m8194h.sim.tables import DownloadError, MacroTable, StoredLine, decode_frame, validate
+from mplang.m8194h.sim.triggers import Triggers
+
+AXIS_NAMES = ("X", "Y", "Z", "U")
+MAX_STEPS_DEFAULT = 50_000_000
+MEMORY_FORMAT = "mpc-fram/1"
+NOT_EXECUTABLE = 0x04  # execution error type: the line's values make no sense to the device
+
+
+Wait = Callable[[], float]
+"""A pending wait: returns the simulated time it ends (inf: not foreseeable now)."""
+Handler = Callable[["Frame", tuple[Operand, ...]], "Wait | None"]
+"""Runs one stored line: gets the frame and the decoded operands, returns a wait (or None
+to go straight on)."""
+Program = list[tuple[Handler | None, tuple[Operand, ...], bool]]
+"""A table's lines ready to run: handler, operands, and whether the line may change the
+motion model (after such a line the interpreter looks again for due interrupts)."""
+
+# Lines that only touch variables and control flow: the hot path never leaves for them.
+PURE_COMMANDS = frozenset({
+    "SET_VAR", "SET_RVAR", "VAR_CALCULATE", "FOR", "NEXT", "EXIT_FOR", "IF", "ELSE",
+    "END_IF", "LABEL", "GOTO", "MP_CALL", "EXIT_MACRO", "MP_TERMINATE", "TIMER",
+})
+
+
+class ExecutionError(Exception):
+    def __init__(self, code: int, message: str) -> None:
+        super().__init__(message)
+        self.code = code
+
+
+@dataclass
+class Frame:
+    """One level of the MP call stack."""
+
+    table: MacroTable
+    pc: int = 0
+    loops: list[tuple[int, VarRef | None, list[int]]] = field(default_factory=list)
+    # (FOR pc, the counted variable or None, internal counter for a constant count)
+    wait: Callable[[], float] | None = None
+    # a pending TIMER / STOP_WAIT / FRNET_WAIT: returns when it ends (inf: not foreseeable).
+    # It is asked again whenever time moves, so a stop or an input change ends it early.
+
+
+@dataclass
+class QueuedCommand:
+    """A real-time command in the DPRAM FIFO, executed at `due` on the simulated clock."""
+
+    command: Command
+    operands: tuple[Operand, ...]
+    due: float
+
+
+class DeviceBusy(Exception):
+    """The real-time command FIFO is full: the device answers exception 0x06."""
+
+
+@dataclass
+class RunResult:
+    finished: bool
+    time_s: float
+    steps: int
+    error: str | None = None
+
+
+class VirtualController:
+    """One M8194H. Programs get in through the download protocol (`write_subfunction`) or
+    `load_frames`; `call` starts an MP; `advance` runs everything (macro lines, real-time
+    commands from the FIFO, waits, motion) up to a point of simulated time, `run` until the
+    called program finishes."""
+
+    def __init__(self, catalogue: Catalogue | None = None, word_order: int = 0) -> None:
+        self.catalogue = catalogue or catalogue_module.load()
+        self.profile = self.catalogue.profile
+        self.encoders = (Encoder(self.catalogue, 0), Encoder(self.catalogue, 1))
+        self.encoder = self.encoders[word_order]
+        self.close_counts = self.profile.close_counts_as_line
+        execution = self.profile.raw["execution"]
+        self.line_time = int(execution["line_time_us"]) / 1e6
+        self.rtc_time = int(execution["rtc_command_time_us"]) / 1e6
+        self.fifo_capacity = self.profile.limit("command_fifo")
+        # operator code -> symbol, built once: VAR_CALCULATE and IF are the hot lines
+        self.calc_symbols = {v: k for k, v in self.profile.calc_ops.items()}
+        self.cmp_symbols = {v: k for k, v in self.profile.cmp_ops.items()}
+        self.vars = [0] * self.profile.var("count")
+        self.bvars = [0] * self.profile.var("byte_count")
+        self.frnet = [0] * 16  # groups 0-7 DO, 8-15 DI (16 bits each)
+        self.tables: dict[tuple[str, int], MacroTable] = {}
+        self.motion = MotionModel()
+        self.clock = 0.0
+        self.state = "ready"  # "ready" | "mp" | "isr" (input register 100: 0/1/2)
+        self.chip_state = 3  # input register 101 (appendix table 12); power on makes it 5
+        self.pending: MacroTable | None = None
+        self.pending_line = 0
+        self.download_status = (0, 0, 0, 0, 0)  # registers 110-114
+        self.execution_error = (0, 0, 0, 0, 0)  # registers 115-119
+        self.illegal_cause = 0  # register 102
+        self.stack: list[Frame] = []
+        self.fifo: deque[QueuedCommand] = deque()
+        self.isr_queue: deque[int] = deque()  # ISR numbers waiting to run
+        self.return_value = 0
+        self.error: str | None = None  # why the last program stopped, if it failed
+        self.log: deque[str] = deque(maxlen=200)  # what the device did, for `mpc sim -v`
+        self.handlers = self._handlers()
+        self.programs: dict[tuple[str, int], tuple[MacroTable, Program]] = {}
+        self.memory_version = 0  # counts non-volatile changes: tells `mpc sim` to save FRAM
+        self.epoch = 0  # counts changes made to the motion model from outside its own plan
+        # chapter 8: the non-volatile initial table, and the live settings the motion model
+        # does not simulate (only the `initial_table.UNMODELLED` fields of these columns
+        # count; `initial_table.live_columns` reads the others from the model)
+        self.initial_table = InitialTable(self.catalogue)
+        self.unmodelled: list[AxisColumn] = [self.initial_table.config.factory] * 4
+        self.loading_until: float | None = None  # register 101 shows 4 until then
+        self.triggers = Triggers(self)  # chapter 10: the FRnet DI trigger table
+        self._load_initial_now()  # "directly after power on" (RS 9738)
+
+    @property
+    def word_order(self) -> int:
+        return self.encoder.word_order
+
+    @word_order.setter
+    def word_order(self, value: int) -> None:
+        self.encoder = self.encoders[1 if value else 0]
+
+    @property
+    def running(self) -> bool:
+        return bool(self.stack)
+
+    # ------------------------------------------------------------------ download
+    def write_subfunction(self, frame: list[int]) -> int:
+        """One FC16 write at register 8000. Returns 0, or the register-102 cause of the
+        ILLEGAL FUNCTION exception the device answers with; raises `DeviceBusy` when a
+        real-time command finds the FIFO full."""
+        cause = self._write(frame)
+        self.illegal_cause = cause
+        return cause
+
+    def _write(self, frame: list[int]) -> int:
+        decoded = decode_frame(self.encoder, frame)
+        if decoded is None:
+            return 0x03 if frame and frame[0] not in self.catalogue.by_code else 0x02
+        command, operands = decoded
+        name = command.short_name
+        if self.state == "ready":
+            if name in ("MP_CREATE", "MP_ISR_CREATE"):
+                if self.stack:
+                    return 0xC3  # no download while a macro runs (device.toml choice)
+                kind = "mp" if name == "MP_CREATE" else "isr"
+                slot = int(operands[0])  # type: ignore[arg-type]
+                if self.profile.budget(kind, slot) is None:
+                    return 0x02
+                self.pending = MacroTable(kind, slot)
+                self.pending_line = 0
+                self.state = kind
+                self.chip_state = 6
+                return 0
+            if command.is_macro:
+                return 0x08
+            cause = self.initial_table.refusal(command, operands)
+            if cause:
+                return cause
+            if len(self.fifo) >= self.fifo_capacity:
+                raise DeviceBusy(f"{command.name}: the command FIFO is full")
+            start = max(self.clock, self.fifo[-1].due if self.fifo else self.clock)
+            self.fifo.append(QueuedCommand(command, operands, start + self.rtc_time))
+            return 0
+        assert self.pending is not None
+        kind = self.state
+        if not command.is_macro:
+            return 0x07
+        close = "MP_CLOSE" if kind == "mp" else "MP_ISR_CLOSE"
+        if name == close:
+            self._close()
+            return 0
+        if kind not in command.scope:
+            return 0x05 if kind == "isr" else 0x06
+        cause = self.initial_table.refusal(command, operands)  # "IT ... not inside MP" RS 990
+        if cause:
+            return cause
+        budget = self.profile.budget(kind, self.pending.slot) or 0
+        if self.pending_line + command.line_cost > budget:
+            return 0x04
+        self.pending.lines.append(StoredLine(command, operands, tuple(frame), self.pending_line))
+        self.pending_line += command.line_cost
+        return 0
+
+    def _close(self) -> None:
+        table = self.pending
+        assert table is not None
+        budget = self.profile.budget(table.kind, table.slot) or 0
+        error = validate(table, budget, self.catalogue, self.close_counts)
+        mp_no, isr_no = (table.slot, 0) if table.kind == "mp" else (0, table.slot)
+        if error is None:
+            self.tables[(table.kind, table.slot)] = table
+            self.download_status = (mp_no, isr_no, 0, 0, 0)
+            self.memory_version += 1
+        else:
+            self.tables.pop((table.kind, table.slot), None)
+            self.download_status = (mp_no, isr_no, error.command, error.line, error.code)
+        self.pending = None
+        self.state = "ready"
+        self.chip_state = 7
+
+    def load_frames(self, kind: str, slot: int, frames: list[list[int]]) -> DownloadError | None:
+        """Download one program (create ... close) and return its download error, if any."""
+        for frame in frames:
+            cause = self.write_subfunction(frame)
+            if cause:
+                self.state, self.pending = "ready", None
+                reason = self.profile.illegal_function_causes.get(cause, "unknown cause")
+                raise ValueError(f"{kind.upper()}{slot}: frame {frame} refused, cause "
+                                 f"{cause:#04x} ({reason})")
+        _mp, _isr, command, line, code = self.download_status
+        return DownloadError(code, line, command) if code else None
+
+    # -------------------------------------------------------------------- running
+    def call(self, slot: int, kind: str = "mp") -> None:
+        """Start MPn (or ISRn) now; the caller then advances time to run it."""
+        table = self.tables.get((kind, slot))
+        if table is None:
+            raise ValueError(f"{kind.upper()}{slot} is empty")
+        if self.stack:
+            raise ValueError(f"cannot call {kind.upper()}{slot}: "
+                             f"{self.stack[0].table.kind.upper()}{self.stack[0].table.slot} "
+                             "is running")
+        self.error = None
+        self.stack.append(Frame(table))  # in place: `advance` holds this list
+        self.chip_state = 8 if kind == "mp" else 10
+        self.log.append(f"{self.clock:.4f} s: {kind.upper()}{slot} called")
+
+    def _compiled(self, table: MacroTable) -> Program:
+        """The table's lines as `Program` entries, built once per table."""
+        key = (table.kind, table.slot)
+        built = self.programs.get(key)
+        if built is not None and built[0] is table:
+            return built[1]
+        program = [(self.handlers.get(line.command.short_name), line.operands,
+                    line.command.short_name not in PURE_COMMANDS)
+                   for line in table.lines]
+        self.programs[key] = (table, program)
+        return program
+
+    def request_isr(self, slot: int) -> None:
+        """Run ISRn as soon as possible: at once, above a running MP (which resumes where it
+        was when the ISR ends), or after the ISR that runs now (ISRs do not nest)."""
+        self.isr_queue.append(slot)
+
+    def _isr_running(self) -> bool:
+        return any(frame.table.kind == "isr" for frame in self.stack)
+
+    def _start_isr(self, slot: int) -> None:
+        table = self.tables.get(("isr", slot))
+        if table is None:
+            self.log.append(f"{self.clock:.4f} s: ISR{slot} is empty: request ignored")
+            return
+        if not self.stack:
+            self.error = None
+        self.stack.append(Frame(table))
+        self.chip_state = 10
+        self.log.append(f"{self.clock:.4f} s: ISR{slot} started")
+
+    def advance(self, until: float, max_steps: int = MAX_STEPS_DEFAULT,
+                until_idle: bool = False) -> int:
+        """Run the device up to simulated time `until` (or `max_steps` macro lines): macro
+        lines at the profile's line time, queued real-time commands when they fall due,
+        waits that end early when the state they wait for arrives. With `until_idle` it
+        returns as soon as no program runs and no command is queued. Returns lines run."""
+        steps = 0
+        stack = self.stack
+        fifo = self.fifo
+        line_time = self.line_time
+        while True:
+            loading = self.loading_until
+            if loading is not None and loading <= self.clock:
+                self._finish_loading()
+                continue
+            if fifo and fifo[0].due <= self.clock and loading is None:
+                self._run_rtc(fifo.popleft())
+                continue
+            if self.isr_queue and not self._isr_running():
+                self._start_isr(self.isr_queue.popleft())
+                continue
+            if not stack and self.triggers.waiting:
+                self.triggers.start_waiting()  # a DI-triggered MP waited for this moment
+                continue
+            if self.chip_state == 10 and stack and not self._isr_running():
+                self.chip_state = 8  # the ISR returned to the program it interrupted
+            if loading is not None:  # the chip loads its table: the FIFO waits (RS 11368)
+                horizon = min(until, loading)
+            else:
+                horizon = until if not fifo or fifo[0].due > until else fifo[0].due
+            interrupt = self.motion.next_interrupt(self.clock)  # (RESET_CARD replaces it)
+            if interrupt is not None:
+                if interrupt <= self.clock:
+                    for _time, isr in self.motion.take_interrupts(self.clock):
+                        self.request_isr(isr)
+                    continue
+                horizon = min(horizon, interrupt)
+            if not stack:
+                if self.chip_state in (8, 10):
+                    self.chip_state += 1  # MP / ISR execution finished
+                if until_idle and not fifo and interrupt is None and loading is None:
+                    return steps
+                if self.clock < horizon:
+                    self.clock = horizon
+                if horizon >= until:
+                    return steps
+                continue
+            frame = stack[-1]
+            if frame.wait is not None:
+                end = frame.wait()
+                if end > horizon:
+                    if self.clock < horizon:
+                        self.clock = horizon
+                    if horizon >= until:
+                        return steps
+                    continue
+                if end > self.clock:
+                    self.clock = end
+                frame.wait = None
+                self.motion.settle(self.clock)
+                continue
+            if self.clock >= until or steps >= max_steps:
+                return steps
+            program = self._compiled(frame.table)
+            end_pc = len(program)
+            while self.clock < horizon and steps < max_steps:
+                pc = frame.pc
+                if pc >= end_pc:
+                    stack.pop()  # the closing line: return to the caller
+                    self.clock += line_time
+                    break
+                handler, operands, touches_motion = program[pc]
+                steps += 1
+                self.clock += line_time
+                frame.pc = pc + 1
+                if handler is None:
+                    continue  # a setting the model does not simulate: accepted, no effect
+                try:
+                    wait = handler(frame, operands)
+                except (ExecutionError, ValueError) as err:
+                    line = frame.table.lines[pc]
+                    code = err.code if isinstance(err, ExecutionError) else NOT_EXECUTABLE
+                    self._record_error(frame, line, code)
+                    self.error = (str(err) if isinstance(err, ExecutionError) else
+                                  f"{line.command.short_name} at line {line.slot_line}: {err}")
+                    stack.clear()
+                    break
+                if wait is not None:
+                    frame.wait = wait
+                    break
+                if touches_motion:
+                    self.epoch += 1
+                    break  # a new motion (and its interrupts): look at the events again
+                if not stack or stack[-1] is not frame:
+                    break  # MP_CALL, EXIT_MACRO or MP_TERMINATE changed the program
+
+    def run(self, max_time: float = 3600.0, max_steps: int = MAX_STEPS_DEFAULT) -> RunResult:
+        """Execute the called program until it (and its callees) finish."""
+        limit = self.clock + max_time
+        steps = self.advance(limit, max_steps, until_idle=True)
+        outcome = self.outcome(limit, steps)
+        if not outcome.finished:
+            return outcome
+        # let motion started by the program finish, as the machine would
+        end = self.motion.idle_at(15, self.clock)
+        if end is not None:
+            self.clock = max(self.clock, end)
+            self.motion.settle(self.clock)
+        return RunResult(True, self.clock, steps)
+
+    def outcome(self, limit: float, steps: int) -> RunResult:
+        """What a run that advanced `steps` lines towards `limit` comes to: finished, failed
+        with an execution error, waiting for ever, or out of time (motion still running
+        after a finished program is left to the caller)."""
+        if self.error is not None:
+            return RunResult(False, self.clock, steps, self.error)
+        if self.stack:
+            frame = self.stack[-1]
+            if frame.wait is not None and frame.wait() == math.inf:
+                line = frame.table.lines[frame.pc - 1]
+                self.clock = limit
+                return RunResult(False, self.clock, steps,
+                                 f"{line.command.short_name} at line {line.slot_line} of "
+                                 f"{frame.table.kind.upper()}{frame.table.slot} waits for ever")
+            return RunResult(False, self.clock, steps,
+                             f"stopped after {steps} lines and {self.clock:.3f} s of "
+                             "simulated time without finishing")
+        return RunResult(True, self.clock, steps)
+
+    def _record_error(self, frame: Frame, line: StoredLine, code: int) -> None:
+        table = frame.table
+        mp_no, isr_no = (table.slot, 0) if table.kind == "mp" else (0, table.slot)
+        self.execution_error = (mp_no, isr_no, line.command.code or 0, line.slot_line, code)
+        self.log.append(f"{self.clock:.4f} s: execution error {code:#04x} in "
+                        f"{table.kind.upper()}{table.slot} line {line.slot_line}")
+
+    # ------------------------------------------------------- real-time commands
+    def _run_rtc(self, queued: QueuedCommand) -> None:
+        """Execute one real-time command from the FIFO at its due time."""
+        self.clock = max(self.clock, queued.due)
+        self.epoch += 1
+        name = queued.command.short_name
+        values = [self.value(o) for o in queued.operands]
+        try:
+            if name == "MP_CALL":
+                self.call(values[0])
+            elif name == "MP_ISR_CALL":
+                self.request_isr(values[0])
+            elif name == "WRITE_VAR":
+                self.vars[self._index(queued.operands[0])] = wrap32(values[1])
+            elif name == "WRITE_BVAR":
+                self.bvars[self._index(queued.operands[0])] = values[1] & 0xFF
+            elif name == "CLEAR_CARD_BUFFER":
+                self.fifo.clear()
+            elif name == "RESET_CARD":
+                self.reset()
+            elif name == "LOAD_INITIAL":
+                self._begin_loading()
+            else:
+                handler = self.handlers.get(name)
+                if handler is not None:
+                    handler(Frame(MacroTable("rtc", 0)), queued.operands)
+        except (ValueError, ExecutionError) as err:
+            self.log.append(f"{self.clock:.4f} s: {queued.command.name} ignored: {err}")
+            return
+        self.log.append(f"{self.clock:.4f} s: {queued.command.name} {values}")
+
+    def touch(self) -> None:
+        """Say the motion model was changed from outside (a register write, a simulated
+        input): pending waits predict their end again."""
+        self.epoch += 1
+
+    @staticmethod
+    def _index(operand: Operand) -> int:
+        """The variable number a WRITE_VAR / WRITE_bVAR names (sent as a variable operand)."""
+        if isinstance(operand, (VarRef, BVarRef)):
+            return operand.index
+        return int(operand)  # type: ignore[arg-type]
+
+    def reset(self) -> None:
+        """RESET_CARD: stop every program and motion, clear the FIFO and the motion chip's
+        settings; macro memory, the initial table, the trigger table and variables are kept
+        (they live in FRAM and RAM). The power-on defaults are the initial table's, so the
+        table is loaded again, as after power on (profile `initial_table.reset_card_reloads`)."""
+        self.stack.clear()
+        self.fifo.clear()
+        self.isr_queue.clear()
+        self.triggers.waiting.clear()
+        self.motion = MotionModel()
+        self.handlers = self._handlers()
+        self.programs.clear()
+        self.unmodelled = [self.initial_table.config.factory] * 4
+        self.loading_until = None
+        self.chip_state = 3
+        if self.initial_table.config.reset_card_reloads:
+            self._begin_loading()
+
+    # ------------------------------------------------------------ initial table
+    def _begin_loading(self) -> None:
+        """LOAD_INITIAL: register 101 shows 4 for the profile's loading time, then the
+        table's settings take effect and it shows 5 (RS 11368)."""
+        self.chip_state = 4
+        self.loading_until = self.clock + self.initial_table.config.load_time
+        self.log.append(f"{self.clock:.4f} s: calling the initial table")
+
+    def _finish_loading(self) -> None:
+        self.loading_until = None
+        self._load_initial_now()
+        if self.stack:
+            self.chip_state = 10 if self._isr_running() else 8
+        self.log.append(f"{self.clock:.4f} s: initial table loaded")
+
+    def _load_initial_now(self) -> None:
+        """Apply the initial table to the live settings through the plain-axis handlers."""
+        frame = Frame(MacroTable("rtc", 0))
+        for name, operands in initial_table.load_commands(self.initial_table.columns):
+            self.handlers[name](frame, operands)
+        self.epoch += 1
+        self.chip_state = 5
+
+    def settings(self) -> dict[str, object]:
+        """Every Figure 3 setting per axis: `live` (in force now) and `initial_table` (what
+        LOAD_INITIAL and power on apply). Settings the motion model does not simulate are
+        reported here like the others."""
+        live = initial_table.live_columns(self)
+        return {"live": {axis: dataclasses.asdict(column)
+                         for axis, column in zip(AXIS_NAMES, live, strict=True)},
+                "initial_table": self.initial_table.to_json()}
+
+    # -------------------------------------------------------- stand-alone triggers
+    def load_trigger_table(self, entries: object) -> None:
+        """The FRnet DI trigger table, as image["triggers"]["entries"] holds it (what the
+        vendor utility's "Send Table" stores). ValueError names a bad entry."""
+        self.triggers.load(entries)
+
+    def set_triggering(self, enabled: bool) -> None:
+        """Holding register 9 (RSM_SET_FRNET_TRIGGER_EVENT): FRnet DI triggering on/off."""
+        self.triggers.set_enabled(enabled)
+
+    def set_di_group(self, group: int, value: int) -> None:
+        """An FRnet DI group (8-15) changes now; every DI change goes through here, so the
+        trigger table sees it. Writing `frnet` directly bypasses the triggers."""
+        if not 8 <= group <= 15:
+            raise ValueError(f"FRnet DI groups are 8..15, got {group}")
+        old, new = self.frnet[group], value & 0xFFFF
+        self.frnet[group] = new
+        if old != new:
+            self.triggers.di_changed(group, old, new)
+
+    def terminate_programs(self, why: str) -> None:
+        """End every running MP and ISR level now, as MP_TERMINATE does; motion goes on."""
+        if self.stack:
+            self.stack.clear()
+            if self.chip_state in (8, 10):
+                self.chip_state += 1
+        self.log.append(f"{self.clock:.4f} s: {why}")
+
+    def value(self, operand: Operand) -> int:
+        if isinstance(operand, VarRef):
+            return self.vars[operand.index]
+        if isinstance(operand, BVarRef):
+            return self.bvars[operand.index]
+        return int(operand)  # type: ignore[arg-type]
+
+    # --------------------------------------------------------------- line handlers
+    def _handlers(self) -> dict[str, Handler]:
+        m = self.motion
+
+        def setter(method: Callable[[int, int], None]) -> Callable[..., None]:
+            def run(_f: Frame, ops: tuple[Operand, ...]) -> None:
+                method(self.value(ops[0]), self.value(ops[1]))
+            return run
+
+        def vsetter(method: Callable[[int], None]) -> Callable[..., None]:
+            def run(_f: Frame, ops: tuple[Operand, ...]) -> None:
+                method(self.value(ops[0]))
+            return run
+
+        def returns(getter: Callable[[tuple[Operand, ...]], int]) -> Callable[..., None]:
+            def run(_f: Frame, ops: tuple[Operand, ...]) -> None:
+                self.return_value = wrap32(int(getter(ops)))
+            return run
+
+        def now_call(method: Callable[..., None]) -> Callable[..., None]:
+            def run(_f: Frame, ops: tuple[Operand, ...]) -> None:
+                method(*[self.value(o) for o in ops], self.clock)
+            return run
+
+        handlers: dict[str, Handler] = {
+            "SET_VAR": self._set_var, "SET_RVAR": self._set_rvar,
+            "VAR_CALCULATE": self._calculate, "FOR": self._for, "NEXT": self._next,
+            "EXIT_FOR": self._exit_for, "IF": self._if, "ELSE": self._else,
+            "END_IF": lambda f, o: None, "LABEL": lambda f, o: None, "GOTO": self._goto,
+            "MP_CALL": self._mp_call, "EXIT_MACRO": self._exit_macro,
+            "MP_TERMINATE": self._terminate, "TIMER": self._timer,
+            "STOP_WAIT": self._stop_wait,
+            "SET_MAX_V": setter(m.set_max_v), "NORMAL_SPEED": setter(m.set_speed_mode),
+            "SET_SV": setter(m.set_sv), "SET_V": setter(m.set_v), "SET_A": setter(m.set_a),
+            "SET_D": setter(m.set_d), "SET_K": setter(m.set_k), "SET_L": setter(m.set_l),
+            "SET_AO": setter(m.set_ao),
+            "SET_LP": now_call(m.set_lp), "SET_EP": now_call(m.set_ep),
+            # "assigns the current position to a new logic position value" (RS 3012)
+            "ABS_SET_POSITION": now_call(m.set_lp),
+            "FIXED_MOVE": now_call(m.fixed_move), "ABS_FIXED_MOVE": now_call(m.abs_move),
+            "CONTINUE_MOVE": now_call(m.continue_move),
+            "AXIS_ASSIGN": lambda f, o: m.axis_assign(*[self.value(x) for x in o]),
+            "VECTOR_SPEED": vsetter(m.set_vector_mode),
+            "SET_VSV": vsetter(m.set_vsv), "SET_VV": vsetter(m.set_vv),
+            "SET_VA": vsetter(m.set_va), "SET_VD": vsetter(m.set_vd),
+            "SET_VK": vsetter(m.set_vk), "SET_VL": vsetter(m.set_vl),
+            "SET_VAO": vsetter(m.set_vao),
+            "GET_LP": returns(lambda o: m.lp(self.value(o[0]), self.clock)),
+            "GET_EP": returns(lambda o: m.ep(self.value(o[0]), self.clock)),
+            "ABS_GET_POSITION": returns(lambda o: m.lp(self.value(o[0]), self.clock)),
+            "FRNET_IN": returns(lambda o: self.frnet[self.value(o[0])]),
+            "FRNET_READ": returns(lambda o: (self.frnet[self.value(o[0])]
+                                             >> self.value(o[1])) & 1),
+            "FRNET_OUT": self._frnet_out, "FRNET_WRITE": self._frnet_write,
+            "FRNET_WAIT": self._frnet_wait,
+            **interpolation_commands.handlers(self),
+            **axis_commands.handlers(self),
+        }
+        initial_table.wrap_handlers(self, handlers)
+        return handlers
+
+    def _set_var(self, _f: Frame, ops: tuple[Operand, ...]) -> None:
+        assert isinstance(ops[0], VarRef)
+        self.vars[ops[0].index] = wrap32(self.value(ops[1]))
+
+    def _set_rvar(self, _f: Frame, ops: tuple[Operand, ...]) -> None:
+        assert isinstance(ops[0], VarRef)
+        self.vars[ops[0].index] = self.return_value
+
+    def _calculate(self, _f: Frame, ops: tuple[Operand, ...]) -> None:
+        assert isinstance(ops[3], VarRef)
+        symbol = self.calc_symbols[self.value(ops[1])]
+        try:
+            result = apply_operator(symbol, self.value(ops[0]), self.value(ops[2]))
+        except ZeroDivisionError:
+            raise ExecutionError(0x03, "division by zero in VAR_CALCULATE") from None
+        self.vars[ops[3].index] = result
+
+    def _for(self, frame: Frame, ops: tuple[Operand, ...]) -> None:
+        start = frame.pc - 1
+        count = self.value(ops[0])
+        if count <= 0:  # nothing to count down: skip the body
+            frame.pc = frame.table.for_end[start] + 1
+            return
+        ref = ops[0] if isinstance(ops[0], VarRef) else None
+        frame.loops.append((start, ref, [count]))
+
+    def _next(self, frame: Frame, _ops: tuple[Operand, ...]) -> None:
+        start, ref, counter = frame.loops[-1]
+        if ref is not None:
+            self.vars[ref.index] -= 1
+            remaining = self.vars[ref.index]
+        else:
+            counter[0] -= 1
+            remaining = counter[0]
+        if remaining > 0:
+            frame.pc = start + 1
+        else:
+            frame.loops.pop()
+
+    def _exit_for(self, frame: Frame, _ops: tuple[Operand, ...]) -> None:
+        end = frame.table.exit_for_end[frame.pc - 1]
+        frame.loops.pop()
+        frame.pc = end + 1
+
+    def _if(self, frame: Frame, ops: tuple[Operand, ...]) -> None:
+        left, right = self.value(ops[0]), self.value(ops[2])
+        code = self.value(ops[1])
+        if code not in self.cmp_symbols:
+            code = ((code & 0xFF) << 8) | (code >> 8)  # the example's byte order
+        symbol = self.cmp_symbols[code]
+        holds = {"<": left < right, ">": left > right, "<=": left <= right,
+                 ">=": left >= right, "==": left == right, "!=": left != right}[symbol]
+        if not holds:
+            frame.pc = frame.table.if_false[frame.pc - 1] + 1
+
+    def _else(self, frame: Frame, _ops: tuple[Operand, ...]) -> None:
+        frame.pc = frame.table.else_end[frame.pc - 1] + 1
+
+    def _goto(self, frame: Frame, ops: tuple[Operand, ...]) -> None:
+        frame.loops.clear()  # labels stand outside every block: the jump leaves all loops
+        frame.pc = frame.table.labels[self.value(ops[0])] + 1
+
+    def _mp_call(self, _f: Frame, ops: tuple[Operand, ...]) -> None:
+        slot = self.value(ops[0])
+        table = self.tables.get(("mp", slot))
+        if table is None:
+            raise ExecutionError(0x02, f"MP_CALL MP{slot}: the slot is empty")
+        if len(self.stack) >= self.profile.limit("call_depth"):
+            raise ExecutionError(0x01, f"MP_CALL MP{slot}: more than "
+                                 f"{self.profile.limit('call_depth')} nested programs")
+        self.stack.append(Frame(table))
+
+    def _exit_macro(self, _f: Frame, _ops: tuple[Operand, ...]) -> None:
+        self.stack.pop()
+
+    def _terminate(self, _f: Frame, _ops: tuple[Operand, ...]) -> None:
+        self.stack.clear()
+
+    def _timer(self, _f: Frame, ops: tuple[Operand, ...]) -> Wait:
+        end = self.clock + self.value(ops[0]) / 1000
+        return lambda: end
+
+    def _stop_wait(self, _f: Frame, ops: tuple[Operand, ...]) -> Wait:
+        mask = self.value(ops[0])
+        known: list[float] = []  # the answer for `epoch` (predicting it may simulate ahead)
+        epoch = -1
+
+        def idle() -> float:
+            nonlocal epoch
+            if epoch != self.epoch:
+                end = self.motion.idle_at(mask, self.clock)
+                known[:] = [math.inf if end is None else end]
+                epoch = self.epoch
+            return known[0]
+        return idle
+
+    def _frnet_out(self, _f: Frame, ops: tuple[Operand, ...]) -> None:
+        self.frnet[self.value(ops[0]) & 0x7] = self.value(ops[1]) & 0xFFFF
+
+    def _frnet_write(self, _f: Frame, ops: tuple[Operand, ...]) -> None:
+        group, channel, on = (self.value(o) for o in ops)
+        bit = 1 << channel
+        value = (self.frnet[group] | bit) if on else (self.frnet[group] & ~bit)
+        if 8 <= group <= 15:
+            self.set_di_group(group, value)  # a DI group: the trigger table sees it
+        else:
+            self.frnet[group] = value
+
+    def _frnet_wait(self, _f: Frame, ops: tuple[Operand, ...]) -> Wait | None:
+        group, channel, state, timeout = (self.value(o) for o in ops)
+        if ((self.frnet[group] >> channel) & 1) == state:
+            return None
+        deadline = self.clock + timeout / 1000 if timeout > 0 else math.inf
+
+        def level_or_timeout() -> float:
+            # inputs change only from outside (the simulator's API): seen when time moves
+            if ((self.frnet[group] >> channel) & 1) == state:
+                return self.clock
+            return deadline
+        return level_or_timeout
+
+    # --------------------------------------------------------------- inspection
+    def snapshot(self) -> dict[str, object]:
+        """The `mpc run --json` view: non-zero variables and every axis position."""
+        self.motion.settle(self.clock)
+        axes = {name: {"lp": self.motion.lp(1 << i, self.clock),
+                       "ep": self.motion.ep(1 << i, self.clock)}
+                for i, name in enumerate(AXIS_NAMES)}
+        return {"vars": {f"VAR{i}": v for i, v in enumerate(self.vars) if v},
+                "axes": axes, "time_ms": round(self.clock * 1000, 3)}
+
+    def save(self, path: Path) -> None:
+        """Persist macro memory (the device's non-volatile FRAM): every stored table as the
+        frames that downloaded it, with the word order they were written in, the initial
+        parameter table and the FRnet DI trigger table."""
+        programs = {f"{kind}{slot}": [list(line.frame) for line in table.lines]
+                    for (kind, slot), table in sorted(self.tables.items())}
+        data = {"format": MEMORY_FORMAT, "word_order": self.word_order, "programs": programs,
+                "initial_table": self.initial_table.to_json(),
+                "triggers": self.triggers.to_json()}
+        tmp = path.with_name(path.name + ".tmp")
+        tmp.write_text(json.dumps(data, indent=1))
+        tmp.replace(path)  # never leave a half-written memory file behind
+
+    def restore(self, path: Path) -> None:
+        """Load macro memory saved by `save`, validating every table like a download, and
+        power on with it: a saved initial table is loaded into the live settings, a saved
+        trigger table (and its enable flag) is in force. Files without those keys (written
+        before they existed) keep the controller's. Raises ValueError with the reason if
+        the file is not such a memory image."""
+        try:
+            data = json.loads(path.read_text(encoding="utf-8"))
+        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+            raise ValueError(f"not JSON: {exc}") from None
+        if not isinstance(data, dict) or data.get("format") != MEMORY_FORMAT:
+            raise ValueError(f"no \"format\": \"{MEMORY_FORMAT}\" key")
+        programs = data.get("programs")
+        word_order = data.get("word_order")
+        if not isinstance(programs, dict) or word_order not in (0, 1):
+            raise ValueError("\"programs\" must be an object and \"word_order\" 0 or 1")
+        current = self.word_order
+        self.word_order = word_order
+        try:
+            for name, frames in programs.items():
+                match = re.fullmatch(r"(mp|isr)(\d+)", str(name))
+                if match is None or not isinstance(frames, list) or not all(
+                        isinstance(f, list) and all(isinstance(w, int) for w in f)
+                        for f in frames):
+                    raise ValueError(f"{name!r}: expected mpN/isrN with a list of frames")
+                kind, slot = match.group(1), int(match.group(2))
+                if self.profile.budget(kind, slot) is None:
+                    raise ValueError(f"{name}: no such slot")
+                create = self.encoder.create_frame(kind, slot)
+                error = self.load_frames(kind, slot,
+                                         [create, *frames, self.encoder.close_frame(kind)])
+                if error is not None:
+                    raise ValueError(f"{name}: download error {error.code:#04x} at line "
+                                     f"{error.line}")
+        finally:
+            self.word_order = current
+        if "initial_table" in data:
+            self.initial_table.from_json(data["initial_table"])
+            self._load_initial_now()
+        if "triggers" in data:
+            self.triggers.from_json(data["triggers"])

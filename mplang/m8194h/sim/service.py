@@ -1,0 +1,122 @@
+"""`mpc sim`: a virtual M8194H served over Modbus TCP and/or RTU until told to stop.
+
+The library entry point is `serve`; the CLI only parses options and prints. Macro memory
+(the device's FRAM) can live in a file: it is loaded at start and written after every
+successful download and at the end, so a restart keeps the programs as the device does.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+from mplang.family.ptylink import PtyLink
+from mplang.m8194h.modbus import DeviceFace, Server, SimClock, serve_rtu, serve_tcp, stop
+from mplang.m8194h.sim.controller import VirtualController
+from mplang.m8194h.sim.preload import ServiceError as ServiceError
+from mplang.m8194h.sim.preload import preload as preload  # re-exported: the service API
+
+
+@dataclass
+class SimOptions:
+    tcp: tuple[str, int] | None = ("127.0.0.1", 1502)
+    serial: str | None = None  # a serial device path, or "pty" for a linked pty pair
+    unit: int = 1
+    baudrate: int = 115200
+    parity: str = "N"
+    stopbits: int = 1
+    speed: float = 1.0
+    memory: Path | None = None
+    duration: float | None = None  # stop by itself after this many wall seconds
+    verbose: bool = False
+
+
+@dataclass
+class Endpoints:
+    """Where the running simulator can be reached (filled in as the servers start)."""
+
+    tcp: tuple[str, int] | None = None
+    serial: str | None = None
+
+
+def load_memory(controller: VirtualController, path: Path) -> None:
+    try:
+        controller.restore(path)
+    except OSError as exc:
+        raise ServiceError(f"{path}: cannot read macro memory: {exc.strerror or exc}",
+                           "memory") from None
+    except ValueError as exc:
+        raise ServiceError(f"{path}: not a macro memory file written by mpc sim: {exc}",
+                           "memory") from None
+
+
+async def serve(options: SimOptions, controller: VirtualController,
+                announce: Callable[[str], None],
+                stop_event: asyncio.Event | None = None,
+                endpoints: Endpoints | None = None) -> None:
+    """Serve `controller` until `stop_event` is set or `options.duration` passes."""
+    if not options.verbose:
+        logging.getLogger("pymodbus").setLevel(logging.CRITICAL)
+    stop_event = stop_event or asyncio.Event()
+    endpoints = endpoints if endpoints is not None else Endpoints()
+    face = DeviceFace(controller, SimClock(options.speed, origin_sim=controller.clock))
+    servers: list[Server] = []
+    link: PtyLink | None = None
+    saved = controller.memory_version
+    try:
+        if options.tcp is not None:
+            host, port = options.tcp
+            try:
+                tcp_server, bound = await serve_tcp(face, host, port)
+            except (OSError, RuntimeError) as exc:
+                raise ServiceError(f"cannot listen on {host}:{port}: {exc}") from None
+            servers.append(tcp_server)
+            endpoints.tcp = (host, bound)
+            announce(f"Modbus TCP on {host}:{bound} (any unit id)")
+        if options.serial is not None:
+            port_name = options.serial
+            if port_name == "pty":
+                link = PtyLink()
+                port_name = link.device_end
+            try:
+                servers.append(await serve_rtu(face, port_name, options.unit, options.baudrate,
+                                               options.parity, options.stopbits))
+            except (OSError, RuntimeError) as exc:
+                raise ServiceError(f"cannot open serial port {port_name}: {exc}") from None
+            endpoints.serial = link.client_end if link else port_name
+            settings = f"{options.baudrate} 8{options.parity}{options.stopbits}"
+            announce(f"Modbus RTU on {endpoints.serial} (unit {options.unit}, {settings})")
+        loop = asyncio.get_running_loop()
+        deadline = None if options.duration is None else loop.time() + options.duration
+        while not stop_event.is_set():
+            timeout = 0.05 if deadline is None else max(0.0, min(0.05, deadline - loop.time()))
+            with contextlib.suppress(TimeoutError):
+                await asyncio.wait_for(stop_event.wait(), timeout)
+            face.catch_up()
+            if options.verbose:
+                while controller.log:
+                    announce(controller.log.popleft())
+            if options.memory is not None and controller.memory_version != saved:
+                save_memory(controller, options.memory)
+                saved = controller.memory_version
+            if deadline is not None and loop.time() >= deadline:
+                break
+    finally:
+        for server in servers:
+            await stop(server)
+        if link is not None:
+            link.close()
+        if options.memory is not None and controller.memory_version != saved:
+            save_memory(controller, options.memory)
+
+
+def save_memory(controller: VirtualController, path: Path) -> None:
+    try:
+        controller.save(path)
+    except OSError as exc:
+        raise ServiceError(f"{path}: cannot write macro memory: {exc.strerror or exc}",
+                           "memory") from None

@@ -1,0 +1,439 @@
+"""What the editor needs to know about one open `.mp` document, computed without pygls.
+
+`analyse` compiles the document's in-editor text with the real compiler (`compile_paths`,
+INCLUDEs read from disk or from other open documents) for the diagnostics, and reads the
+same sources once more through the front end for what the compiler does not hand back: where
+each CONST, ALIAS, program and label is defined, each program's lines against its slot
+budget (also while the build has errors), and the include graph. `mplang.tools.lsp.features`
+answers hover, completion and definition from the result.
+"""
+
+from __future__ import annotations
+
+import logging
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Protocol, cast
+
+from mplang.ir import catalogue as catalogue_module
+from mplang.ir.catalogue import Catalogue
+from mplang.ir.lower import Scope
+from mplang.lang import ast
+from mplang.lang.diagnostics import Diagnostic, DiagnosticSink, Span
+from mplang.lang.sources import SourceFile, SourceSet, load_sources
+from mplang.lang.structure import build_unit
+from mplang.m8194h.compiler import Options, compile_paths, lower_unit
+from mplang.m8194h.link import Placement, link
+from mplang.tools.lsp.positions import Location, Range, line_range, span_range, split_lines
+from mplang.tools.lsp.tokens import Token, lex_line
+from mplang.tools.lsp.workspace import BuildContext
+
+# docs/checks/<CODE>.md of a source checkout; absent from an installed wheel.
+CHECK_DOCS = Path(__file__).resolve().parents[3] / "docs" / "checks"
+_VAR_USE = re.compile(r"\bVAR(\d+)\b", re.IGNORECASE)
+logger = logging.getLogger("mplang.tools.lsp")
+
+
+class OpenTexts(dict[Path, str]):
+    """In-editor texts keyed by resolved path, found under any spelling of the path.
+
+    The loader looks INCLUDEd files up as `including_dir / "name.mp"`, unresolved; resolving
+    on lookup lets `../common.mp` find the open buffer of the same file.
+    """
+
+    def __contains__(self, key: object) -> bool:
+        return isinstance(key, Path) and super().__contains__(key.resolve())
+
+    def __getitem__(self, key: Path) -> str:
+        return super().__getitem__(key.resolve())
+
+
+@dataclass(frozen=True)
+class Definition:
+    """A name the build defines, and where."""
+
+    kind: str  # "const" | "alias" | "program" | "label"
+    name: str
+    location: Location  # the name itself
+    text: str  # the defining statement as written, without its comment
+
+
+@dataclass
+class ProgramBlock:
+    """An MP or ISR block as written in one file (also when it is not closed)."""
+
+    kind: str  # "mp" | "isr"
+    number: int | None
+    name: str | None
+    path: Path
+    name_range: Range  # the name, else the number, else the keyword
+    header_range: Range  # the header's code, for a lens or a hint
+    first_line: int  # 0-based: the header line
+    last_line: int  # 0-based: the END line, or the file's last line when unclosed
+    labels: dict[str, Definition] = field(default_factory=dict)  # upper-case label -> def
+
+    @property
+    def title(self) -> str:
+        number = "" if self.number is None else f" {self.number}"
+        name = f" {self.name}" if self.name else ""
+        return f"{self.kind.upper()}{number}{name}"
+
+    def contains_line(self, line: int) -> bool:
+        return self.first_line <= line <= self.last_line
+
+
+@dataclass(frozen=True)
+class SlotUse:
+    """Lines a program takes against the budget of the slot the linker gave it."""
+
+    kind: str
+    slot: int | None  # None: the linker found no slot
+    lines_used: int
+    budget: int | None
+    auto: bool
+
+    @property
+    def summary(self) -> str:
+        """`MP3: 41/64 lines`, with what is wrong or notable after it."""
+        if self.slot is None or self.budget is None:
+            return f"{self.kind.upper()}: {self.lines_used} lines, no slot"
+        text = f"{self.kind.upper()}{self.slot}: {self.lines_used}/{self.budget} lines"
+        if self.lines_used > self.budget:
+            return text + ", over budget"
+        return text + " (auto-placed)" if self.auto else text
+
+
+@dataclass(frozen=True)
+class EditorDiagnostic:
+    """A compiler diagnostic placed in the open document."""
+
+    range: Range
+    severity: str  # "error" | "warning"
+    code: str
+    message: str
+    hint: str
+    related: tuple[tuple[Location, str], ...]
+    docs: Path | None  # the check's page, when the documentation is at hand
+
+
+@dataclass(frozen=True)
+class IncludeLine:
+    """An INCLUDE of the open document: the quoted path and the file it names."""
+
+    range: Range
+    target: Path
+    spelled: str  # the path as written between the quotes
+
+
+@dataclass
+class SourceText:
+    path: Path  # resolved
+    display: str  # as the compiler names it in diagnostics
+    lines: list[str]
+
+
+@dataclass
+class Analysis:
+    path: Path  # the open document, resolved
+    lines: list[str]
+    catalogue: Catalogue
+    options: Options
+    files: dict[Path, SourceText] = field(default_factory=dict)
+    consts: dict[str, Definition] = field(default_factory=dict)  # upper-case name -> def
+    const_values: dict[str, int | None] = field(default_factory=dict)
+    aliases: dict[str, Definition] = field(default_factory=dict)
+    declared: dict[str, Definition] = field(default_factory=dict)  # `VAR name [@ VARn]`
+    pinned: set[str] = field(default_factory=set)  # declared variables with `@ VARn`
+    alias_targets: dict[str, int] = field(default_factory=dict)  # alias or VAR name -> n
+    programs: list[ProgramBlock] = field(default_factory=list)
+    slot_uses: dict[tuple[Path, int], SlotUse] = field(default_factory=dict)  # by header
+    diagnostics: list[EditorDiagnostic] = field(default_factory=list)
+    includes: list[IncludeLine] = field(default_factory=list)
+    variables_used: set[int] = field(default_factory=set)
+
+    def program_at(self, line: int) -> ProgramBlock | None:
+        """The program of the open document that line (0-based) belongs to."""
+        return next((p for p in self.programs if p.path == self.path and p.contains_line(line)),
+                    None)
+
+    def program_named(self, name: str) -> ProgramBlock | None:
+        upper = name.upper()
+        return next((p for p in self.programs if p.name and p.name.upper() == upper), None)
+
+    def program_in_slot(self, kind: str, slot: int) -> ProgramBlock | None:
+        """The program written with that number, or placed there by the linker."""
+        for program in self.programs:
+            if program.kind == kind and program.number == slot:
+                return program
+        for (path, line), use in self.slot_uses.items():
+            if use.kind == kind and use.slot == slot:
+                return next((p for p in self.programs
+                             if p.path == path and p.first_line == line), None)
+        return None
+
+    def slot_use(self, program: ProgramBlock) -> SlotUse | None:
+        return self.slot_uses.get((program.path, program.first_line))
+
+    def alias_names_of(self, index: int) -> list[str]:
+        """The ALIAS and VAR names of variable `index`."""
+        names = {**self.aliases, **self.declared}
+        return [names[key].name for key, target in self.alias_targets.items()
+                if target == index and key in names]
+
+
+def analyse(path: Path, text: str, context: BuildContext | None = None,
+            open_texts: Mapping[Path, str] | None = None) -> Analysis:
+    """Compile `text` as the contents of `path` and index what the editor features need.
+
+    `context` says which sources are compiled with it and how (`workspace.context_for`);
+    by default the document is compiled alone with the default options. `open_texts` holds
+    other documents open in the editor (by resolved path): the build reads their editor
+    text, not the disk. A failure inside the compiler does not escape: the analysis then
+    holds one diagnostic that says so, and the features that need only the text and the
+    catalogue (hover on commands, completion of commands) keep working.
+    """
+    context = context or BuildContext((path,), Options())
+    catalogue = catalogue_module.load()
+    try:
+        return _analyse(path, text, context, open_texts or {}, catalogue)
+    except Exception as exc:  # a compiler bug must not take the editor's features down
+        logger.exception("checking %s failed", path)
+        analysis = Analysis(path.resolve(), split_lines(text), catalogue, context.options)
+        analysis.diagnostics = [EditorDiagnostic(
+            line_range(0, 0, 0), "error", "", f"mpc could not check this text: "
+            f"{type(exc).__name__}: {exc}", "this is a bug in mpc; please report it with the "
+            "file", (), None)]
+        return analysis
+
+
+def _analyse(path: Path, text: str, context: BuildContext, open_texts: Mapping[Path, str],
+             catalogue: Catalogue) -> Analysis:
+    family = _family_of(context.options.target)
+    # a FATEK or CSIM project: its .mp files are M8194H language, checked by that family
+    options = context.options if family is None else replace(context.options, target="et")
+    resolved = path.resolve()
+    texts = OpenTexts({p.resolve(): t for p, t in open_texts.items()})
+    texts[resolved] = text
+    analysis = Analysis(resolved, split_lines(text), catalogue, options)
+    paths = [path if p.resolve() == resolved else p for p in context.sources]
+    if resolved not in {p.resolve() for p in paths}:
+        paths = [path]
+    diagnostics = compile_paths(paths, options, texts=texts).diagnostics if family is None \
+        else family.compile_mp(paths, options, context.options.target, texts=texts).diagnostics
+    scratch = DiagnosticSink()  # the compiler's own run above reports; this one is discarded
+    sources = load_sources(paths, scratch, allow_outside=options.allow_outside_includes,
+                           texts=texts)
+    by_display: dict[str, SourceText] = {}
+    for source in sources.files:
+        lines = analysis.lines if source.path.resolve() == resolved else \
+            split_lines(source.text)
+        entry = SourceText(source.path.resolve(), source.display, lines)
+        analysis.files[entry.path] = entry
+        by_display[entry.display] = entry
+        _index_file(analysis, source, entry)
+    analysis.variables_used = {int(m.group(1)) for entry in analysis.files.values()
+                               for line in entry.lines for m in _VAR_USE.finditer(line)}
+    analysis.includes = [replace(i, target=_include_target(analysis.path, i.spelled, analysis,
+                                                           by_display))
+                         for i in analysis.includes]
+    _measure_programs(analysis, sources.files, by_display, catalogue, options)
+    graph = _include_graph(sources.files, analysis, by_display)
+    placed = (_place_diagnostic(analysis, d, by_display, graph) for d in diagnostics)
+    analysis.diagnostics = [d for d in placed if d is not None]
+    if context.problem:
+        analysis.diagnostics.insert(0, EditorDiagnostic(line_range(0, 0, 0), "error", "",
+                                                        context.problem, "", (), None))
+    return analysis
+
+
+class _Family(Protocol):
+    TARGETS: tuple[str, ...]
+
+    def compile_mp(self, paths: list[Path], options: Options, target: str, *,
+                   texts: dict[Path, str] | None = None) -> _FamilyBuild: ...
+
+
+class _FamilyBuild(Protocol):
+    @property
+    def diagnostics(self) -> list[Diagnostic]: ...
+
+
+def _family_of(target: str) -> _Family | None:
+    """The FATEK or CSIM package a project's target names, None for the M8194H."""
+    if target in ("et", "rs"):
+        return None
+    from mplang import csim, fatek
+
+    for family in (fatek, csim):
+        if target in family.TARGETS:
+            return cast(_Family, family)
+    return None
+
+
+def _code_text(line: str, tokens: list[Token]) -> str:
+    code = [t for t in tokens if t.kind != "comment"]
+    return line[code[0].start:code[-1].end] if code else ""
+
+
+def _span_location(span: Span, entry: SourceText) -> Location:
+    return Location(entry.path, span_range(span, entry.lines))
+
+
+def _line_tokens(entry: SourceText, line: int) -> list[Token]:
+    """Tokens of a 1-based line of a file."""
+    return lex_line(entry.lines[line - 1]) if 0 < line <= len(entry.lines) else []
+
+
+def _index_file(analysis: Analysis, source: SourceFile, entry: SourceText) -> None:
+    """Definitions, program blocks and INCLUDE lines of one file."""
+    open_block: ProgramBlock | None = None
+    blocks: list[ProgramBlock] = []
+
+    def close(last_line: int) -> None:
+        nonlocal open_block
+        if open_block is not None:
+            open_block.last_line = max(open_block.first_line, last_line)
+            blocks.append(open_block)
+            open_block = None
+
+    for statement in source.statements:
+        line = statement.span.line
+        tokens = _line_tokens(entry, line)
+        text = _code_text(entry.lines[line - 1], tokens) if tokens else ""
+        match statement:
+            case ast.Const() | ast.Alias() | ast.VarDecl():
+                key = statement.name.upper()
+                kind, table = {ast.Const: ("const", analysis.consts),
+                               ast.Alias: ("alias", analysis.aliases),
+                               ast.VarDecl: ("var", analysis.declared)}[type(statement)]
+                if all(key not in t for t in (analysis.consts, analysis.aliases,
+                                              analysis.declared)):
+                    table[key] = Definition(kind, statement.name,
+                                            _span_location(statement.name_span, entry), text)
+            case ast.ProgramHeader():
+                close(line - 2)
+                open_block = _program_block(statement, entry, tokens, line - 1)
+            case ast.End(what="mp" | "isr"):
+                close(line - 1)
+            case ast.LabelStmt() if open_block is not None:
+                label = tokens[1] if len(tokens) > 1 and tokens[1].kind in ("name", "int") \
+                    else None
+                key = statement.label.upper()
+                if label is not None and key not in open_block.labels:
+                    open_block.labels[key] = Definition(
+                        "label", statement.label,
+                        Location(entry.path, line_range(line - 1, label.start, label.end)),
+                        text)
+            case ast.Include() if entry.path == analysis.path:
+                quoted = next((t for t in tokens if t.kind == "string"), None)
+                if quoted is not None:
+                    analysis.includes.append(IncludeLine(
+                        line_range(line - 1, quoted.start, quoted.end),
+                        (entry.path.parent / statement.path).resolve(), statement.path))
+    close(len(entry.lines) - 1)
+    analysis.programs.extend(blocks)
+
+
+def _program_block(header: ast.ProgramHeader, entry: SourceText, tokens: list[Token],
+                   line: int) -> ProgramBlock:
+    code = [t for t in tokens if t.kind != "comment"]
+    named = [t for t in code[1:3] if t.kind in ("name", "int")]
+    chosen = named[-1] if named else (code[0] if code else None)
+    name_range = line_range(line, chosen.start, chosen.end) if chosen else \
+        line_range(line, 0, 0)
+    header_range = line_range(line, code[0].start, code[-1].end) if code else name_range
+    return ProgramBlock(header.kind, header.number, header.name, entry.path, name_range,
+                        header_range, line, line)
+
+
+def _measure_programs(analysis: Analysis, files: list[SourceFile],
+                      by_display: dict[str, SourceText], catalogue: Catalogue,
+                      options: Options) -> None:
+    """Lines used and slot of every program, from the compiler's own lowering and linker.
+
+    The compiler stops before placement output when the build has errors; this runs the same
+    passes to the link so the budgets show while the document is being fixed (lines that do
+    not compile are not counted).
+    """
+    sink = DiagnosticSink()
+    unit = build_unit(SourceSet(files), sink)
+    scope = Scope.declared(unit, catalogue, sink, options.var_pool, options.temps)
+    analysis.const_values = dict(scope.const_values)
+    analysis.alias_targets = dict(scope.aliases)
+    analysis.pinned = {v.name.upper() for v in scope.variables if v.pinned}
+    lowered = lower_unit(unit, scope, sink, options).programs
+    placements: dict[int, Placement] = {id(p.program): p
+                                        for p in link(lowered, catalogue.profile, sink,
+                                                      options.pins)}
+    close_counts = catalogue.profile.close_counts_as_line
+    for program in lowered:
+        entry = by_display.get(program.span.file)
+        if entry is None:
+            continue
+        placement = placements.get(id(program))
+        use = SlotUse(program.kind, placement.slot, placement.lines_used, placement.budget,
+                      placement.auto) if placement is not None else \
+            SlotUse(program.kind, None, program.lines_used(close_counts), None, False)
+        analysis.slot_uses[(entry.path, program.span.line - 1)] = use
+
+
+def _include_target(including: Path, spelled: str, analysis: Analysis,
+                    by_display: dict[str, SourceText]) -> Path:
+    """The file an INCLUDE names: relative to the including file or, when no loaded file is
+    there, the loaded file the loader named by that spelling (a library include)."""
+    candidate = (including.parent / spelled).resolve()
+    if candidate not in analysis.files and spelled in by_display:
+        return by_display[spelled].path
+    return candidate
+
+
+def _include_graph(files: list[SourceFile], analysis: Analysis,
+                   by_display: dict[str, SourceText]) -> dict[Path, list[Path]]:
+    graph: dict[Path, list[Path]] = {}
+    for source in files:
+        including = source.path.resolve()
+        graph[including] = [_include_target(including, s.path, analysis, by_display)
+                            for s in source.statements if isinstance(s, ast.Include)]
+    return graph
+
+
+def _reachable(start: Path, graph: dict[Path, list[Path]]) -> set[Path]:
+    seen: set[Path] = set()
+    todo = [start]
+    while todo:
+        current = todo.pop()
+        if current in seen:
+            continue
+        seen.add(current)
+        todo.extend(graph.get(current, []))
+    return seen
+
+
+def _place_diagnostic(analysis: Analysis, diagnostic: Diagnostic,
+                      by_display: dict[str, SourceText],
+                      graph: dict[Path, list[Path]]) -> EditorDiagnostic | None:
+    """Put a diagnostic where the editor shows it: at its own place in the open document,
+    on the INCLUDE line through which the file it is in joined the build, or (a file that is
+    no source, such as mpc.toml) on the first line. One that belongs to another source of the
+    project is left to that document."""
+    related = tuple((_span_location(span, by_display[span.file]), note)
+                    for span, note in diagnostic.related if span.file in by_display)
+    docs = CHECK_DOCS / f"{diagnostic.code}.md"
+    entry = by_display.get(diagnostic.span.file)
+    message = diagnostic.message
+    if entry is not None and entry.path == analysis.path:
+        where = span_range(diagnostic.span, analysis.lines)
+    else:
+        message = f"{diagnostic.span}: {message}"
+        where = line_range(0, 0, 0)
+        if entry is not None:
+            related = ((_span_location(diagnostic.span, entry), diagnostic.message), *related)
+            through = next((include for include in analysis.includes
+                            if entry.path in _reachable(include.target, graph)), None)
+            if through is None:
+                return None
+            where = through.range
+    return EditorDiagnostic(where, diagnostic.severity.value, diagnostic.code, message,
+                            diagnostic.hint, related, docs if docs.is_file() else None)

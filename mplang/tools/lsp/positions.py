@@ -1,0 +1,100 @@
+"""Places in a document as an editor counts them, without pygls.
+
+The compiler's spans are 1-based lines and columns counted in characters (code points), with an
+exclusive end column. LSP positions are 0-based, and their `character` counts code units of
+the encoding the client and server agreed on (UTF-16 unless negotiated otherwise). Everything
+in `mplang.tools.lsp` works in 0-based code points; the server converts at the boundary with
+`to_client_character` / `from_client_character`.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+from mplang.lang.diagnostics import Span
+
+ENCODINGS = ("utf-8", "utf-16", "utf-32")
+_WORD = re.compile(r"[A-Za-z0-9_]+")
+
+
+@dataclass(frozen=True, order=True)
+class Pos:
+    """0-based line and 0-based character (code points)."""
+
+    line: int
+    character: int
+
+
+@dataclass(frozen=True)
+class Range:
+    start: Pos
+    end: Pos
+
+    def contains(self, pos: Pos) -> bool:
+        """End-inclusive, so a cursor just after a word still counts as on it."""
+        return self.start <= pos <= self.end
+
+
+@dataclass(frozen=True)
+class Location:
+    path: Path
+    range: Range
+
+
+def split_lines(text: str) -> list[str]:
+    """Lines as the compiler numbers them: split at '\\n', a trailing '\\r' dropped."""
+    return [line.removesuffix("\r") for line in text.split("\n")]
+
+
+def line_range(line: int, start: int, end: int) -> Range:
+    return Range(Pos(line, start), Pos(line, end))
+
+
+def span_range(span: Span, lines: list[str]) -> Range:
+    """The 0-based range of a compiler span.
+
+    A span without an end column covers the word at its column, or (at column 1) the line's
+    text, so that every diagnostic underlines something visible. Lines past the end of the
+    text are clamped to the last line.
+    """
+    if not lines:
+        return line_range(0, 0, 0)
+    line = min(max(span.line, 1), len(lines)) - 1
+    text = lines[line]
+    start = min(max(span.col, 1) - 1, len(text))
+    if span.end_col is not None:
+        end = min(max(span.end_col - 1, start), len(text))
+        return line_range(line, start, end)
+    word = _WORD.match(text, start)
+    if word and span.col > 1:
+        return line_range(line, start, word.end())
+    stripped = text.rstrip()
+    if span.col == 1 and stripped.strip():
+        return line_range(line, len(text) - len(text.lstrip()), len(stripped))
+    return line_range(line, start, min(start + 1, len(text)))
+
+
+def _units(char: str, encoding: str) -> int:
+    if encoding == "utf-8":
+        return len(char.encode("utf-8"))
+    if encoding == "utf-16":
+        return 2 if ord(char) > 0xFFFF else 1
+    return 1
+
+
+def to_client_character(line_text: str, character: int, encoding: str) -> int:
+    """Code points -> the client's code units on one line."""
+    return sum(_units(char, encoding) for char in line_text[:max(character, 0)])
+
+
+def from_client_character(line_text: str, units: int, encoding: str) -> int:
+    """The client's code units -> code points on one line (clamped to the line; a position
+    that falls inside a character's code units moves past that character)."""
+    counted = 0
+    for index, char in enumerate(line_text):
+        if counted >= units:
+            return index
+        counted += _units(char, encoding)
+    return len(line_text)

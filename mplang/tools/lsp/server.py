@@ -1,0 +1,293 @@
+"""The language server: pygls 2.x glue over `analysis` and `features` (this package).
+
+Each open document is compiled on open and on every change (full-text sync: .mp files are
+small, and the server then never depends on how an editor counts lines for incremental
+edits). Its diagnostics are published; hover, completion, definition, code lenses and inlay
+hints are answered from the latest analysis. Positions cross the boundary here, converted
+between code points and the client's negotiated encoding. A handler that fails logs the
+error and answers nothing: one bad input never takes the server down.
+"""
+
+from __future__ import annotations
+
+import functools
+import logging
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any, TypeVar
+from urllib.parse import unquote
+
+from lsprotocol import types as lsp
+from pygls import uris
+from pygls.lsp.server import LanguageServer
+
+from mplang import __version__
+from mplang.tools.lsp import features
+from mplang.tools.lsp.analysis import Analysis, EditorDiagnostic, analyse
+from mplang.tools.lsp.positions import (
+    ENCODINGS,
+    Location,
+    Pos,
+    Range,
+    from_client_character,
+    split_lines,
+    to_client_character,
+)
+from mplang.tools.lsp.workspace import Overrides, context_for
+
+logger = logging.getLogger("mplang.tools.lsp")
+R = TypeVar("R")
+
+COMPLETION_KINDS = {
+    "command": lsp.CompletionItemKind.Function, "keyword": lsp.CompletionItemKind.Keyword,
+    "variable": lsp.CompletionItemKind.Variable, "constant": lsp.CompletionItemKind.Constant,
+    "axis": lsp.CompletionItemKind.EnumMember, "value": lsp.CompletionItemKind.EnumMember,
+    "label": lsp.CompletionItemKind.Reference, "program": lsp.CompletionItemKind.Module,
+    "file": lsp.CompletionItemKind.File, "snippet": lsp.CompletionItemKind.Snippet,
+}
+# Completion pops up by itself after these: a space (GOTO ., CALL ., FIXED_MOVE .), an
+# argument separator, an opening bracket and the quote of an INCLUDE.
+TRIGGER_CHARACTERS = [" ", ",", "(", '"']
+
+
+class MpLanguageServer(LanguageServer):
+    """Holds the command line's options and the latest analysis of every open document."""
+
+    def __init__(self, overrides: Overrides) -> None:
+        super().__init__("mpc-lsp", __version__,
+                         text_document_sync_kind=lsp.TextDocumentSyncKind.Full)
+        self.overrides = overrides
+        self.analyses: dict[str, Analysis] = {}  # by document URI
+
+    # ------------------------------------------------------------------ documents
+    @property
+    def encoding(self) -> str:
+        """The negotiated position encoding: how the client counts `character`."""
+        kind = self.workspace.position_encoding
+        name = kind.value if isinstance(kind, lsp.PositionEncodingKind) else str(kind or "")
+        return name if name in ENCODINGS else "utf-16"
+
+    @staticmethod
+    def document_path(uri: str) -> Path:
+        """The file behind a URI; an unsaved buffer counts as a file in the current directory
+        (its INCLUDEs are then relative to it)."""
+        path = uris.to_fs_path(uri) if uris.uri_scheme(uri) == "file" else None
+        if path:
+            return Path(path)
+        name = uri.rstrip("/").rsplit("/", 1)[-1].rsplit(":", 1)[-1] or "untitled.mp"
+        return Path.cwd() / name
+
+    def is_open(self, uri: str) -> bool:
+        # pygls keys its documents by the unquoted URI; `self.analyses` keeps the client's own
+        # spelling, which is what the client matches diagnostics and locations against.
+        return unquote(uri) in self.workspace.text_documents
+
+    def analyse_uri(self, uri: str) -> Analysis:
+        """Check a document; an open one's analysis is kept for the requests that follow."""
+        text = self.workspace.get_text_document(uri).source
+        others = {self.document_path(u).resolve(): self.workspace.get_text_document(u).source
+                  for u in self.analyses if u != uri and self.is_open(u)}
+        path = self.document_path(uri)
+        analysis = analyse(path, text, context_for(path, self.overrides), others)
+        if self.is_open(uri):
+            self.analyses[uri] = analysis
+        return analysis
+
+    def analysis(self, uri: str) -> Analysis:
+        return self.analyses.get(uri) or self.analyse_uri(uri)
+
+    def refresh(self, uri: str) -> None:
+        """Re-check a document, then every open document whose build reads it (it INCLUDEs
+        it, or both are sources of one project)."""
+        changed = self.analyse_uri(uri)
+        self.publish(uri, changed)
+        for other, previous in list(self.analyses.items()):
+            if other != uri and changed.path in previous.files:
+                self.publish(other, self.analyse_uri(other))
+
+    def publish(self, uri: str, analysis: Analysis) -> None:
+        version = self.workspace.get_text_document(uri).version
+        self.text_document_publish_diagnostics(lsp.PublishDiagnosticsParams(
+            uri=uri, version=version,
+            diagnostics=[self.diagnostic(uri, analysis, d) for d in analysis.diagnostics]))
+
+    def forget(self, uri: str) -> None:
+        closed = self.analyses.pop(uri, None)
+        self.text_document_publish_diagnostics(lsp.PublishDiagnosticsParams(uri=uri,
+                                                                            diagnostics=[]))
+        if closed is None:
+            return
+        for other, previous in list(self.analyses.items()):
+            if closed.path in previous.files:
+                self.publish(other, self.analyse_uri(other))
+
+    # ------------------------------------------------------------------ conversion
+    def uri_for(self, uri: str, analysis: Analysis, path: Path) -> str:
+        """The root document keeps the client's own URI; open files theirs; others file:."""
+        if path == analysis.path:
+            return uri
+        for other, analysis_of_other in self.analyses.items():
+            if analysis_of_other.path == path:
+                return other
+        return uris.from_fs_path(str(path)) or path.as_uri()
+
+    def lines_of(self, analysis: Analysis, path: Path) -> list[str]:
+        entry = analysis.files.get(path)
+        if entry is not None:
+            return entry.lines
+        try:
+            return split_lines(path.read_text(encoding="utf-8"))
+        except (OSError, UnicodeDecodeError):
+            return []
+
+    def to_client(self, lines: list[str], range_: Range) -> lsp.Range:
+        def convert(pos: Pos) -> lsp.Position:
+            text = lines[pos.line] if 0 <= pos.line < len(lines) else ""
+            return lsp.Position(line=pos.line, character=to_client_character(
+                text, pos.character, self.encoding))
+
+        return lsp.Range(start=convert(range_.start), end=convert(range_.end))
+
+    def from_client(self, analysis: Analysis, position: lsp.Position) -> Pos:
+        lines = analysis.lines
+        text = lines[position.line] if 0 <= position.line < len(lines) else ""
+        return Pos(position.line, from_client_character(text, position.character,
+                                                        self.encoding))
+
+    def location(self, uri: str, analysis: Analysis, location: Location) -> lsp.Location:
+        return lsp.Location(uri=self.uri_for(uri, analysis, location.path),
+                            range=self.to_client(self.lines_of(analysis, location.path),
+                                                 location.range))
+
+    def diagnostic(self, uri: str, analysis: Analysis, found: EditorDiagnostic
+                   ) -> lsp.Diagnostic:
+        message = found.message + (f"\nhint: {found.hint}" if found.hint else "")
+        severity = lsp.DiagnosticSeverity.Error if found.severity == "error" else \
+            lsp.DiagnosticSeverity.Warning
+        related = [lsp.DiagnosticRelatedInformation(
+            location=self.location(uri, analysis, where), message=note)
+                   for where, note in found.related]
+        docs = lsp.CodeDescription(href=found.docs.as_uri()) if found.docs else None
+        return lsp.Diagnostic(range=self.to_client(analysis.lines, found.range),
+                              message=message, severity=severity, code=found.code or None,
+                              code_description=docs, source="mpc",
+                              related_information=related or None)
+
+    def snippets_supported(self) -> bool:
+        capabilities = self.client_capabilities.text_document
+        completion = capabilities.completion if capabilities else None
+        item = completion.completion_item if completion else None
+        return bool(item and item.snippet_support)
+
+
+def _guarded(server: MpLanguageServer
+             ) -> Callable[[Callable[[Any], R]], Callable[[Any], R | None]]:
+    """Log a failing handler (also to the client's log) and answer nothing instead."""
+
+    def decorate(handler: Callable[[Any], R]) -> Callable[[Any], R | None]:
+        @functools.wraps(handler)
+        def run(params: Any) -> R | None:
+            try:
+                return handler(params)
+            except Exception as exc:
+                logger.exception("%s failed", handler.__name__)
+                try:
+                    server.window_log_message(lsp.LogMessageParams(
+                        type=lsp.MessageType.Error, message=f"mpc lsp: {handler.__name__} "
+                        f"failed: {type(exc).__name__}: {exc}"))
+                except Exception:
+                    logger.exception("cannot report the error to the client")
+                return None
+
+        return run
+
+    return decorate
+
+
+def create_server(overrides: Overrides | None = None) -> MpLanguageServer:
+    """A server with every feature registered (started by `mpc lsp`)."""
+    server = MpLanguageServer(overrides or Overrides())
+
+    @server.feature(lsp.TEXT_DOCUMENT_DID_OPEN)
+    @_guarded(server)
+    def did_open(params: lsp.DidOpenTextDocumentParams) -> None:
+        server.refresh(params.text_document.uri)
+
+    @server.feature(lsp.TEXT_DOCUMENT_DID_CHANGE)
+    @_guarded(server)
+    def did_change(params: lsp.DidChangeTextDocumentParams) -> None:
+        server.refresh(params.text_document.uri)
+
+    @server.feature(lsp.TEXT_DOCUMENT_DID_SAVE)
+    @_guarded(server)
+    def did_save(params: lsp.DidSaveTextDocumentParams) -> None:
+        server.refresh(params.text_document.uri)
+
+    @server.feature(lsp.TEXT_DOCUMENT_DID_CLOSE)
+    @_guarded(server)
+    def did_close(params: lsp.DidCloseTextDocumentParams) -> None:
+        server.forget(params.text_document.uri)
+
+    @server.feature(lsp.TEXT_DOCUMENT_HOVER)
+    @_guarded(server)
+    def hover(params: lsp.HoverParams) -> lsp.Hover | None:
+        uri = params.text_document.uri
+        analysis = server.analysis(uri)
+        found = features.hover(analysis, server.from_client(analysis, params.position))
+        if found is None:
+            return None
+        return lsp.Hover(contents=lsp.MarkupContent(kind=lsp.MarkupKind.Markdown,
+                                                    value=found.markdown),
+                         range=server.to_client(analysis.lines, found.range))
+
+    @server.feature(lsp.TEXT_DOCUMENT_COMPLETION,
+                    lsp.CompletionOptions(trigger_characters=TRIGGER_CHARACTERS))
+    @_guarded(server)
+    def completion(params: lsp.CompletionParams) -> lsp.CompletionList | None:
+        analysis = server.analysis(params.text_document.uri)
+        entries = features.completion(analysis, server.from_client(analysis, params.position))
+        snippets = server.snippets_supported()
+        items = []
+        for entry in entries:
+            snippet = entry.snippet and snippets
+            items.append(lsp.CompletionItem(
+                label=entry.label, kind=COMPLETION_KINDS.get(entry.kind),
+                detail=entry.detail or None,
+                documentation=lsp.MarkupContent(kind=lsp.MarkupKind.Markdown,
+                                                value=entry.documentation)
+                if entry.documentation else None,
+                sort_text=f"{entry.sort_group}{entry.label.lower()}",
+                insert_text=entry.insert_text if snippet else None,
+                insert_text_format=lsp.InsertTextFormat.Snippet if snippet else None))
+        return lsp.CompletionList(is_incomplete=False, items=items)
+
+    @server.feature(lsp.TEXT_DOCUMENT_DEFINITION)
+    @_guarded(server)
+    def definition(params: lsp.DefinitionParams) -> list[lsp.Location] | None:
+        uri = params.text_document.uri
+        analysis = server.analysis(uri)
+        found = features.definition(analysis, server.from_client(analysis, params.position))
+        return [server.location(uri, analysis, where) for where in found] or None
+
+    @server.feature(lsp.TEXT_DOCUMENT_CODE_LENS)
+    @_guarded(server)
+    def code_lens(params: lsp.CodeLensParams) -> list[lsp.CodeLens] | None:
+        analysis = server.analysis(params.text_document.uri)
+        # An empty command id: the lens is a label to read, not a button.
+        return [lsp.CodeLens(range=server.to_client(analysis.lines, budget.range),
+                             command=lsp.Command(title=budget.title, command=""))
+                for budget in features.program_budgets(analysis)]
+
+    @server.feature(lsp.TEXT_DOCUMENT_INLAY_HINT)
+    @_guarded(server)
+    def inlay_hint(params: lsp.InlayHintParams) -> list[lsp.InlayHint] | None:
+        analysis = server.analysis(params.text_document.uri)
+        first, last = params.range.start.line, params.range.end.line
+        hints = []
+        for budget in features.program_budgets(analysis):
+            if first <= budget.range.end.line <= last:
+                end = server.to_client(analysis.lines, budget.range).end
+                hints.append(lsp.InlayHint(position=end, label=budget.title, padding_left=True))
+        return hints
+
+    return server

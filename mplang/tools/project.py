@@ -1,0 +1,468 @@
+"""`mpc.toml`: a project's sources, build options, slot pins and flash targets in one file.
+
+`mpc build`, `mpc lint`, `mpc run` and `mpc flash` read it when they are given no files; the
+file is found in the current directory or the nearest parent (as git finds `.git`). Paths in it
+are relative to its own directory. Command-line options win over the file. The same `[targets]`
+tables make a fleet file for `mpc flash --fleet FILE`. docs/project.md describes every key.
+
+Every problem names the file and the line of the key (tomllib reports syntax errors with their
+line; for values, the line is found by reading the file's table and key lines).
+"""
+
+from __future__ import annotations
+
+import functools
+import importlib
+import re
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import ModuleType
+from typing import Any
+
+from mplang.lang.diagnostics import Span
+from mplang.m8194h.link import SlotPin
+
+PROJECT_FILE = "mpc.toml"
+DEFAULT_RECORD = ".mpc/flash-record.json"
+TARGET_KEYS = frozenset({"tcp", "serial", "unit", "baud", "parity", "stopbits", "timeout",
+                         "retries", "sources", "image", "word-order", "target"})
+MODBUS_ONLY_KEYS = ("unit", "word-order", "image", "retries")
+"""[targets.NAME] keys that only an M8194H (a Modbus device taking image frames) uses."""
+M8194H_TARGETS = ("et", "rs")
+M8194H_TITLES = {"et": "ET-M8194H", "rs": "RS-M8194H"}
+FAMILY_PACKAGES = ("mplang.fatek", "mplang.csim")
+"""The other controller families (issue 7). Each package names its own targets (`TARGETS`)
+and source suffixes (`SUFFIXES`); nothing here repeats them."""
+SECTIONS = frozenset({"project", "slots", "targets", "flash", "fmt"})
+PROJECT_KEYS = frozenset({"sources", "target", "word-order", "temp-vars", "var-pool",
+                          "allow-outside-includes", "werror"})
+FLASH_KEYS = frozenset({"record", "timeout", "retries", "set-word-order"})
+SLOT_TEXT = re.compile(r"(MP|ISR)\s*(\d+)", re.IGNORECASE)
+TABLE_LINE = re.compile(r"^\s*\[+\s*([^\]]+?)\s*\]+")
+KEY_LINE = re.compile(r"^\s*(\"[^\"]*\"|'[^']*'|[A-Za-z0-9_-]+)\s*=")
+
+
+class ProjectError(ValueError):
+    """A project or fleet file that cannot be used; the message starts with file:line."""
+
+
+@dataclass(frozen=True)
+class Target:
+    """One device to flash: `[targets.NAME]`. Exactly one of `tcp` / `serial`."""
+
+    name: str
+    host: str | None = None
+    port: int = 502
+    serial: str | None = None
+    unit: int = 1
+    baud: int = 115200
+    parity: str = "N"
+    stopbits: int = 1
+    timeout: float | None = None  # None: the command line's or [flash]'s
+    retries: int | None = None
+    sources: tuple[Path, ...] = ()  # this device's own program set, if not the project's
+    image: Path | None = None
+    word_order: int | None = None
+    span: Span | None = None
+    target: str | None = None  # the device's controller, if the table names it
+
+    def address(self) -> str:
+        """Where the device is, as the incremental record keys it."""
+        if self.host is not None:
+            return f"tcp://{self.host}:{self.port}/{self.unit}"
+        return f"rtu://{self.serial}/{self.unit}"
+
+
+@dataclass(frozen=True)
+class FlashSettings:
+    record: Path
+    timeout: float | None = None
+    retries: int | None = None
+    set_word_order: bool = False
+
+
+@dataclass(frozen=True)
+class Project:
+    path: Path  # the mpc.toml file
+    sources: tuple[Path, ...] = ()
+    target: str | None = None  # "et" / "rs", or a family target (known_targets())
+    word_order: int | None = None
+    temp_vars: range | None = None
+    var_pool: range | None = None
+    allow_outside_includes: bool | None = None
+    werror: bool | None = None
+    pins: tuple[SlotPin, ...] = ()
+    targets: dict[str, Target] = field(default_factory=dict)
+    flash: FlashSettings = field(default_factory=lambda: FlashSettings(Path(DEFAULT_RECORD)))
+    fmt: Mapping[str, Any] = field(default_factory=dict)
+
+    @property
+    def root(self) -> Path:
+        return self.path.parent
+
+
+@functools.cache
+def family_targets() -> dict[str, str]:
+    """Every target of the other controller families -> its package name (this imports the
+    family packages, so it is asked only for a name that is not an M8194H target)."""
+    found: dict[str, str] = {}
+    for package in FAMILY_PACKAGES:
+        for name in importlib.import_module(package).TARGETS:
+            found[str(name)] = package
+    return found
+
+
+def family_package(target: str) -> ModuleType | None:
+    """The family package answering to `target`; None for the M8194H (and unknown names)."""
+    if target in M8194H_TARGETS:
+        return None
+    package = family_targets().get(target)
+    return None if package is None else importlib.import_module(package)
+
+
+def known_targets() -> tuple[str, ...]:
+    """Every `--target` / `target =` value: the M8194H's, then each family's."""
+    return (*M8194H_TARGETS, *family_targets())
+
+
+def describe_targets() -> str:
+    return ", ".join(f'"{name}"' + (f" ({M8194H_TITLES[name]})" if name in M8194H_TITLES
+                                    else "") for name in known_targets())
+
+
+def find_project(start: Path) -> Path | None:
+    """The nearest `mpc.toml` in `start` or above it, or None."""
+    here = start.resolve()
+    for folder in (here, *here.parents):
+        candidate = folder / PROJECT_FILE
+        if candidate.is_file():
+            return candidate
+    return None
+
+
+class _Locator:
+    """Finds the line of `[table]` / `key =` in the TOML text, for messages."""
+
+    def __init__(self, path: Path, text: str) -> None:
+        self.path = path
+        self.lines = text.splitlines()
+
+    def line(self, table: str, key: str | None = None) -> int:
+        current = ""
+        table_line = 1
+        for number, raw in enumerate(self.lines, start=1):
+            text = raw.split("#", 1)[0] if not raw.lstrip().startswith(("\"", "'")) else raw
+            header = TABLE_LINE.match(text)
+            if header:
+                current = ".".join(part.strip().strip("\"'") for part in
+                                   header.group(1).split("."))
+                if current == table:
+                    table_line = number
+                    if key is None:
+                        return number
+                continue
+            match = KEY_LINE.match(text)
+            if match and current == table and key is not None \
+                    and match.group(1).strip("\"'") == key:
+                return number
+        return table_line
+
+    def span(self, table: str, key: str | None = None) -> Span:
+        return Span(str(self.path), self.line(table, key))
+
+    def error(self, table: str, key: str | None, message: str) -> ProjectError:
+        where = f"[{table}] {key}" if key else f"[{table}]"
+        return ProjectError(f"{self.path}:{self.line(table, key)}: {where}: {message}")
+
+
+def _read(path: Path) -> tuple[dict[str, Any], _Locator]:
+    try:
+        text = path.read_bytes().decode("utf-8")
+    except OSError as exc:
+        raise ProjectError(f"{path}: cannot read: {exc.strerror or exc}") from None
+    except UnicodeDecodeError:
+        raise ProjectError(f"{path}: not UTF-8 text") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        match = re.search(r"line (\d+)", str(exc))
+        line = f":{match.group(1)}" if match else \
+            f":{max(1, len(text.splitlines()))}" if "end of document" in str(exc) else ""
+        raise ProjectError(f"{path}{line}: not valid TOML: {exc}") from None
+    return data, _Locator(path, text)
+
+
+def _check_keys(table: Mapping[str, Any], allowed: frozenset[str], name: str,
+                where: _Locator) -> None:
+    for key in table:
+        if key not in allowed:
+            raise where.error(name, key, f"unknown key; expected one of "
+                              f"{', '.join(sorted(allowed))}")
+
+
+def _string_list(value: object, table: str, key: str, where: _Locator) -> list[str]:
+    if isinstance(value, str):
+        value = [value]
+    if not isinstance(value, list) or not value or \
+            not all(isinstance(v, str) and v for v in value):
+        raise where.error(table, key, "must be a file, directory or glob, or a list of them")
+    return list(value)
+
+
+def _expand(patterns: list[str], root: Path, table: str, key: str,
+            where: _Locator) -> tuple[Path, ...]:
+    """Files, directories (every .mp below) and globs, relative to the project file."""
+    found: list[Path] = []
+    for pattern in patterns:
+        path = root / pattern
+        if path.is_dir():
+            matches = sorted(path.rglob("*.mp"))
+            if not matches:
+                raise where.error(table, key, f"no .mp files in directory {pattern}")
+        elif path.is_file():
+            matches = [path]
+        elif any(ch in pattern for ch in "*?["):
+            matches = sorted(p for p in root.glob(pattern) if p.is_file())
+            if not matches:
+                raise where.error(table, key, f"no files match {pattern}")
+        else:
+            raise where.error(table, key, f"{pattern}: no such file")
+        found += [m for m in matches if m not in found]
+    return tuple(found)
+
+
+def _int(value: object, low: int, high: int, table: str, key: str, where: _Locator) -> int:
+    if not isinstance(value, int) or isinstance(value, bool) or not low <= value <= high:
+        raise where.error(table, key, f"must be a whole number in {low}..{high}, "
+                          f"not {value!r}")
+    return value
+
+
+def _number(value: object, low: float, high: float, table: str, key: str,
+            where: _Locator) -> float:
+    if not isinstance(value, int | float) or isinstance(value, bool) or \
+            not low <= value <= high:
+        raise where.error(table, key, f"must be a number in {low:g}..{high:g}, not {value!r}")
+    return float(value)
+
+
+def _bool(value: object, table: str, key: str, where: _Locator) -> bool:
+    if not isinstance(value, bool):
+        raise where.error(table, key, f"must be true or false, not {value!r}")
+    return value
+
+
+def _table(data: Mapping[str, Any], name: str, where: _Locator) -> Mapping[str, Any]:
+    value = data.get(name, {})
+    if not isinstance(value, dict):
+        raise where.error(name, None, "must be a table")
+    return value
+
+
+def parse_temps(text: str) -> range:
+    """`FIRST-LAST` (e.g. `496-511`, `VAR496-VAR511`): a range of VARs (the pool of
+    temporaries, or of declared variables)."""
+    try:
+        low_text, high_text = text.upper().replace("VAR", "").split("-")
+        low, high = int(low_text), int(high_text)
+    except ValueError:
+        raise ValueError("write the pool as FIRST-LAST, e.g. 496-511") from None
+    if not 0 <= low <= high <= 511:
+        raise ValueError("the pool must lie within VAR0..VAR511")
+    return range(low, high + 1)
+
+
+def parse_address(text: str, default_port: int = 502) -> tuple[str, int]:
+    """HOST[:PORT], [IPv6]:PORT or a bare IPv6 address; ValueError with a hint if not."""
+    host, port_text = text, str(default_port)
+    if text.startswith("["):
+        host, _, rest = text[1:].partition("]")
+        if rest:
+            port_text = rest.removeprefix(":")
+    elif text.count(":") == 1:
+        host, port_text = text.split(":")
+    try:
+        port = int(port_text)
+    except ValueError:
+        raise ValueError(f"{text!r}: write HOST or HOST:PORT, e.g. 192.168.0.16:502") from None
+    if not host or not 1 <= port <= 65535:
+        raise ValueError(f"{text!r}: write HOST or HOST:PORT with a port in 1..65535")
+    return host, port
+
+
+def _pins(table: Mapping[str, Any], where: _Locator) -> tuple[SlotPin, ...]:
+    pins: list[SlotPin] = []
+    taken: dict[tuple[str, int], str] = {}
+    for name, value in table.items():
+        match = SLOT_TEXT.fullmatch(value.strip()) if isinstance(value, str) else None
+        if match is None:
+            raise where.error("slots", name, f"write the slot as \"MP3\" or \"ISR2\", not "
+                              f"{value!r}")
+        kind, slot = match.group(1).lower(), int(match.group(2))
+        if (kind, slot) in taken:
+            raise where.error("slots", name, f"{kind.upper()}{slot} is also the pin of "
+                              f"{taken[(kind, slot)]}")
+        taken[(kind, slot)] = name
+        pins.append(SlotPin(name, kind, slot, where.span("slots", name)))
+    return tuple(pins)
+
+
+def _controller(value: object, table: str, where: _Locator) -> str:
+    """A `target =` value: one of known_targets()."""
+    if not isinstance(value, str) or (value not in M8194H_TARGETS
+                                      and value not in family_targets()):
+        raise where.error(table, "target", f"must be one of {describe_targets()}, "
+                          f"not {value!r}")
+    return value
+
+
+def _device_controller(raw: Mapping[str, Any], table: str, where: _Locator) -> str | None:
+    """The `target` of a [targets.NAME] device, checked against what that controller can be
+    reached by and what it takes."""
+    if "target" not in raw:
+        return None
+    target = _controller(raw["target"], table, where)
+    package = family_package(target)
+    if package is None:
+        return target
+    title = str(package.TITLE)
+    transports = tuple(package.TRANSPORTS)
+    if not transports:
+        raise where.error(table, "target", f"{target}: {package.NO_TRANSPORT}, so a "
+                          f"{title} program is not a device to flash")
+    if "tcp" in raw and "tcp" not in transports:
+        raise where.error(table, "tcp", f"a {title} device ({target}) is reached over a "
+                          "serial line: give serial = \"PORT\"")
+    for key in MODBUS_ONLY_KEYS:
+        if key in raw:
+            raise where.error(table, key, f"does not apply to a {title} device ({target}): "
+                              f"it is for M8194H devices")
+    return target
+
+
+def _target(name: str, raw: object, root: Path, where: _Locator) -> Target:
+    table = f"targets.{name}"
+    if not isinstance(raw, dict):
+        raise where.error("targets", name, "must be a table: [targets.NAME]")
+    _check_keys(raw, TARGET_KEYS, table, where)
+    if ("tcp" in raw) == ("serial" in raw):
+        raise where.error(table, None, "give the device as tcp = \"HOST[:PORT]\" or "
+                          "serial = \"PORT\" (one of them)")
+    controller = _device_controller(raw, table, where)
+    host: str | None = None
+    port = 502
+    serial: str | None = None
+    if "tcp" in raw:
+        if not isinstance(raw["tcp"], str):
+            raise where.error(table, "tcp", "must be a string \"HOST[:PORT]\"")
+        try:
+            host, port = parse_address(raw["tcp"])
+        except ValueError as exc:
+            raise where.error(table, "tcp", str(exc)) from None
+    else:
+        if not isinstance(raw["serial"], str) or not raw["serial"]:
+            raise where.error(table, "serial", "must be the serial port, e.g. \"/dev/ttyUSB0\"")
+        serial = raw["serial"]
+    parity = raw.get("parity", "N")
+    if parity not in ("N", "E", "O"):
+        raise where.error(table, "parity", f"must be \"N\", \"E\" or \"O\", not {parity!r}")
+    sources: tuple[Path, ...] = ()
+    image: Path | None = None
+    if "sources" in raw and "image" in raw:
+        raise where.error(table, "image", "give sources or an image, not both")
+    if "sources" in raw:
+        sources = _expand(_string_list(raw["sources"], table, "sources", where), root, table,
+                          "sources", where)
+    if "image" in raw:
+        if not isinstance(raw["image"], str) or not raw["image"]:
+            raise where.error(table, "image", "must be the path of an image JSON")
+        image = root / raw["image"]
+    return Target(
+        name=name, host=host, port=port, serial=serial,
+        unit=_int(raw.get("unit", 1), 1, 247, table, "unit", where),
+        baud=_int(raw.get("baud", 115200), 50, 4_000_000, table, "baud", where),
+        parity=parity,
+        stopbits=_int(raw.get("stopbits", 1), 1, 2, table, "stopbits", where),
+        timeout=None if "timeout" not in raw else
+        _number(raw["timeout"], 0.01, 60, table, "timeout", where),
+        retries=None if "retries" not in raw else
+        _int(raw["retries"], 0, 100, table, "retries", where),
+        sources=sources, image=image,
+        word_order=None if "word-order" not in raw else
+        _int(raw["word-order"], 0, 1, table, "word-order", where),
+        span=where.span(table), target=controller)
+
+
+def _targets(data: Mapping[str, Any], root: Path, where: _Locator) -> dict[str, Target]:
+    table = _table(data, "targets", where)
+    return {name: _target(name, raw, root, where) for name, raw in table.items()}
+
+
+def load_project(path: Path) -> Project:
+    """Read and check `mpc.toml`. Sources must exist when listed; ProjectError otherwise."""
+    data, where = _read(path)
+    root = path.parent
+    for name in data:
+        if name not in SECTIONS:
+            raise ProjectError(f"{path}:{where.line(name)}: unknown table [{name}]; expected "
+                               f"{', '.join(f'[{s}]' for s in sorted(SECTIONS))}")
+    project = _table(data, "project", where)
+    _check_keys(project, PROJECT_KEYS, "project", where)
+    sources: tuple[Path, ...] = ()
+    if "sources" in project:
+        sources = _expand(_string_list(project["sources"], "project", "sources", where), root,
+                          "project", "sources", where)
+    target = None if "target" not in project else \
+        _controller(project["target"], "project", where)
+    temps: range | None = None
+    if "temp-vars" in project:
+        try:
+            temps = parse_temps(str(project["temp-vars"]))
+        except ValueError as exc:
+            raise where.error("project", "temp-vars", str(exc)) from None
+    pool: range | None = None
+    if "var-pool" in project:
+        try:
+            pool = parse_temps(str(project["var-pool"]))
+        except ValueError as exc:
+            raise where.error("project", "var-pool", str(exc)) from None
+    flash = _table(data, "flash", where)
+    _check_keys(flash, FLASH_KEYS, "flash", where)
+    record = flash.get("record", DEFAULT_RECORD)
+    if not isinstance(record, str) or not record:
+        raise where.error("flash", "record", "must be a file path")
+    fmt = _table(data, "fmt", where)
+    return Project(
+        path=path, sources=sources, target=target,
+        word_order=None if "word-order" not in project else
+        _int(project["word-order"], 0, 1, "project", "word-order", where),
+        temp_vars=temps,
+        var_pool=pool,
+        allow_outside_includes=None if "allow-outside-includes" not in project else
+        _bool(project["allow-outside-includes"], "project", "allow-outside-includes", where),
+        werror=None if "werror" not in project else
+        _bool(project["werror"], "project", "werror", where),
+        pins=_pins(_table(data, "slots", where), where),
+        targets=_targets(data, root, where),
+        flash=FlashSettings(
+            record=root / record,
+            timeout=None if "timeout" not in flash else
+            _number(flash["timeout"], 0.01, 60, "flash", "timeout", where),
+            retries=None if "retries" not in flash else
+            _int(flash["retries"], 0, 100, "flash", "retries", where),
+            set_word_order=_bool(flash.get("set-word-order", False), "flash",
+                                 "set-word-order", where)),
+        fmt=dict(fmt))
+
+
+def load_fleet(path: Path) -> list[Target]:
+    """The `[targets.NAME]` tables of a fleet file (an mpc.toml serves as one too), in file
+    order. ProjectError if there are none or one is malformed."""
+    data, where = _read(path)
+    targets = _targets(data, path.parent, where)
+    if not targets:
+        raise ProjectError(f"{path}: no devices: a fleet file lists [targets.NAME] tables")
+    return list(targets.values())
+

@@ -1,0 +1,258 @@
+"""The virtual M8194H over real Modbus: pymodbus clients over loopback TCP and over a pty
+pair (RTU), and Debian's mbpoll (libmodbus) as an independent client."""
+
+from __future__ import annotations
+
+import asyncio
+import os
+import shutil
+import socket
+import subprocess
+import sys
+from collections.abc import Awaitable, Callable
+from pathlib import Path
+
+import pytest
+from pymodbus.client import AsyncModbusSerialClient, AsyncModbusTcpClient
+from pymodbus.exceptions import ModbusException
+from simproc import start_sim
+
+from mplang.family.ptylink import PtyLink
+from mplang.m8194h.compiler import compile_source
+from mplang.m8194h.modbus import DeviceFace, SimClock, serve_rtu, serve_tcp, stop
+from mplang.m8194h.sim.controller import VirtualController
+
+PROGRAM = """MP 21
+  VAR1 = 123456
+  VAR2 = -5
+  SET_V X, 20000
+  FIXED_MOVE X, 5000
+  STOP_WAIT X
+  VAR3 = GET_LP(X)
+END MP
+"""
+
+
+def frames(source: str) -> list[list[int]]:
+    build = compile_source(source)
+    assert build.ok
+    return [f for program in build.programs for f in program.frames]
+
+
+def served(speed: float = 50.0) -> DeviceFace:
+    return DeviceFace(VirtualController(), SimClock(speed))
+
+
+async def until(predicate: Callable[[], Awaitable[bool]], timeout: float = 5.0) -> None:
+    loop = asyncio.get_running_loop()
+    end = loop.time() + timeout
+    while not await predicate():
+        assert loop.time() < end, "the condition never came true"
+        await asyncio.sleep(0.01)
+
+
+def test_download_call_and_poll_over_tcp() -> None:
+    async def scenario() -> None:
+        face = served()
+        server, port = await serve_tcp(face, "127.0.0.1", 0)
+        client = AsyncModbusTcpClient("127.0.0.1", port=port)
+        try:
+            assert await client.connect()
+            for frame in frames(PROGRAM):
+                reply = await client.write_registers(8000, frame, device_id=1)
+                assert not reply.isError(), frame
+            status = await client.read_input_registers(110, count=5, device_id=1)
+            assert status.registers == [21, 0, 0, 0, 0]
+            assert not (await client.write_register(8, 21, device_id=1)).isError()
+
+            async def finished() -> bool:
+                state = await client.read_input_registers(101, count=1, device_id=1)
+                return state.registers == [9]
+
+            await until(finished)
+            variables = await client.read_holding_registers(302, count=6, device_id=1)
+            assert variables.registers == [0x0001, 0xE240, 0xFFFF, 0xFFFB, 0, 5000]
+            lp = await client.read_input_registers(26, count=2, device_id=1)
+            assert lp.registers == [0, 5000]
+        finally:
+            client.close()
+            await stop(server)
+
+    asyncio.run(scenario())
+
+
+def test_device_exceptions_over_tcp() -> None:
+    async def scenario() -> None:
+        face = served(speed=1e-4)  # slow motion: the FIFO cannot drain during the test
+        server, port = await serve_tcp(face, "127.0.0.1", 0)
+        client = AsyncModbusTcpClient("127.0.0.1", port=port)
+        try:
+            assert await client.connect()
+            reply = await client.write_registers(8000, [0x0C4E, 1, 0, 5], device_id=1)
+            assert reply.isError() and reply.exception_code == 0x01
+            cause = await client.read_input_registers(102, count=1, device_id=1)
+            assert cause.registers == [0x08]  # a macro command sent as a real-time one
+            reply = await client.read_input_registers(300, count=1, device_id=1)
+            assert reply.isError() and reply.exception_code == 0x02
+            for _ in range(30):
+                ok = await client.write_registers(8000, [0x0A48, 1, 0, 5000], device_id=1)
+                assert not ok.isError()
+            busy = await client.write_registers(8000, [0x0A48, 1, 0, 5000], device_id=1)
+            assert busy.isError() and busy.exception_code == 0x06
+            free = await client.read_input_registers(71, count=1, device_id=1)
+            assert free.registers == [0]
+        finally:
+            client.close()
+            await stop(server)
+
+    asyncio.run(scenario())
+
+
+def test_rtu_over_a_pty_pair_and_silence_for_other_units() -> None:
+    async def scenario() -> None:
+        face = served()
+        with PtyLink() as link:
+            server = await serve_rtu(face, link.device_end, unit=3)
+            client = AsyncModbusSerialClient(link.client_end, baudrate=115200, timeout=0.5,
+                                             retries=0)
+            try:
+                assert await client.connect()
+                for frame in frames(PROGRAM):
+                    assert not (await client.write_registers(8000, frame, device_id=3)).isError()
+                assert not (await client.write_register(8, 21, device_id=3)).isError()
+
+                async def finished() -> bool:
+                    state = await client.read_input_registers(101, count=1, device_id=3)
+                    return state.registers == [9]
+
+                await until(finished)
+                reply = await client.read_holding_registers(306, count=2, device_id=3)
+                assert reply.registers == [0, 5000]
+                with pytest.raises(ModbusException):  # a real slave stays silent
+                    await client.read_holding_registers(302, count=2, device_id=4)
+            finally:
+                client.close()
+                await stop(server)
+
+    asyncio.run(scenario())
+
+
+MBPOLL = shutil.which("mbpoll")
+needs_mbpoll = pytest.mark.skipif(
+    MBPOLL is None and os.environ.get("MPC_ALLOW_NO_MBPOLL") == "1",
+    reason="mbpoll is not installed (make test installs it)")
+
+
+async def mbpoll(*args: str) -> str:
+    assert MBPOLL is not None, "mbpoll is missing: `make test` installs it with apt-get"
+    proc = await asyncio.create_subprocess_exec(MBPOLL, "-1", "-0", *args,
+                                                stdout=asyncio.subprocess.PIPE,
+                                                stderr=asyncio.subprocess.STDOUT)
+    out, _ = await asyncio.wait_for(proc.communicate(), 20)
+    assert proc.returncode == 0, out.decode()
+    return out.decode()
+
+
+async def run_program(face: DeviceFace) -> None:
+    vc = face.controller
+    for frame in frames(PROGRAM):
+        assert vc.write_subfunction(frame) == 0
+    vc.call(21)
+    vc.advance(vc.clock + 2.0)
+    assert not vc.running
+
+
+@needs_mbpoll
+def test_mbpoll_reads_positions_and_vars_over_tcp() -> None:
+    async def scenario() -> None:
+        face = served()
+        await run_program(face)
+        server, port = await serve_tcp(face, "127.0.0.1", 0)
+        try:
+            out = await mbpoll("-m", "tcp", "-p", str(port), "-a", "1", "-t", "3:int", "-B",
+                               "-r", "26", "-c", "1", "127.0.0.1")
+            assert "[26]: \t5000" in out
+            out = await mbpoll("-m", "tcp", "-p", str(port), "-a", "1", "-t", "4:int", "-B",
+                               "-r", "302", "-c", "2", "127.0.0.1")
+            assert "[302]: \t123456" in out and "[304]: \t-5" in out
+            out = await mbpoll("-m", "tcp", "-p", str(port), "-a", "1", "-t", "4", "-r", "14",
+                               "127.0.0.1", "1")  # switch to LSW first
+            out = await mbpoll("-m", "tcp", "-p", str(port), "-a", "1", "-t", "4:int",
+                               "-r", "302", "-c", "1", "127.0.0.1")  # mbpoll's default order
+            assert "[302]: \t123456" in out
+        finally:
+            await stop(server)
+
+    asyncio.run(scenario())
+
+
+@needs_mbpoll
+def test_mbpoll_reads_over_rtu() -> None:
+    async def scenario() -> None:
+        face = served()
+        await run_program(face)
+        with PtyLink() as link:
+            server = await serve_rtu(face, link.device_end, unit=1)
+            try:
+                out = await mbpoll("-m", "rtu", "-b", "115200", "-P", "none", "-a", "1",
+                                   "-t", "3:int", "-B", "-r", "26", "-c", "1", link.client_end)
+                assert "[26]: \t5000" in out
+            finally:
+                await stop(server)
+
+    asyncio.run(scenario())
+
+
+# ----------------------------------------------------------------------- mpc sim (CLI)
+
+
+def test_mpc_sim_keeps_macro_memory_across_a_restart(tmp_path: Path) -> None:
+    source = tmp_path / "job.mp"
+    source.write_text("MP 21\n VAR1 = 42\nEND MP\n")
+    memory = tmp_path / "fram.json"
+    first = subprocess.run([sys.executable, "-m", "mplang", "sim", str(source), "--tcp",
+                            "127.0.0.1:0", "--memory", str(memory), "--duration", "0.3"],
+                           capture_output=True, text=True, timeout=30)
+    assert first.returncode == 0, first.stdout + first.stderr
+    assert memory.exists()
+    proc, port = start_sim("--memory", str(memory), "--speed", "20")
+
+    async def call() -> list[int]:
+        client = AsyncModbusTcpClient("127.0.0.1", port=port)
+        assert await client.connect()
+        try:
+            assert not (await client.write_register(8, 21, device_id=1)).isError()
+            await asyncio.sleep(0.2)
+            return list((await client.read_holding_registers(302, count=2,
+                                                             device_id=1)).registers)
+        finally:
+            client.close()
+
+    try:
+        assert asyncio.run(call()) == [0, 42]
+    finally:
+        proc.terminate()
+        assert proc.wait(10) == 0
+
+
+def test_mpc_sim_rejects_bad_setups_with_distinct_exit_codes(tmp_path: Path) -> None:
+    def sim(*args: str) -> subprocess.CompletedProcess[str]:
+        return subprocess.run([sys.executable, "-m", "mplang", "sim", *args, "--duration",
+                               "0.1"], capture_output=True, text=True, timeout=30)
+
+    usage = sim("--tcp", "localhost:http")
+    assert usage.returncode == 2 and "HOST:PORT" in usage.stderr
+    broken = tmp_path / "fram.json"
+    broken.write_text("{not json")
+    memory = sim("--memory", str(broken), "--tcp", "127.0.0.1:0")
+    assert memory.returncode == 3 and "not a macro memory file" in memory.stderr
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        busy = sim("--tcp", f"127.0.0.1:{port}")
+    assert busy.returncode == 6 and "cannot listen" in busy.stderr
+    missing = sim("--serial", str(tmp_path / "no-such-tty"))
+    assert missing.returncode == 6 and "cannot open serial port" in missing.stderr
+    for result in (usage, memory, busy, missing):
+        assert "Traceback" not in result.stderr + result.stdout

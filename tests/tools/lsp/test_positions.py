@@ -1,0 +1,71 @@
+"""Compiler spans -> editor ranges, and code points <-> the client's code units."""
+
+from __future__ import annotations
+
+from hypothesis import given
+from hypothesis import strategies as st
+
+from mplang.lang.diagnostics import Span
+from mplang.tools.lsp.positions import (
+    ENCODINGS,
+    Pos,
+    Range,
+    from_client_character,
+    line_range,
+    span_range,
+    split_lines,
+    to_client_character,
+)
+
+LINES = ["MP 21 main", "    FIXD_MOVE X, 1000", "", "END MP"]
+
+
+def test_span_with_end_column_becomes_a_0_based_exclusive_range() -> None:
+    # 1-based col 5 .. end_col 14 (exclusive) is 0-based 4 .. 13 (exclusive)
+    assert span_range(Span("a.mp", 2, 5, 14), LINES) == line_range(1, 4, 13)
+
+
+def test_span_without_end_covers_the_word_at_its_column() -> None:
+    assert span_range(Span("a.mp", 2, 15), LINES) == line_range(1, 14, 15)
+    assert span_range(Span("a.mp", 2, 5), LINES) == line_range(1, 4, 13)
+
+
+def test_span_at_column_1_without_end_covers_the_code_of_the_line() -> None:
+    assert span_range(Span("a.mp", 2), LINES) == line_range(1, 4, 21)
+    assert span_range(Span("a.mp", 3), LINES) == line_range(2, 0, 0)
+
+
+def test_span_past_the_text_is_clamped_to_the_last_line() -> None:
+    assert span_range(Span("a.mp", 99, 1, 4), LINES) == line_range(3, 0, 3)
+    assert span_range(Span("a.mp", 1, 1, 99), LINES) == line_range(0, 0, 10)
+    assert span_range(Span("a.mp", 1), []) == line_range(0, 0, 0)
+
+
+def test_lines_split_like_the_compiler_counts_them() -> None:
+    assert split_lines("a\r\nb\n\nc") == ["a", "b", "", "c"]
+    assert split_lines("a\n") == ["a", ""]
+
+
+def test_range_contains_its_end() -> None:
+    word = Range(Pos(1, 4), Pos(1, 8))
+    assert word.contains(Pos(1, 8)) and word.contains(Pos(1, 4))
+    assert not word.contains(Pos(1, 9)) and not word.contains(Pos(0, 5))
+
+
+def test_characters_outside_the_bmp_take_two_utf16_units() -> None:
+    line = 'FIXED_MOVE X, "😀", Q'
+    q = line.index("Q")
+    assert to_client_character(line, q, "utf-16") == q + 1
+    assert to_client_character(line, q, "utf-8") == q + 3
+    assert to_client_character(line, q, "utf-32") == q
+    assert from_client_character(line, q + 1, "utf-16") == q
+    assert from_client_character(line, 10_000, "utf-16") == len(line)
+
+
+@given(st.text(max_size=30), st.data())
+def test_every_character_boundary_survives_the_round_trip(line: str, data: st.DataObject
+                                                          ) -> None:
+    index = data.draw(st.integers(0, len(line)))
+    for encoding in ENCODINGS:
+        units = to_client_character(line, index, encoding)
+        assert from_client_character(line, units, encoding) == index
