@@ -15,8 +15,9 @@ from typing import Any, Protocol, TypeVar
 
 import click
 
+from mplang.family.registry import DEFAULT_TARGET, known_targets
+from mplang.ir.unit import DEFAULT_TEMPS, Options
 from mplang.lang.diagnostics import Diagnostic, Severity
-from mplang.m8194h.compiler import DEFAULT_TEMPS, Options
 from mplang.tools import project as project_module
 
 EXIT_OK = 0
@@ -164,17 +165,13 @@ class LazyChoice(click.Choice[str]):
         return super().convert(value, param, ctx)
 
 
-def _family_targets() -> Sequence[str]:
-    return project_module.known_targets()
-
-
 TARGET_HELP = ("Controller: et (ET-M8194H, Modbus TCP), rs (RS-M8194H, Modbus RTU), or the "
                "target of another controller family (FATEK FBs-PLC positioning tables, CSIM "
                "RS232 programs: docs/cli.md); native listings imply their family's.")
 
 common_options = [
-    click.option("--target", type=LazyChoice(project_module.M8194H_TARGETS, _family_targets),
-                 default="et", show_default=True, help=TARGET_HELP),
+    click.option("--target", type=click.Choice(known_targets()), default=DEFAULT_TARGET,
+                 show_default=True, help=TARGET_HELP),
     click.option("--word-order", type=click.Choice(["0", "1"]), default=None,
                  help="Device word order (holding register 14). Default: the device's, 0."),
     click.option("--temp-vars", callback=parse_temps, default=None, metavar="FIRST-LAST",

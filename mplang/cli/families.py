@@ -1,146 +1,41 @@
-"""The controller families beside the M8194H (issue 7) as `mpc` sees them.
+"""Which controller family a command works for, as `mpc` decides it.
 
-Which family a command works for follows from the sources and `--target`: native listings
-(`.fbs`, `.csim`: each family package names its `SUFFIXES`) belong to their family, `.mp`
-sources to the target's. Everything the commands refuse for that reason (mixed families,
-native files with `.mp` sources, a contradicting `--target`, options that only an M8194H
-has) is decided here, once, as click usage errors (exit 2) naming the files. The family
-packages are reached through one typed face, `Family`, which every package satisfies as a
-module (mypy checks that below).
+The family follows from the sources and `--target`: native listings (`.fbs`, `.csim`: each
+registered family names its `SUFFIXES`) belong to their family, `.mp` sources to the
+target's. Everything the commands refuse for that reason (mixed families, native files with
+`.mp` sources, a contradicting `--target`, options the family has no use for) is decided
+here, once, as click usage errors (exit 2) naming the files. Every family, the M8194H
+included, is reached through one face (`mplang.family.face.Family`) found in one registry
+(`mplang.family.registry`); nothing here asks which family it is.
 """
 
 from __future__ import annotations
 
-import importlib
 import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import TYPE_CHECKING
 
 import click
 
 from mplang.cli.common import EXIT_RUN_FAILED, BuildSetup, report
-from mplang.lang.diagnostics import Diagnostic
-from mplang.m8194h.compiler import Options
+from mplang.family.face import Family, FamilyBuild, FamilyRun
+from mplang.family.registry import families, family_of_path, family_of_target
+from mplang.ir.unit import Options
 from mplang.tools import project as project_module
-
-M8194H_TITLE = "M8194H"
-M8194H_FORMATS = ("json", "listing", "hex", "map", "vars", "vars-h", "vars-py", "triggers")
-"""`mpc build --format` values of an M8194H build (the image and its views)."""
-
-
-class FamilyBuild(Protocol):
-    """What `check_native` and `compile_mp` return (the family contract)."""
-
-    @property
-    def diagnostics(self) -> list[Diagnostic]: ...
-
-    @property
-    def ok(self) -> bool: ...
-
-    @property
-    def programs(self) -> Sequence[object]: ...
-
-    def render(self, fmt: str) -> str: ...
-
-    def to_json(self) -> Mapping[str, object]: ...
-
-
-class FamilyRun(Protocol):
-    """What `run_build` returns: the `mpc run --json` summary and the sampled motion."""
-
-    @property
-    def called(self) -> str: ...
-
-    @property
-    def finished(self) -> bool: ...
-
-    @property
-    def error(self) -> str | None: ...
-
-    @property
-    def time_s(self) -> float: ...
-
-    @property
-    def samples(self) -> Sequence[tuple[float, Mapping[str, float]]]: ...
-
-    def to_json(self) -> Mapping[str, object]: ...
-
-
-class Family(Protocol):
-    """A family package (`mplang.fatek`, `mplang.csim`) as a module: its constants read as
-    properties (upper-case names, as the packages spell them)."""
-
-    @property
-    def TITLE(self) -> str: ...
-
-    @property
-    def TARGETS(self) -> tuple[str, ...]: ...
-
-    @property
-    def SUFFIXES(self) -> tuple[str, ...]: ...
-
-    @property
-    def FORMATS(self) -> tuple[str, ...]: ...
-
-    @property
-    def DEFAULT_FORMAT(self) -> str: ...
-
-    @property
-    def POSITION_UNIT(self) -> str: ...
-
-    @property
-    def TRANSPORTS(self) -> tuple[str, ...]: ...
-
-    @property
-    def NO_TRANSPORT(self) -> str: ...
-
-    @property
-    def NoSuchProgram(self) -> type[Exception]: ...
-
-    @property
-    def RunSetupError(self) -> type[Exception]: ...
-
-    def check_native(self, paths: list[Path], target: str | None = None) -> FamilyBuild: ...
-
-    def compile_mp(self, paths: list[Path], options: Options, target: str) -> FamilyBuild: ...
-
-    def run_build(self, build: Any, call: str | None, max_time: float, *,
-                  sample_period: float | None = ...) -> FamilyRun: ...
-
 
 if TYPE_CHECKING:  # every family package has the face the CLI uses
     import mplang.csim
     import mplang.fatek
+    import mplang.m8194h
 
+    _M8194H: Family = mplang.m8194h
     _FATEK: Family = mplang.fatek
     _CSIM: Family = mplang.csim
 
-
-def families() -> list[Family]:
-    """Every family package, in the order of `mplang.tools.project.FAMILY_PACKAGES`."""
-    found: list[Family] = [importlib.import_module(name)
-                           for name in project_module.FAMILY_PACKAGES]
-    return found
-
-
-def family_of_target(target: str) -> Family | None:
-    """The family of a `--target` value; None for the M8194H's et and rs."""
-    package: Family | None = project_module.family_package(target)
-    return package
-
-
-def family_of_path(path: Path) -> Family | None:
-    """The family whose native suffix the file has; None for `.mp` (and anything else)."""
-    suffix = path.suffix.lower()
-    if suffix == ".mp":
-        return None
-    return next((f for f in families() if suffix in f.SUFFIXES), None)
-
-
-def title(family: Family | None) -> str:
-    return M8194H_TITLE if family is None else family.TITLE
+__all__ = ["Family", "FamilyBuild", "FamilyRun", "Selection", "all_formats", "build_and_run",
+           "check_format", "choose", "refuse_options", "select"]
 
 
 def _names(paths: Sequence[Path], limit: int = 4) -> str:
@@ -152,27 +47,25 @@ def _names(paths: Sequence[Path], limit: int = 4) -> str:
 class Selection:
     """The family of one build and how to build it: native listings checked with the
     family's `check_native` (`target` narrows it, or None), or `.mp` sources compiled with
-    its `compile_mp` for `target`. `family` None is the M8194H."""
+    its `compile_mp` for `target`."""
 
-    family: Family | None
+    family: Family
     target: str | None
     native: bool
     paths: list[Path]
 
     def build(self, options: Options) -> FamilyBuild:
-        family = self.family
-        assert family is not None, "the M8194H builds through mplang.m8194h.compiler"
         if self.native:
-            return family.check_native(self.paths, self.target)
+            return self.family.check_native(self.paths, self.target)
         assert self.target is not None
-        return family.compile_mp(self.paths, options, self.target)
+        return self.family.compile_mp(self.paths, options, self.target)
 
     @property
     def describe(self) -> str:
-        """`FATEK FBs-PLC (fbs-fun140)`, `CSIM`, for messages."""
-        name = title(self.family)
-        return f"{name} ({self.target})" if self.target and self.family is not None \
-            and len(self.family.TARGETS) > 1 else name
+        """`FATEK FBs-PLC (fbs-fun140)`, `CSIM`, `M8194H`, for messages."""
+        name = self.family.TITLE
+        return f"{name} ({self.target})" if self.target and len(self.family.TARGETS) > 1 \
+            else name
 
 
 def select(paths: list[Path], target: str, target_given: bool) -> Selection:
@@ -201,28 +94,39 @@ def select(paths: list[Path], target: str, target_given: bool) -> Selection:
                 f"{_names(files)}: {family.TITLE} source(s), but the target is {target}; "
                 f"use --target {' or '.join(family.TARGETS)}, or leave --target out")
         return Selection(family, target if target_given else None, True, paths)
-    return Selection(family_of_target(target), target, False, paths)
+    chosen = family_of_target(target)
+    if chosen is None:
+        raise click.UsageError(f"unknown target {target!r}")
+    return Selection(chosen, target, False, paths)
 
 
-def refuse_m8194h_options(selection: Selection, given: Mapping[str, bool]) -> None:
-    """Options that only an M8194H build has, given for another family: a usage error."""
-    if selection.family is None:
-        return
-    wrong = [name for name, was_given in given.items() if was_given]
+def _owners(option: str, attribute: str) -> str:
+    """The families that take `option` (their `BUILD_OPTIONS` or `SERVE_OPTIONS`)."""
+    return " and ".join(f.TITLE for f in families() if option in getattr(f, attribute))
+
+
+def refuse_options(selection: Selection, given: Mapping[str, bool],
+                   attribute: str = "BUILD_OPTIONS") -> None:
+    """Options given on the command line that the selected family has no use for (they are
+    not in its `attribute`, `BUILD_OPTIONS` or `SERVE_OPTIONS`): a usage error."""
+    taken = getattr(selection.family, attribute)
+    wrong = [name for name, was_given in given.items() if was_given and name not in taken]
     if wrong:
-        raise click.UsageError(f"{', '.join(wrong)}: M8194H option(s); {selection.describe} "
-                               "builds have no such setting")
+        owners = sorted({_owners(name, attribute) for name in wrong})
+        raise click.UsageError(f"{', '.join(wrong)}: {' and '.join(owners)} option(s); "
+                               f"{selection.describe} builds have no such setting")
 
 
 def project_notes(selection: Selection, project: project_module.Project | None) -> list[str]:
-    """What an mpc.toml sets that a family build does not use, said instead of dropped."""
-    if selection.family is None or project is None:
+    """What an mpc.toml sets that this family's build does not use, said instead of
+    dropped."""
+    if project is None:
         return []
     notes = []
-    if project.pins:
+    if project.pins and "--pins" not in selection.family.BUILD_OPTIONS:
         notes.append(f"mpc: note: {project.path}: [slots] pins place M8194H programs; "
                      f"{selection.describe} builds have no slots, so they do not apply")
-    if project.word_order is not None:
+    if project.word_order is not None and "--word-order" not in selection.family.BUILD_OPTIONS:
         notes.append(f"mpc: note: {project.path}: word-order is an M8194H setting; "
                      f"{selection.describe} builds do not use it")
     return notes
@@ -232,53 +136,50 @@ def check_format(selection: Selection, fmt: str | None) -> str:
     """The `mpc build --format` of this build: the family's default if not given; a usage
     error for a format of another family."""
     family = selection.family
-    if family is None:
-        if fmt is None:
-            return "json"
-        if fmt not in M8194H_FORMATS:
-            owners = [f for f in families() if fmt in f.FORMATS]
-            raise click.UsageError(
-                f"--format {fmt} is for {' and '.join(f.TITLE for f in owners)} builds; "
-                f"an M8194H build writes {', '.join(M8194H_FORMATS)}")
-        return fmt
     if fmt is None:
         return family.DEFAULT_FORMAT
     if fmt not in family.FORMATS:
+        owners = " and ".join(f.TITLE for f in families() if fmt in f.FORMATS)
         raise click.UsageError(f"--format {fmt} is not a format of {selection.describe} "
-                               f"builds: use {', '.join(family.FORMATS)} "
-                               f"(default {family.DEFAULT_FORMAT})")
+                               f"builds (it is for {owners} builds): use "
+                               f"{', '.join(family.FORMATS)} (default {family.DEFAULT_FORMAT})")
     return fmt
 
 
 def all_formats() -> tuple[str, ...]:
-    """Every `mpc build --format` value: the M8194H's, then each family's own."""
-    formats = list(M8194H_FORMATS)
+    """Every `mpc build --format` value, family by family in registry order."""
+    formats: list[str] = []
     for family in families():
         formats += [f for f in family.FORMATS if f not in formats]
     return tuple(formats)
 
 
 def choose(setup: BuildSetup) -> Selection:
-    """The selection of a command's build (`select`), with the M8194H-only options refused
-    and the project file's unused settings noted on standard error."""
+    """The selection of a command's build (`select`), with the options the family does not
+    take refused and the project file's unused settings noted on standard error."""
     selection = select(setup.paths, setup.options.target, setup.target_given)
-    refuse_m8194h_options(selection, {"--word-order": setup.word_order_given})
+    refuse_options(selection, {"--word-order": setup.word_order_given})
     for note in project_notes(selection, setup.project):
         click.echo(note, err=True)
     return selection
 
 
-def build_and_run(selection: Selection, setup: BuildSetup, call: str | None, max_time: float,
-                  sample_period: float | None) -> FamilyRun:
-    """`mpc run` / `mpc plot` for a family: build (diagnostics to standard error, exit 1 on
-    errors), then run on the family's virtual controller. An unknown --call is a usage
-    error, a build that cannot run exits 5, as for the M8194H."""
-    family = selection.family
-    assert family is not None
+def build_checked(selection: Selection, setup: BuildSetup) -> FamilyBuild:
+    """Build; diagnostics to standard error, and exit 1 on errors (or warnings with
+    --werror)."""
     build = selection.build(setup.options)
     code = report(build, setup.werror)
     if code:
         sys.exit(code)
+    return build
+
+
+def build_and_run(selection: Selection, setup: BuildSetup, call: str | None, max_time: float,
+                  sample_period: float | None) -> FamilyRun:
+    """`mpc run` / `mpc plot`: build, then run on the family's virtual controller. An
+    unknown --call is a usage error, a build that cannot run exits 5."""
+    family = selection.family
+    build = build_checked(selection, setup)
     try:
         run = family.run_build(build, call, max_time, sample_period=sample_period)
     except family.NoSuchProgram as exc:

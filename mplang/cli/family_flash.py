@@ -25,7 +25,7 @@ from mplang.cli.common import (
     BuildSetup,
     report,
 )
-from mplang.cli.families import Selection, refuse_m8194h_options
+from mplang.cli.families import Selection, refuse_options
 from mplang.csim import CsimProgram
 from mplang.csim.download import DownloadError, download
 from mplang.tools.project import Target
@@ -55,11 +55,10 @@ def flash_family(selection: Selection, setup: BuildSetup, device: Target,
                  request: FlashRequest) -> None:
     """Flash `device` with the program of `selection` (a family build), or refuse."""
     family = selection.family
-    assert family is not None
     refuse_transport(selection, request.tcp_given)
     if family is not importlib.import_module("mplang.csim"):
         raise click.UsageError(f"mpc flash has no downloader for {selection.describe}")
-    refuse_m8194h_options(selection, request.m8194h_options)
+    refuse_options(selection, request.m8194h_options, "FLASH_OPTIONS")
     modbus = [key for key, value in (("unit", device.unit != 1), ("word-order",
               device.word_order is not None), ("retries", device.retries is not None)) if value]
     if modbus and device.span is not None:
@@ -97,7 +96,6 @@ def refuse_transport(selection: Selection, tcp_given: bool) -> None:
     """A usage error if the family cannot be flashed at all (FATEK: why, and what to do
     instead), or not over Modbus TCP (CSIM)."""
     family = selection.family
-    assert family is not None
     if not family.TRANSPORTS:
         target = selection.target or family.TARGETS[0]
         raise click.UsageError(

@@ -1,15 +1,19 @@
 """The CSIM / SLIM RS232 command set (shared/manuals/004_fd07d4bf40d1e0ce.txt): native
 `.csim` scripts, `.mp` compiled with `--target csim`, a virtual CSIM to run them on, and
-program download over a serial line. The family contract of issue 7 (docs/csim.md), plus
-what `mpc` needs: `TITLE`, `FORMATS` and `DEFAULT_FORMAT`, `POSITION_UNIT`, `TRANSPORTS`."""
+program download over a serial line. The package satisfies the family face
+(`mplang.family.face.Family`, docs/csim.md)."""
 
 from __future__ import annotations
 
 from mplang.csim.build import (
+    BUILD_OPTIONS,
     DEFAULT_FORMAT,
+    FLASH_OPTIONS,
     FORMATS,
     NO_TRANSPORT,
     POSITION_UNIT,
+    PROTOCOL,
+    SERVE_OPTIONS,
     SUFFIXES,
     TARGETS,
     TITLE,
@@ -20,7 +24,12 @@ from mplang.csim.build import (
 )
 from mplang.csim.compile import compile_mp
 from mplang.csim.run import FamilyRun, NoSuchProgram, RunSetupError, run_build
+from mplang.csim.service import serve
 
-__all__ = ["DEFAULT_FORMAT", "FORMATS", "NO_TRANSPORT", "POSITION_UNIT", "SUFFIXES", "TARGETS",
-           "TITLE", "TRANSPORTS", "CsimProgram", "FamilyBuild", "FamilyRun", "NoSuchProgram",
-           "RunSetupError", "check_native", "compile_mp", "run_build"]
+disassemble = None
+"""No image format to read back: a CSIM lists its program itself (ULP)."""
+
+__all__ = ["BUILD_OPTIONS", "DEFAULT_FORMAT", "FLASH_OPTIONS", "FORMATS", "NO_TRANSPORT",
+           "POSITION_UNIT", "PROTOCOL", "SERVE_OPTIONS", "SUFFIXES", "TARGETS", "TITLE",
+           "TRANSPORTS", "CsimProgram", "FamilyBuild", "FamilyRun", "NoSuchProgram",
+           "RunSetupError", "check_native", "compile_mp", "disassemble", "run_build", "serve"]

@@ -11,8 +11,7 @@ from pathlib import Path
 from mplang.csim import profile as profile_module
 from mplang.csim.check import check_script
 from mplang.csim.syntax import Script, parse_file
-from mplang.lang.diagnostics import Diagnostic, DiagnosticSink, Severity, Span
-from mplang.m8194h.compiler import suppressed
+from mplang.lang.diagnostics import Diagnostic, DiagnosticSink, Severity, Span, suppressed
 
 BUILD_FORMAT = "mplang-csim/1"
 TARGETS: tuple[str, ...] = ("csim",)
@@ -25,6 +24,12 @@ POSITION_UNIT = "units"
 """The coordinate unit is set on the drive (PN44-46) and not defined by the manual."""
 TRANSPORTS: tuple[str, ...] = ("serial",)
 NO_TRANSPORT = ""
+PROTOCOL = "rs232-ascii"
+BUILD_OPTIONS: frozenset[str] = frozenset()
+"""No build option beyond the common ones (no word order: the CSIM is not Modbus)."""
+SERVE_OPTIONS: frozenset[str] = frozenset()
+FLASH_OPTIONS: frozenset[str] = frozenset()
+"""`mpc sim` options beyond the common ones (the serial line, speed, duration)."""
 
 
 @dataclass

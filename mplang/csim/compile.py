@@ -27,10 +27,10 @@ from mplang.csim.syntax import Script, parse_line
 from mplang.ir import catalogue as catalogue_module
 from mplang.ir.lower import ProgramLowerer, Scope
 from mplang.ir.macro import LoweredProgram, MacroLine, Operand, ProgramRef, VarRef
-from mplang.lang.diagnostics import Diagnostic, DiagnosticSink, Span
+from mplang.ir.unit import Options, configuration_blocks
+from mplang.lang.diagnostics import Diagnostic, DiagnosticSink, Span, suppressed
 from mplang.lang.sources import load_sources
 from mplang.lang.structure import build_unit
-from mplang.m8194h.compiler import Options, configuration_blocks, suppressed
 
 AXIS_MODULE = {"X": 0, "Y": 1, "Z": 2, "U": 3}
 LOGICAL_OF = {"X": "X", "Y": "Y", "Z": "Z", "U": "W"}

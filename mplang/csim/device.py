@@ -25,7 +25,8 @@ import serial  # type: ignore[import-untyped]  # pyserial ships no type hints
 
 from mplang.csim import profile as profile_module
 from mplang.csim.check import Checker, jump_targets
-from mplang.csim.machine import Machine, NotModelled, RunError, format_number
+from mplang.csim.machine import Machine
+from mplang.csim.machine_state import NotModelled, RunError, format_number
 from mplang.csim.motion import MotionError
 from mplang.csim.profile import Profile
 from mplang.csim.syntax import Script, Statement, parse_line

@@ -5,32 +5,33 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from mplang.csim import profile as profile_module
-from mplang.csim.build import CsimProgram, FamilyBuild
-from mplang.csim.machine import Machine, RunError
+from mplang.csim.build import POSITION_UNIT, CsimProgram, FamilyBuild
+from mplang.csim.machine import Machine
+from mplang.csim.machine_state import RunError
+from mplang.family.face import NoSuchProgram, RunSetupError
+from mplang.family.trace import SampledRun
 
 DEFAULT_SAMPLE_PERIOD = 0.001
 
 
-class RunSetupError(ValueError):
-    """The build cannot be run (it has errors, or --call names nothing in it)."""
-
-
-class NoSuchProgram(RunSetupError):
-    """--call names no program, entry or label of the build."""
+__all__ = ["DEFAULT_SAMPLE_PERIOD", "FamilyRun", "NoSuchProgram", "RunSetupError", "run_build"]
 
 
 @dataclass
-class FamilyRun:
+class FamilyRun(SampledRun):
     """The outcome of one run: what `mpc run --json` prints, and the sampled path.
 
     The modules T0..T3 are reported as the axes X, Y, Z, U (the .mp axes compile to them);
     T4..T7 appear as "T4".."T7" when the program used them."""
+
+    POSITION_UNIT = POSITION_UNIT
 
     called: str
     machine: Machine = field(repr=False)
     finished: bool = False
     error: str | None = None
     samples: list[tuple[float, dict[str, float]]] = field(default_factory=list)
+    sample_period: float | None = None  # the grid of `samples` (None: not on a grid)
 
     @property
     def time_s(self) -> float:
@@ -98,4 +99,4 @@ def run_build(build: FamilyBuild, call: str | None, max_time: float, *,
     machine.run(max_time)
     samples = [(s.time, s.positions) for s in machine.samples]
     return FamilyRun(called, machine, machine.error is None and not machine.running,
-                     machine.error, samples)
+                     machine.error, samples, sample_period)

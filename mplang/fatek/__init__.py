@@ -1,18 +1,21 @@
 """FATEK FBs-PLC NC positioning programs (FUN140 HSPSO, FUN141 MPARA, FUN147 MHSPO).
 
-The family API the CLI uses, the same for every controller family: `TARGETS`, `SUFFIXES`,
-`check_native` (native `.fbs` listings), `compile_mp` (`.mp` sources), `FamilyBuild`,
-`run_build` and `FamilyRun`; for `mpc` also `TITLE`, `FORMATS` and `DEFAULT_FORMAT`,
-`POSITION_UNIT`, `TRANSPORTS` (none: `NO_TRANSPORT` says why), and the errors of
-`run_build`, `NoSuchProgram` and `RunSetupError`. docs/fatek.md describes the format, the
+The package satisfies the family face (`mplang.family.face.Family`): `check_native` (native
+`.fbs` listings), `compile_mp` (`.mp` sources), `run_build` on a virtual PLC; no transport
+(`NO_TRANSPORT` says why), so no `serve` either. docs/fatek.md describes the format, the
 targets and the choices.
 """
 
+from mplang.family.face import NoSuchProgram, RunSetupError
 from mplang.fatek.build import (
+    BUILD_OPTIONS,
     DEFAULT_FORMAT,
+    FLASH_OPTIONS,
     FORMATS,
     NO_TRANSPORT,
     POSITION_UNIT,
+    PROTOCOL,
+    SERVE_OPTIONS,
     SUFFIXES,
     TARGETS,
     TITLE,
@@ -22,8 +25,13 @@ from mplang.fatek.build import (
 )
 from mplang.fatek.compile import compile_mp
 from mplang.fatek.run import FamilyRun, NoSuchTable, run_build
-from mplang.m8194h.run import NoSuchProgram, RunSetupError
 
-__all__ = ["DEFAULT_FORMAT", "FORMATS", "NO_TRANSPORT", "POSITION_UNIT", "SUFFIXES", "TARGETS",
-           "TITLE", "TRANSPORTS", "FamilyBuild", "FamilyRun", "NoSuchProgram", "NoSuchTable",
-           "RunSetupError", "check_native", "compile_mp", "run_build"]
+serve = None
+"""No device service: nothing can reach a FATEK positioning table (`NO_TRANSPORT`)."""
+disassemble = None
+"""No image to read back: the listing is the program."""
+
+__all__ = ["BUILD_OPTIONS", "DEFAULT_FORMAT", "FLASH_OPTIONS", "FORMATS", "NO_TRANSPORT",
+           "POSITION_UNIT", "PROTOCOL", "SERVE_OPTIONS", "SUFFIXES", "TARGETS", "TITLE",
+           "TRANSPORTS", "FamilyBuild", "FamilyRun", "NoSuchProgram", "NoSuchTable",
+           "RunSetupError", "check_native", "compile_mp", "disassemble", "run_build", "serve"]

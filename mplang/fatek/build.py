@@ -16,8 +16,7 @@ from mplang.fatek.check import Checker, settle_implicit
 from mplang.fatek.model import PositioningTable, SimSetup, Table
 from mplang.fatek.parser import parse_text
 from mplang.fatek.profile import Profile, load
-from mplang.lang.diagnostics import Diagnostic, DiagnosticSink, Severity, Span
-from mplang.m8194h.compiler import suppressed
+from mplang.lang.diagnostics import Diagnostic, DiagnosticSink, Severity, Span, suppressed
 
 BUILD_FORMAT = "mplang-fatek/1"
 TARGETS = ("fbs-fun140", "fbs-fun147")
@@ -33,6 +32,11 @@ TRANSPORTS: tuple[str, ...] = ()
 NO_TRANSPORT = ("FB documents no way to write positioning tables into a PLC: they are "
                 "entered with WinProladder's table editor (FB 809-839, 861)")
 """Why `mpc flash` and `mpc sim` have nothing to offer for this family."""
+PROTOCOL = ""
+BUILD_OPTIONS: frozenset[str] = frozenset()
+"""No build option beyond the common ones (no word order: no Modbus image)."""
+SERVE_OPTIONS: frozenset[str] = frozenset()
+FLASH_OPTIONS: frozenset[str] = frozenset()
 
 
 @dataclass

@@ -11,11 +11,12 @@ import math
 import re
 from dataclasses import dataclass, field
 
-from mplang.fatek.build import FamilyBuild
+from mplang.family.face import NoSuchProgram, RunSetupError
+from mplang.family.trace import SampledRun
+from mplang.fatek.build import POSITION_UNIT, FamilyBuild
 from mplang.fatek.machine import Machine, PlcError, Stuck, axis_params
 from mplang.fatek.model import Contact, ParamTable, PositioningTable, Register
 from mplang.fatek.motion import Leg, round_half_up
-from mplang.m8194h.run import NoSuchProgram, RunSetupError
 
 SAMPLE_PERIOD = 0.001
 """By default samples fall at least every millisecond of simulated time while an axis moves."""
@@ -26,8 +27,10 @@ class NoSuchTable(NoSuchProgram):
 
 
 @dataclass
-class FamilyRun:
+class FamilyRun(SampledRun):
     """What one run did: where the axes ended, the registers, and the motion over time."""
+
+    POSITION_UNIT = POSITION_UNIT
 
     called: str
     finished: bool

@@ -16,8 +16,8 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 from mplang.ir.catalogue import Catalogue, Command, Param
-from mplang.ir.lower import KEYWORDS
 from mplang.ir.macro import BVarRef, Operand, ProgramRef, VarRef
+from mplang.ir.scope import KEYWORDS
 
 IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 PRECEDENCE = {"|": 1, "&": 2, "+": 3, "-": 3, "*": 4, "/": 4}

@@ -1,18 +1,21 @@
 """Diagnostics: every problem carries a stable code, a source span and, where possible, a hint.
 
-The rule registry (code -> title, severity, explanation) lives in `mplang.lang.rules`; this module
-only holds the objects that flow through the compiler and the way they are rendered.
+The rule registry (code -> title, severity, explanation) lives in `mplang.lang.rules`, the
+severities below both in `mplang.lang.severity`; this module holds the objects that flow
+through the compiler, the way they are rendered, and the `# mpc: ignore` comment.
 """
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
-from enum import StrEnum
 
+from mplang.lang.rules import RULES
+from mplang.lang.severity import Severity as Severity
 
-class Severity(StrEnum):
-    ERROR = "error"
-    WARNING = "warning"
+# `# mpc: ignore[W107]` (or `# mpc: ignore` for every warning) on a line silences warnings
+# reported on that line. Errors cannot be silenced: the device would reject the program.
+SUPPRESS = re.compile(r"mpc:\s*ignore(?:\[([A-Za-z0-9,\s]+)\])?")
 
 
 @dataclass(frozen=True, order=True)
@@ -59,8 +62,6 @@ class DiagnosticSink:
 
     def add(self, code: str, span: Span, message: str, hint: str = "",
             related: tuple[tuple[Span, str], ...] = ()) -> None:
-        from mplang.lang.rules import RULES
-
         key = (code, span, message)
         if key in self._seen:
             return
@@ -77,3 +78,18 @@ class DiagnosticSink:
 
     def sorted(self) -> list[Diagnostic]:
         return sorted(self.items, key=Diagnostic.sort_key)
+
+
+def suppressed(diagnostic: Diagnostic, sources: dict[str, list[str]]) -> bool:
+    """`# mpc: ignore[CODE]` (or `# mpc: ignore`) on its line silences a warning; used by
+    every family's checks, so the comment works the same in .mp, .fbs and .csim files."""
+    if diagnostic.severity is not Severity.WARNING:
+        return False
+    lines = sources.get(diagnostic.span.file, [])
+    if not 0 < diagnostic.span.line <= len(lines):
+        return False
+    match = SUPPRESS.search(lines[diagnostic.span.line - 1])
+    if match is None:
+        return False
+    codes = match.group(1)
+    return codes is None or diagnostic.code in {c.strip().upper() for c in codes.split(",")}

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from mplang.lang.diagnostics import Severity
+from mplang.lang.severity import Severity
 
 E = Severity.ERROR
 W = Severity.WARNING

@@ -1,1 +1,83 @@
-"""The ICP DAS M8194H back end (ET-M8194H over Modbus TCP, RS-M8194H over Modbus RTU)."""
+"""The ICP DAS M8194H back end (ET-M8194H over Modbus TCP, RS-M8194H over Modbus RTU):
+linker (`link`), frame encoder (`encode`), the image (`image`), the compiler that puts them
+together (`compiler`), image back to `.mp` (`disasm`), vendor-API C to `.mp` (`importc`),
+the virtual controller (`sim`, served by `serve`), the Modbus transport (`modbus`) and
+flashing (`flash`).
+
+The package satisfies the family face (`mplang.family.face.Family`) like `mplang.fatek` and
+`mplang.csim`: `.mp` is its own language, so it has no native listing suffix, and
+`check_native` compiles `.mp` with the default options.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from mplang.family.face import FamilyBuild as AnyBuild
+from mplang.family.face import NoSuchProgram, RunSetupError, Say, ServeRequest
+from mplang.ir.unit import Options
+from mplang.m8194h.compiler import compile_paths
+from mplang.m8194h.image import DEFAULT_FORMAT, FORMATS, BuildResult
+from mplang.m8194h.run import RunReport, run_family
+
+if TYPE_CHECKING:
+    from mplang.m8194h.disasm import Disassembly
+    from mplang.m8194h.flash import FlashImage
+
+TITLE = "M8194H"
+TARGETS = ("et", "rs")
+SUFFIXES: tuple[str, ...] = ()
+POSITION_UNIT = "pulses"
+TRANSPORTS = ("tcp", "serial")
+NO_TRANSPORT = ""
+PROTOCOL = "modbus"
+BUILD_OPTIONS = frozenset({"--word-order", "--pins"})
+"""The word order of the image (holding register 14) and slot pins (mpc.toml `[slots]`):
+the M8194H's alone."""
+FLASH_OPTIONS = frozenset({"--unit", "--word-order", "--set-word-order", "--record",
+                           "--retries"})
+"""`mpc flash` options beyond the common ones: Modbus, image frames, the flash record."""
+SERVE_OPTIONS = frozenset({"--unit", "--memory", "--word-order"})
+"""`mpc sim` options beyond the common ones: the RTU address, the macro memory file and the
+word order of the virtual controller."""
+
+FamilyBuild = BuildResult
+FamilyRun = RunReport
+
+__all__ = ["BUILD_OPTIONS", "DEFAULT_FORMAT", "FLASH_OPTIONS", "FORMATS", "NO_TRANSPORT",
+           "POSITION_UNIT", "PROTOCOL", "SERVE_OPTIONS", "SUFFIXES", "TARGETS", "TITLE",
+           "TRANSPORTS", "FamilyBuild", "FamilyRun", "NoSuchProgram", "RunSetupError",
+           "check_native", "compile_mp", "disassemble", "run_build", "serve"]
+
+
+def compile_mp(paths: list[Path], options: Options, target: str) -> BuildResult:
+    """Compile `.mp` sources for `target` ("et" or "rs")."""
+    return compile_paths(paths, replace(options, target=target))
+
+
+def check_native(paths: list[Path], target: str | None = None) -> BuildResult:
+    """The M8194H's own language is `.mp`: compiled with the default options."""
+    return compile_mp(paths, Options(), target or TARGETS[0])
+
+
+def run_build(build: BuildResult, call: str | None, max_time: float, *,
+              sample_period: float | None = None) -> RunReport:
+    """Run one MP of the build on a fresh virtual controller (`mplang.m8194h.run`)."""
+    return run_family(build, call, max_time, sample_period=sample_period)
+
+
+def serve(build: AnyBuild | None, request: ServeRequest, say: Say) -> None:
+    """Serve a virtual controller over Modbus (`mplang.m8194h.simulate`). Imported when
+    called: the Modbus stack is not loaded for commands that do not serve."""
+    from mplang.m8194h import simulate
+
+    simulate.serve(build, request, say)
+
+
+def disassemble(image: FlashImage) -> Disassembly:
+    """An image back to `.mp` (`mplang.m8194h.disasm`), imported when called, as `serve`."""
+    from mplang.m8194h import disasm
+
+    return disasm.disassemble(image)

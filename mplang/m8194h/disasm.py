@@ -23,7 +23,6 @@ from pathlib import Path
 
 from mplang.ir import catalogue as catalogue_module
 from mplang.ir.catalogue import Catalogue, Command
-from mplang.ir.lower import Scope
 from mplang.ir.macro import Operand, VarRef
 from mplang.ir.mpwriter import (
     IDENTIFIER,
@@ -37,6 +36,7 @@ from mplang.ir.mpwriter import (
     render_expr,
     variables_in,
 )
+from mplang.ir.scope import Scope
 from mplang.lang.diagnostics import Severity
 from mplang.m8194h.compiler import DEFAULT_TEMPS, BuildResult, Options, compile_source
 from mplang.m8194h.encode import EncodeError, Encoder

@@ -1,16 +1,156 @@
-"""Renderings of a build: image JSON, human listing, hex dump, link map, and diagnostics as
-text, JSON and SARIF 2.1.0."""
+"""The M8194H download image: what a build produces (`BuildResult`: programs placed in
+slots, their frames, the INIT table, the TRIGGERS table) and its renderings: image JSON,
+human listing, hex dump, link map, trigger table and variable maps.
+
+`BuildResult` satisfies the family face (`mplang.family.face.FamilyBuild`): `render(fmt)`
+gives any of `FORMATS`, `to_json()` the image."""
 
 from __future__ import annotations
 
+import hashlib
 import json
+from collections.abc import Callable
+from dataclasses import dataclass, field
 from typing import Any
 
-from mplang import __version__
 from mplang.ir import catalogue as catalogue_module
-from mplang.lang.diagnostics import Diagnostic
-from mplang.lang.rules import RULES
-from mplang.m8194h.compiler import BuildResult
+from mplang.ir.lower import Variable
+from mplang.ir.macro import LoweredProgram, MacroLine
+from mplang.lang.diagnostics import Diagnostic, Span
+from mplang.m8194h.link import Placement
+
+IMAGE_FORMAT = "mplang-image/1"
+FORMATS = ("json", "listing", "hex", "map", "vars", "vars-h", "vars-py", "triggers")
+"""`mpc build --format` values of an M8194H build (the image and its views)."""
+DEFAULT_FORMAT = "json"
+
+
+@dataclass
+class LineFrames:
+    """One macro line as downloaded: where it came from and where it sits in the slot."""
+
+    line: MacroLine
+    first_slot_line: int  # 0-based, as the device's wLineNo counts
+    frame: list[int]
+
+
+@dataclass
+class ProgramImage:
+    placement: Placement
+    create: list[int]
+    lines: list[LineFrames]
+    close: list[int]
+    close_span: Span
+
+    @property
+    def program(self) -> LoweredProgram:
+        return self.placement.program
+
+    @property
+    def frames(self) -> list[list[int]]:
+        return [self.create, *(lf.frame for lf in self.lines), self.close]
+
+    @property
+    def frame_lines(self) -> list[int]:
+        """The source line of each frame in `source` (create: the MP/ISR line, close: its END
+        line), so a device's refusal can be traced back to the source from the image alone."""
+        return [self.program.span.line, *(lf.line.span.line for lf in self.lines),
+                self.close_span.line]
+
+    def to_json(self) -> dict[str, object]:
+        program = self.program
+        return {
+            "kind": program.kind, "slot": self.placement.slot, "name": program.name,
+            "source": program.source, "lines_used": self.placement.lines_used,
+            "budget": self.placement.budget, "auto_placed": self.placement.auto,
+            "frame_lines": self.frame_lines, "frames": self.frames,
+        }
+
+
+@dataclass
+class InitImage:
+    """The INIT block as downloaded: real-time frames (INITIAL_* axis codes), LOAD_INITIAL
+    last. Not a macro program: no slot, no budget."""
+
+    program: LoweredProgram
+    frames: list[list[int]]
+
+    def to_json(self) -> dict[str, object]:
+        return {"source": self.program.source, "line": self.program.span.line,
+                "frame_lines": [line.span.line for line in self.program.lines],
+                "frames": self.frames}
+
+
+@dataclass
+class TriggerImage:
+    """The stand-alone trigger table with program slots resolved (chapter 10)."""
+
+    source: str
+    line: int
+    entries: list[dict[str, object]]
+    enabled: bool = True
+
+    def to_json(self) -> dict[str, object]:
+        return {"enabled": self.enabled, "source": self.source, "line": self.line,
+                "entries": self.entries}
+
+
+@dataclass
+class BuildResult:
+    diagnostics: list[Diagnostic]
+    programs: list[ProgramImage] = field(default_factory=list)
+    word_order: int = 0
+    target: str = "et"
+    sources: dict[str, list[str]] = field(default_factory=dict)  # display name -> lines
+    variables: list[Variable] = field(default_factory=list)  # `VAR name` declarations
+    init: InitImage | None = None  # the INIT block
+    triggers: TriggerImage | None = None  # the TRIGGERS table
+    first_source: str | None = None  # display name of the first file given (`mpc run`'s default)
+
+    @property
+    def ok(self) -> bool:
+        return not any(d.severity.value == "error" for d in self.diagnostics)
+
+    def build_id(self) -> str:
+        """Content hash of what would be downloaded: the same image, the same id."""
+        digest = hashlib.sha256()
+        content: list[object] = [self.word_order, [p.frames for p in self.programs]]
+        if self.init is not None:
+            content.append({"init": self.init.frames})
+        if self.triggers is not None:
+            content.append({"triggers": self.triggers.to_json()["entries"]})
+        digest.update(json.dumps(content).encode())
+        return digest.hexdigest()[:16]
+
+    def to_json(self) -> dict[str, object]:
+        """The image (the family face's name for it)."""
+        return self.image()
+
+    def render(self, fmt: str) -> str:
+        """The build in one of `FORMATS`."""
+        renderers: dict[str, Callable[[BuildResult], str]] = {
+            "json": render_json,
+            "listing": lambda result: render_listing(result, result.sources),
+            "hex": render_hex, "map": render_link_map, "vars": render_variables_json,
+            "vars-h": render_variables_c, "vars-py": render_variables_python,
+            "triggers": render_triggers,
+        }
+        return renderers[fmt](self)
+
+    def image(self) -> dict[str, object]:
+        image: dict[str, object] = {
+            "format": IMAGE_FORMAT,
+            "target": {"word_order": self.word_order, "family": "M8194H",
+                       "variant": self.target},
+            "build_id": self.build_id(),
+        }
+        if self.init is not None:
+            image["init"] = self.init.to_json()
+        if self.triggers is not None:
+            image["triggers"] = self.triggers.to_json()
+        image["programs"] = [p.to_json() for p in self.programs]
+        return image
+
 
 VARIABLES_FORMAT = "mplang-variables/1"
 
@@ -160,51 +300,6 @@ def render_triggers(result: BuildResult) -> str:
                    f"{axes:<5} {entry['line']}".rstrip())
     out.append("  every other channel: None")
     return "\n".join(out) + "\n"
-
-
-def render_text(diagnostics: list[Diagnostic]) -> str:
-    return "".join(d.render() + "\n" for d in diagnostics)
-
-
-def render_diagnostics_json(diagnostics: list[Diagnostic]) -> str:
-    return json.dumps([{
-        "code": d.code, "name": RULES[d.code].name, "severity": d.severity.value,
-        "message": d.message, "hint": d.hint, "file": d.span.file, "line": d.span.line,
-        "column": d.span.col, "end_column": d.span.end_col,
-    } for d in diagnostics], indent=1) + "\n"
-
-
-def render_sarif(diagnostics: list[Diagnostic]) -> str:
-    """SARIF 2.1.0, as code-scanning UIs (GitHub, VS Code SARIF viewer) read it."""
-    used = sorted({d.code for d in diagnostics})
-    rules = [{
-        "id": code, "name": RULES[code].name,
-        "shortDescription": {"text": RULES[code].summary},
-        "fullDescription": {"text": RULES[code].why},
-        "help": {"text": RULES[code].fix},
-        "helpUri": f"docs/checks/{code}.md",
-        "defaultConfiguration": {"level": RULES[code].severity.value},
-    } for code in used]
-    results = []
-    for d in diagnostics:
-        region: dict[str, int] = {"startLine": d.span.line, "startColumn": d.span.col}
-        if d.span.end_col:
-            region["endColumn"] = d.span.end_col
-        results.append({
-            "ruleId": d.code, "ruleIndex": used.index(d.code), "level": d.severity.value,
-            "message": {"text": d.message + (f" ({d.hint})" if d.hint else "")},
-            "locations": [{"physicalLocation": {
-                "artifactLocation": {"uri": d.span.file.replace("\\", "/")},
-                "region": region}}],
-        })
-    sarif = {
-        "$schema": "https://json.schemastore.org/sarif-2.1.0.json",
-        "version": "2.1.0",
-        "runs": [{"tool": {"driver": {"name": "mplang", "version": __version__,
-                                      "rules": rules}},
-                  "results": results}],
-    }
-    return json.dumps(sarif, indent=1) + "\n"
 
 
 # ------------------------------------------------------------------ variable maps

@@ -13,17 +13,8 @@ from dataclasses import dataclass
 
 from mplang.ir.catalogue import Profile
 from mplang.ir.macro import CallSite, LoweredProgram, ProgramRef
-from mplang.lang.diagnostics import DiagnosticSink, Span
-
-
-@dataclass(frozen=True)
-class SlotPin:
-    """`name = "MP3"` in a project's `[slots]` table; `span` is that line of mpc.toml."""
-
-    name: str
-    kind: str
-    slot: int
-    span: Span
+from mplang.ir.unit import SlotPin
+from mplang.lang.diagnostics import DiagnosticSink
 
 
 @dataclass

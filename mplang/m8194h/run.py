@@ -5,17 +5,15 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
-from mplang.m8194h.compiler import BuildResult
+from mplang.family.face import NoSuchProgram, RunSetupError
+from mplang.family.trace import Trace
+from mplang.m8194h.image import BuildResult
 from mplang.m8194h.sim.controller import RunResult, VirtualController
-from mplang.m8194h.trace import Trace, run_traced
+from mplang.m8194h.sim.preload import ServiceError, preload
+from mplang.m8194h.trace import run_traced
 
-
-class RunSetupError(ValueError):
-    """The image does not load into the virtual controller."""
-
-
-class NoSuchProgram(RunSetupError):
-    """--call names a program that is not in the build."""
+__all__ = ["NoSuchProgram", "RunReport", "RunSetupError", "pick_program", "run_build",
+           "run_family"]
 
 
 @dataclass
@@ -24,6 +22,26 @@ class RunReport:
     result: RunResult
     called: str
     trace: Trace | None = None
+    title: str = ""  # the called program in words: `MP131 home (samples/home.mp)`
+
+    @property
+    def finished(self) -> bool:
+        return self.result.finished
+
+    @property
+    def error(self) -> str | None:
+        return self.result.error
+
+    @property
+    def time_s(self) -> float:
+        return self.result.time_s
+
+    def headline_detail(self, controller: str) -> str:
+        """The macro lines the run executed (the M8194H's headline)."""
+        return f", {self.result.steps} lines"
+
+    def plot_title(self, controller: str, sources: str) -> str:
+        return self.title or self.called
 
     def to_json(self) -> dict[str, object]:
         """The `mpc run --json` summary: called (the program, "MP21"), vars, axes, time_ms,
@@ -61,8 +79,6 @@ def run_build(build: BuildResult, call: str | None = None, first_file: str | Non
     """Load the build into a fresh virtual controller and run one MP to its end. With
     `trace_period` (seconds) every axis is also sampled over the run (`RunReport.trace`);
     the run itself comes out the same either way."""
-    from mplang.m8194h.sim.preload import ServiceError, preload
-
     controller = VirtualController(word_order=build.word_order)
     try:  # the programs, then the INIT table (loaded) and the TRIGGERS table, as flashed
         preload(controller, build)
@@ -74,3 +90,23 @@ def run_build(build: BuildResult, call: str | None = None, first_file: str | Non
         return RunReport(controller, controller.run(max_time=max_time), f"MP{slot}")
     result, trace = run_traced(controller, trace_period, max_time=max_time)
     return RunReport(controller, result, f"MP{slot}", trace)
+
+
+def run_family(build: BuildResult, call: str | None, max_time: float, *,
+               sample_period: float | None = None) -> RunReport:
+    """`run_build` as the family face calls it: the default program is the first MP of the
+    first file given to the compiler."""
+    report = run_build(build, call, build.first_source, max_time=max_time,
+                       trace_period=sample_period)
+    report.title = program_title(build, report.called)
+    return report
+
+
+def program_title(build: BuildResult, called: str) -> str:
+    """`MP131 home_then_square (samples/home_then_square.mp)` for the called slot."""
+    slot = int(called.removeprefix("MP"))
+    for image in build.programs:
+        if image.program.kind == "mp" and image.placement.slot == slot:
+            name = f" {image.program.name}" if image.program.name else ""
+            return f"{called}{name} ({image.program.source})"
+    return called

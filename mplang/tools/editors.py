@@ -21,7 +21,7 @@ from lark import Lark
 
 from mplang.ir import catalogue
 from mplang.ir.catalogue import VENDOR_PREFIXES, Catalogue, Command
-from mplang.m8194h.compiler import SUPPRESS
+from mplang.lang.diagnostics import SUPPRESS
 
 ROOT = Path(__file__).resolve().parents[2]
 VSCODE = ROOT / "editors" / "vscode"

@@ -20,7 +20,7 @@ from lark import Lark, Token, Tree
 from lark.exceptions import UnexpectedInput
 
 from mplang.ir import catalogue as catalogue_module
-from mplang.ir.lower import KEYWORDS
+from mplang.ir.scope import KEYWORDS
 from mplang.lang import ast
 from mplang.lang.diagnostics import Diagnostic, DiagnosticSink
 from mplang.lang.parser import parse_text

@@ -22,7 +22,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure, SubFigure
 from matplotlib.ticker import MaxNLocator
 
-from mplang.m8194h.trace import Trace
+from mplang.family.trace import Trace
 
 if TYPE_CHECKING:
     from matplotlib.typing import RcKeyType

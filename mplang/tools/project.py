@@ -11,18 +11,16 @@ line; for values, the line is found by reading the file's table and key lines).
 
 from __future__ import annotations
 
-import functools
-import importlib
 import re
 import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from types import ModuleType
 from typing import Any
 
+from mplang.family.registry import family_of_target, known_targets, target_title
+from mplang.ir.unit import SlotPin
 from mplang.lang.diagnostics import Span
-from mplang.m8194h.link import SlotPin
 
 PROJECT_FILE = "mpc.toml"
 DEFAULT_RECORD = ".mpc/flash-record.json"
@@ -30,9 +28,6 @@ TARGET_KEYS = frozenset({"tcp", "serial", "unit", "baud", "parity", "stopbits", 
                          "retries", "sources", "image", "word-order", "target"})
 MODBUS_ONLY_KEYS = ("unit", "word-order", "image", "retries")
 """[targets.NAME] keys that only an M8194H (a Modbus device taking image frames) uses."""
-M8194H_TARGETS = ("et", "rs")
-M8194H_TITLES = {"et": "ET-M8194H", "rs": "RS-M8194H"}
-FAMILY_PACKAGES = ("mplang.fatek", "mplang.csim")
 """The other controller families (issue 7). Each package names its own targets (`TARGETS`)
 and source suffixes (`SUFFIXES`); nothing here repeats them."""
 SECTIONS = frozenset({"project", "slots", "targets", "flash", "fmt"})
@@ -103,33 +98,9 @@ class Project:
         return self.path.parent
 
 
-@functools.cache
-def family_targets() -> dict[str, str]:
-    """Every target of the other controller families -> its package name (this imports the
-    family packages, so it is asked only for a name that is not an M8194H target)."""
-    found: dict[str, str] = {}
-    for package in FAMILY_PACKAGES:
-        for name in importlib.import_module(package).TARGETS:
-            found[str(name)] = package
-    return found
-
-
-def family_package(target: str) -> ModuleType | None:
-    """The family package answering to `target`; None for the M8194H (and unknown names)."""
-    if target in M8194H_TARGETS:
-        return None
-    package = family_targets().get(target)
-    return None if package is None else importlib.import_module(package)
-
-
-def known_targets() -> tuple[str, ...]:
-    """Every `--target` / `target =` value: the M8194H's, then each family's."""
-    return (*M8194H_TARGETS, *family_targets())
-
-
 def describe_targets() -> str:
-    return ", ".join(f'"{name}"' + (f" ({M8194H_TITLES[name]})" if name in M8194H_TITLES
-                                    else "") for name in known_targets())
+    return ", ".join(f'"{name}"' + (f" ({target_title(name).split(',')[0]})"
+                                    if target_title(name) else "") for name in known_targets())
 
 
 def find_project(start: Path) -> Path | None:
@@ -311,8 +282,7 @@ def _pins(table: Mapping[str, Any], where: _Locator) -> tuple[SlotPin, ...]:
 
 def _controller(value: object, table: str, where: _Locator) -> str:
     """A `target =` value: one of known_targets()."""
-    if not isinstance(value, str) or (value not in M8194H_TARGETS
-                                      and value not in family_targets()):
+    if not isinstance(value, str) or value not in known_targets():
         raise where.error(table, "target", f"must be one of {describe_targets()}, "
                           f"not {value!r}")
     return value
@@ -324,19 +294,18 @@ def _device_controller(raw: Mapping[str, Any], table: str, where: _Locator) -> s
     if "target" not in raw:
         return None
     target = _controller(raw["target"], table, where)
-    package = family_package(target)
-    if package is None:
-        return target
-    title = str(package.TITLE)
-    transports = tuple(package.TRANSPORTS)
+    family = family_of_target(target)
+    assert family is not None  # a known target
+    title = family.TITLE
+    transports = family.TRANSPORTS
     if not transports:
-        raise where.error(table, "target", f"{target}: {package.NO_TRANSPORT}, so a "
+        raise where.error(table, "target", f"{target}: {family.NO_TRANSPORT}, so a "
                           f"{title} program is not a device to flash")
     if "tcp" in raw and "tcp" not in transports:
         raise where.error(table, "tcp", f"a {title} device ({target}) is reached over a "
                           "serial line: give serial = \"PORT\"")
     for key in MODBUS_ONLY_KEYS:
-        if key in raw:
+        if key in raw and family.PROTOCOL != "modbus":
             raise where.error(table, key, f"does not apply to a {title} device ({target}): "
                               f"it is for M8194H devices")
     return target

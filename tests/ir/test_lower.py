@@ -11,7 +11,7 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from mplang.ir import catalogue
-from mplang.ir.lower import apply_operator
+from mplang.ir.fold import apply_operator
 from mplang.ir.macro import MacroLine, Operand, VarRef
 from mplang.m8194h.compiler import Options, compile_source
 

@@ -16,10 +16,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from mplang.cli import main
+from mplang.family.trace import Trace, position_text, trace_from_samples
 from mplang.m8194h.compiler import BuildResult, Options, compile_paths, compile_source
 from mplang.m8194h.run import run_build
 from mplang.m8194h.sim.controller import VirtualController
-from mplang.m8194h.trace import Trace, position_text, run_traced, trace_from_samples
+from mplang.m8194h.trace import record, run_traced
 
 SAMPLES = Path(__file__).resolve().parents[2] / "samples"
 
@@ -103,7 +104,7 @@ def test_velocity_magnitude_is_the_models_cv() -> None:
     controller.call(41)
     controller.advance(2.0)  # on the circle
     trace = Trace(0.001)
-    trace.record(controller)
+    record(trace, controller)
     for index in range(2):
         speed = controller.motion.cv(1 << index, controller.clock)
         assert speed > 0

@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 from lark import Lark
 
 from mplang.ir import catalogue
-from mplang.ir.lower import KEYWORDS
+from mplang.ir.scope import KEYWORDS
 from mplang.m8194h.compiler import BuildResult, compile_paths, compile_source
 from mplang.tools.fmt import (
     FormatOptions,

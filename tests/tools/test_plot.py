@@ -11,9 +11,9 @@ import pytest
 from click.testing import CliRunner
 
 from mplang.cli import main
+from mplang.family.trace import Trace
 from mplang.m8194h.compiler import Options, compile_paths, compile_source
 from mplang.m8194h.run import run_build
-from mplang.m8194h.trace import Trace
 from mplang.tools.plot import PlotRequest, path_planes, render
 
 SAMPLES = Path(__file__).resolve().parents[2] / "samples"
@@ -157,7 +157,7 @@ def test_a_family_trace_is_drawn_with_its_unit() -> None:
     M8194H's traces keep pulses."""
     from matplotlib.figure import Figure
 
-    from mplang.m8194h.trace import trace_from_samples
+    from mplang.family.trace import trace_from_samples
     from mplang.tools import plot
 
     samples = [(k / 100, {"X": float(k), "Y": k / 2, "Z": 0.0, "U": 0.0}) for k in range(50)]

@@ -222,15 +222,6 @@ target = "rs"
     assert [t.target for t in load_fleet(path)] == ["csim", "rs"]
 
 
-def test_every_known_target_comes_from_the_family_packages() -> None:
-    from mplang import csim, fatek
-    from mplang.tools.project import family_package, known_targets
-
-    assert known_targets() == ("et", "rs", *fatek.TARGETS, *csim.TARGETS)
-    assert family_package("csim") is csim and family_package("fbs-fun140") is fatek
-    assert family_package("et") is None and family_package("nothing") is None
-
-
 def test_a_device_target_builds_its_m8194h_image(tmp_path: Path,
                                                  monkeypatch: pytest.MonkeyPatch) -> None:
     """A device's own target = "rs" builds its image for the RS-M8194H (RS-only commands)."""

@@ -4,7 +4,6 @@ their checked programs in the family's own formats."""
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import click
@@ -14,19 +13,17 @@ from mplang.cli.common import (
     build_setup,
     guarded,
     project_option,
-    report,
     with_common,
     write_output,
 )
-from mplang.cli.families import M8194H_FORMATS, all_formats, check_format, choose
-from mplang.m8194h.compiler import compile_paths
+from mplang.cli.families import all_formats, build_checked, check_format, choose
 
 
 @click.command("build", short_help="Compile sources into one download image.")
 @click.argument("files", nargs=-1)
 @click.option("-o", "--output", default=None, metavar="OUT",
               help="Write the result here ('-' or absent: standard output).")
-@click.option("--format", "fmt", type=LazyChoice(M8194H_FORMATS, all_formats), default=None,
+@click.option("--format", "fmt", type=LazyChoice((), all_formats), default=None,
               help="M8194H: image JSON (the default), human listing, hex frames, the link "
               "map, or the map of declared variables (JSON, C header, Python module). FATEK: "
               "fbs (the default: the listing), listing, table (register table), json. CSIM: "
@@ -41,31 +38,9 @@ def command(ctx: click.Context, files: tuple[str, ...], output: str | None, fmt:
     """Compile FILE... (files, directories or globs; without them, the sources of mpc.toml)
     together into one download image, or, for a FATEK or CSIM target (or .fbs / .csim
     listings), into that controller's checked programs."""
-    from mplang.m8194h import image as render
-
     setup = build_setup(ctx, files, project_file, target, word_order, temp_vars,
                         allow_outside_includes, werror)
     selection = choose(setup)
     fmt = check_format(selection, fmt)
-    if selection.family is not None:
-        build = selection.build(setup.options)
-        code = report(build, setup.werror)
-        if code:
-            sys.exit(code)
-        write_output(build.render(fmt), output)
-        return
-    result = compile_paths(setup.paths, setup.options)
-    code = report(result, setup.werror)
-    if code:
-        sys.exit(code)
-    text = {
-        "json": lambda: render.render_json(result),
-        "listing": lambda: render.render_listing(result, result.sources),
-        "hex": lambda: render.render_hex(result),
-        "map": lambda: render.render_link_map(result),
-        "vars": lambda: render.render_variables_json(result),
-        "vars-h": lambda: render.render_variables_c(result),
-        "vars-py": lambda: render.render_variables_python(result),
-        "triggers": lambda: render.render_triggers(result),
-    }[fmt]()
-    write_output(text, output)
+    build = build_checked(selection, setup)
+    write_output(build.render(fmt), output)

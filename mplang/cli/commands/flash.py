@@ -120,7 +120,7 @@ def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | N
         seen[device.address()] = device.name
     chosen = [(device, _selection(setup, device, given("target"))) for device in targets]
     others = [(device, selection) for device, selection in chosen
-              if selection.family is not None]
+              if selection.family.PROTOCOL != "modbus"]
     if others and fleet is not None:
         from mplang.cli.family_flash import refuse_transport
 
@@ -181,8 +181,7 @@ def _refuse_early(selection: Selection, tcp_given: bool) -> None:
     """A family without a transport (FATEK), or a CSIM asked for over --tcp: refused at once,
     whatever the device options."""
     family = selection.family
-    if family is not None and (not family.TRANSPORTS
-                               or (tcp_given and "tcp" not in family.TRANSPORTS)):
+    if not family.TRANSPORTS or (tcp_given and "tcp" not in family.TRANSPORTS):
         from mplang.cli.family_flash import refuse_transport
 
         refuse_transport(selection, tcp_given)

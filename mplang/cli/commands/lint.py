@@ -19,7 +19,6 @@ from mplang.cli.common import (
 )
 from mplang.cli.families import choose
 from mplang.lang.diagnostics import Severity
-from mplang.m8194h.compiler import compile_paths
 
 
 @click.command("lint", short_help="Run every check without producing an image.")
@@ -37,16 +36,13 @@ def command(ctx: click.Context, files: tuple[str, ...], fmt: str, output: str | 
     """Check FILE... (without them, the sources of mpc.toml) without producing an image:
     .mp sources for --target, or FATEK .fbs / CSIM .csim listings. Exit 1 if any error is
     found."""
-    from mplang.m8194h import image as render
+    from mplang.tools import report as render
 
     setup = build_setup(ctx, files, project_file, target, word_order, temp_vars,
                         allow_outside_includes, werror)
     werror = setup.werror
     selection = choose(setup)
-    if selection.family is None:
-        diagnostics = compile_paths(setup.paths, setup.options).diagnostics
-    else:
-        diagnostics = selection.build(setup.options).diagnostics
+    diagnostics = selection.build(setup.options).diagnostics
     if fmt == "text":
         text = render.render_text(diagnostics)
         if output is None:

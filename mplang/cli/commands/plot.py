@@ -1,6 +1,5 @@
-"""`mpc plot`: run one program on a fresh virtual controller and draw its tool path and the
-position and velocity of every moving axis against time (PNG or SVG); FATEK and CSIM builds
-are drawn from their family's samples."""
+"""`mpc plot`: run one program on a fresh virtual controller of its family and draw its tool
+path and the position and velocity of every moving axis against time (PNG or SVG)."""
 
 from __future__ import annotations
 
@@ -12,19 +11,16 @@ import click
 
 from mplang.cli.common import (
     EXIT_RUN_FAILED,
-    BuildSetup,
     OutputError,
     build_setup,
     guarded,
     project_option,
-    report,
     with_common,
 )
-from mplang.cli.families import Selection, build_and_run, choose
-from mplang.m8194h.compiler import BuildResult, compile_paths
+from mplang.cli.families import build_and_run, choose
 
 if TYPE_CHECKING:
-    from mplang.m8194h.trace import Trace
+    from mplang.family.trace import Trace
 
 IMAGE_SUFFIXES = {".png": "png", ".svg": "svg"}
 
@@ -45,16 +41,6 @@ def check_output_place(output: Path) -> None:
         raise OutputError(f"cannot write {output}: it is a directory")
     if not output.parent.is_dir():
         raise OutputError(f"cannot write {output}: no directory {output.parent}")
-
-
-def program_title(build: BuildResult, called: str) -> str:
-    """`MP131 home_then_square (samples/home_then_square.mp)` for the called slot."""
-    slot = int(called.removeprefix("MP"))
-    for image in build.programs:
-        if image.program.kind == "mp" and image.placement.slot == slot:
-            name = f" {image.program.name}" if image.program.name else ""
-            return f"{called}{name} ({image.program.source})"
-    return called
 
 
 @click.command("plot", short_help="Plot the simulated tool path and axis motion (PNG/SVG).")
@@ -84,34 +70,16 @@ def command(ctx: click.Context, files: tuple[str, ...], call: str | None, output
     """Build FILE..., run one program on a fresh virtual controller and plot what the axes
     did: the XY path (XZ and YZ too when Z moves) and position and velocity against time.
     A program that fails or does not finish is plotted up to that point, and exits 5."""
-    from mplang.m8194h.run import NoSuchProgram, RunSetupError, run_build
-
     fmt = image_format(output)
     setup = build_setup(ctx, files, project_file, target, word_order, temp_vars,
                         allow_outside_includes, werror)
     selection = choose(setup)
-    paths = setup.paths
     check_output_place(Path(output))
-    if selection.family is not None:
-        _plot_family(selection, setup, call, output, fmt, width, height, trace_period,
-                     max_time)
-        return
-    result = compile_paths(paths, setup.options)
-    code = report(result, setup.werror)
-    if code:
-        sys.exit(code)
-    first = next((s for s in result.sources if Path(s).resolve() == paths[0].resolve()), None)
-    try:
-        outcome = run_build(result, call, first, max_time=max_time, trace_period=trace_period)
-    except NoSuchProgram as exc:
-        raise click.BadParameter(str(exc), param_hint="--call") from None
-    except RunSetupError as exc:
-        click.echo(f"mpc: {exc}", err=True)
-        sys.exit(EXIT_RUN_FAILED)
-    trace = outcome.trace
+    run = build_and_run(selection, setup, call, max_time, trace_period)
+    trace = run.trace
     assert trace is not None  # asked for with trace_period
-    run = outcome.result
-    _draw(trace, program_title(result, outcome.called), outcome.called, run.finished,
+    sources = ", ".join(str(p) for p in setup.paths)
+    _draw(trace, run.plot_title(selection.describe, sources), run.called, run.finished,
           run.time_s, run.error, (fmt, width, height), trace_period, output)
 
 
@@ -137,18 +105,3 @@ def _draw(trace: Trace, heading: str, called: str, finished: bool, time_s: float
     if not finished:
         click.echo(f"error: {error}", err=True)
         sys.exit(EXIT_RUN_FAILED)
-
-
-def _plot_family(selection: Selection, setup: BuildSetup, call: str | None, output: str,
-                 fmt: str, width: int, height: int, trace_period: float,
-                 max_time: float) -> None:
-    """`mpc plot` of a FATEK or CSIM build: the same drawing, from the family's samples."""
-    from mplang.m8194h.trace import trace_from_samples
-
-    family = selection.family
-    assert family is not None
-    run = build_and_run(selection, setup, call, max_time, trace_period)
-    trace = trace_from_samples(run.samples, trace_period, family.POSITION_UNIT)
-    sources = ", ".join(str(p) for p in setup.paths)
-    _draw(trace, f"{run.called} ({sources}) on the virtual {selection.describe}", run.called,
-          run.finished, run.time_s, run.error, (fmt, width, height), trace_period, output)

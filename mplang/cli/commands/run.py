@@ -17,14 +17,12 @@ from mplang.cli.common import (
     build_setup,
     guarded,
     project_option,
-    report,
     with_common,
 )
-from mplang.cli.families import FamilyRun, Selection, build_and_run, choose
-from mplang.m8194h.compiler import compile_paths
+from mplang.cli.families import build_and_run, choose
 
 if TYPE_CHECKING:
-    from mplang.m8194h.trace import Trace
+    from mplang.family.trace import Trace
 
 
 def check_trace_place(trace_file: str) -> None:
@@ -64,44 +62,26 @@ def command(ctx: click.Context, files: tuple[str, ...], call: str | None, as_jso
             temp_vars: range, allow_outside_includes: bool, werror: bool) -> None:
     """Build FILE..., load every program into a fresh virtual controller and run one."""
 
-    from mplang.m8194h.run import NoSuchProgram, RunSetupError, run_build
-    from mplang.m8194h.trace import DEFAULT_PERIOD
+    from mplang.family.trace import DEFAULT_PERIOD
 
     if trace_period is not None and trace_file is None:
         raise click.UsageError("--trace-period needs --trace FILE.csv")
     setup = build_setup(ctx, files, project_file, target, word_order, temp_vars,
                         allow_outside_includes, werror)
     selection = choose(setup)
-    paths = setup.paths
     if trace_file is not None:
         check_trace_place(trace_file)
-    if selection.family is not None:
-        period = None if trace_file is None \
-            else DEFAULT_PERIOD if trace_period is None else trace_period
-        run = build_and_run(selection, setup, call, max_time, period)
-        _report_family(selection, run, as_json, trace_file, period)
-        return
-    result = compile_paths(paths, setup.options)
-    code = report(result, setup.werror)
-    if code:
-        sys.exit(code)
-    first = next((s for s in result.sources if Path(s).resolve() == paths[0].resolve()), None)
-    try:
-        outcome = run_build(result, call, first, max_time=max_time,
-                            trace_period=None if trace_file is None
-                            else DEFAULT_PERIOD if trace_period is None else trace_period)
-    except NoSuchProgram as exc:
-        raise click.BadParameter(str(exc), param_hint="--call") from None
-    except RunSetupError as exc:
-        click.echo(f"mpc: {exc}", err=True)
-        sys.exit(EXIT_RUN_FAILED)
-    if trace_file is not None and outcome.trace is not None:
-        _write_trace(outcome.trace, trace_file)
-    summary = outcome.to_json()
-    headline = (f"{outcome.called}: {'finished' if outcome.result.finished else 'FAILED'} "
-                f"after {summary['time_ms']} ms simulated, {outcome.result.steps} lines")
-    _summarise(summary, as_json, headline, outcome.trace, trace_file, outcome.result.error)
-    if not outcome.result.finished:
+    period = None if trace_file is None \
+        else DEFAULT_PERIOD if trace_period is None else trace_period
+    run = build_and_run(selection, setup, call, max_time, period)
+    trace = run.trace
+    if trace_file is not None and trace is not None:
+        _write_trace(trace, trace_file)
+    summary = run.to_json()
+    headline = (f"{run.called}: {'finished' if run.finished else 'FAILED'} after "
+                f"{summary['time_ms']} ms simulated{run.headline_detail(selection.describe)}")
+    _summarise(summary, as_json, headline, trace, trace_file, run.error)
+    if not run.finished:
         sys.exit(EXIT_RUN_FAILED)
 
 
@@ -131,23 +111,3 @@ def _summarise(summary: Mapping[str, Any], as_json: bool, headline: str, trace: 
         click.echo(f"  trace: {len(trace)} samples written to {trace_file}")
     if error:
         click.echo(f"error: {error}", err=True)
-
-
-def _report_family(selection: Selection, run: FamilyRun, as_json: bool,
-                   trace_file: str | None, period: float | None) -> None:
-    """The family run's summary (the keys of the M8194H's), its trace, and exit 5 unless it
-    finished."""
-
-    from mplang.m8194h.trace import trace_from_samples
-
-    assert selection.family is not None
-    trace = None
-    if trace_file is not None and period is not None:
-        trace = trace_from_samples(run.samples, period, selection.family.POSITION_UNIT)
-        _write_trace(trace, trace_file)
-    summary = run.to_json()
-    headline = (f"{run.called}: {'finished' if run.finished else 'FAILED'} after "
-                f"{summary['time_ms']} ms simulated on the virtual {selection.describe}")
-    _summarise(summary, as_json, headline, trace, trace_file, run.error)
-    if not run.finished:
-        sys.exit(EXIT_RUN_FAILED)

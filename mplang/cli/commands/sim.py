@@ -1,5 +1,5 @@
-"""`mpc sim`: serve a virtual M8194H over Modbus TCP and/or RTU, or a virtual CSIM on a
-serial line (`--target csim`, `mplang.cli.family_sim`)."""
+"""`mpc sim`: serve the virtual device of the selected family (`Family.serve`): an M8194H
+over Modbus TCP and/or RTU, a CSIM on a serial line; a family without one says why."""
 
 from __future__ import annotations
 
@@ -17,12 +17,10 @@ from mplang.cli.common import (
     expand_inputs,
     guarded,
     parse_host_port,
-    report,
     with_common,
     with_serial_line,
 )
-from mplang.cli.families import select
-from mplang.m8194h.compiler import compile_paths
+from mplang.cli.families import build_checked, refuse_options, select
 
 
 @click.command("sim", short_help="Serve a virtual M8194H over Modbus TCP and/or RTU.")
@@ -56,71 +54,38 @@ def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | N
     With --target csim (or a .csim FILE) a virtual CSIM answers its RS232 ASCII protocol on
     --serial PORT|pty instead. FATEK FBs-PLC tables have no device service (mpc run runs
     them)."""
-    import asyncio
-    import signal
+    from mplang.family.face import ServeRequest, ServiceError
 
     def given(name: str) -> bool:
         source = ctx.get_parameter_source(name)
         return source is not None and source is not click.core.ParameterSource.DEFAULT
 
     selection = select(expand_inputs(files) if files else [], target, given("target"))
-    if selection.family is not None:
-        from mplang.cli.family_sim import SimRequest, serve_family
-
-        setup = BuildSetup(selection.paths, build_options(target, None, temp_vars,
-                                                          allow_outside_includes), werror, None)
-        serve_family(selection, setup, SimRequest(
-            tcp_given=tcp is not None, serial=serial, baud=baud, parity=parity,
-            stopbits=int(stopbits), speed=speed, duration=duration, verbose=verbose,
-            m8194h_options={"--unit": given("unit"), "--memory": given("memory"),
-                            "--word-order": given("word_order")}))
-        return
-
-    from mplang.m8194h.sim.controller import VirtualController
-    from mplang.m8194h.sim.service import (
-        ServiceError,
-        SimOptions,
-        load_memory,
-        preload,
-        save_memory,
-        serve,
-    )
-
-    controller = VirtualController(word_order=int(word_order or 0))
+    family = selection.family
+    if family.serve is None:
+        raise click.UsageError(
+            f"there is no {selection.describe} device to serve: {family.NO_TRANSPORT}, so "
+            f"nothing would talk to it. Run it on the virtual controller with `mpc run "
+            f"--target {selection.target or family.TARGETS[0]} FILE` (or draw it with "
+            "mpc plot)")
+    refuse_options(selection, {"--unit": given("unit"), "--memory": given("memory"),
+                               "--word-order": given("word_order")}, "SERVE_OPTIONS")
+    request = ServeRequest(
+        tcp=tcp, serial=serial, unit=unit, baud=baud, parity=parity, stopbits=int(stopbits),
+        speed=speed, memory=memory, duration=duration, verbose=verbose,
+        word_order=int(word_order) if word_order is not None else None,
+        describe=selection.describe)
+    build = None
+    if files:
+        setup = BuildSetup(selection.paths, build_options(
+            target, word_order, temp_vars, allow_outside_includes), werror, None)
+        build = build_checked(selection, setup)
     try:
-        if memory is not None and memory.exists():
-            load_memory(controller, memory)
-            click.echo(f"mpc sim: macro memory {memory}: {len(controller.tables)} program(s)")
-        if files:
-            result = compile_paths(selection.paths, build_options(
-                target, word_order, temp_vars, allow_outside_includes))
-            code = report(result, werror)
-            if code:
-                sys.exit(code)
-            preload(controller, result)
-            click.echo(f"mpc sim: {len(result.programs)} program(s) downloaded")
-            if memory is not None:
-                save_memory(controller, memory)
+        family.serve(build, request, lambda text: click.echo(f"mpc sim: {text}"))
     except ServiceError as exc:
+        if exc.kind == "usage":
+            raise click.UsageError(str(exc)) from None
         click.echo(f"mpc sim: {exc}", err=True)
-        sys.exit(EXIT_NO_INPUT if exc.kind == "memory" else EXIT_RUN_FAILED)
-    options = SimOptions(tcp=tcp if tcp is not None or serial is not None
-                         else ("127.0.0.1", 1502),
-                         serial=serial, unit=unit, baudrate=baud, parity=parity,
-                         stopbits=int(stopbits), speed=speed, memory=memory,
-                         duration=duration, verbose=verbose)
-
-    async def main_task() -> None:
-        stop_event = asyncio.Event()
-        loop = asyncio.get_running_loop()
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            loop.add_signal_handler(sig, stop_event.set)
-        await serve(options, controller, lambda text: click.echo(f"mpc sim: {text}"),
-                    stop_event)
-
-    try:
-        asyncio.run(main_task())
-    except ServiceError as exc:
-        click.echo(f"mpc sim: {exc}", err=True)
-        sys.exit(EXIT_NO_INPUT if exc.kind == "memory" else EXIT_TRANSPORT)
+        sys.exit({"memory": EXIT_NO_INPUT, "refused": EXIT_RUN_FAILED}.get(exc.kind,
+                                                                           EXIT_TRANSPORT))
     click.echo("mpc sim: stopped")

@@ -13,7 +13,7 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from mplang.ir.macro import Operand
-from mplang.m8194h.sim.motion import _axis_index
+from mplang.m8194h.sim.axes import _axis_index
 
 if TYPE_CHECKING:
     from mplang.m8194h.sim.controller import Frame, Handler, VirtualController

@@ -20,15 +20,16 @@ from typing import Protocol, cast
 from mplang.ir import catalogue as catalogue_module
 from mplang.ir.catalogue import Catalogue
 from mplang.ir.lower import Scope
+from mplang.ir.unit import Options, lower_unit
 from mplang.lang import ast
-from mplang.lang.diagnostics import Diagnostic, DiagnosticSink, Span
+from mplang.lang.diagnostics import Diagnostic, DiagnosticSink, Severity, Span
 from mplang.lang.sources import SourceFile, SourceSet, load_sources
 from mplang.lang.structure import build_unit
-from mplang.m8194h.compiler import Options, compile_paths, lower_unit
+from mplang.m8194h.compiler import compile_paths
 from mplang.m8194h.link import Placement, link
 from mplang.tools.lsp.positions import Location, Range, line_range, span_range, split_lines
 from mplang.tools.lsp.tokens import Token, lex_line
-from mplang.tools.lsp.workspace import BuildContext
+from mplang.tools.lsp.workspace import LIMIT_TEXT, BuildContext, RefusedFile, read_text
 
 # docs/checks/<CODE>.md of a source checkout; absent from an installed wheel.
 CHECK_DOCS = Path(__file__).resolve().parents[3] / "docs" / "checks"
@@ -37,17 +38,45 @@ logger = logging.getLogger("mplang.tools.lsp")
 
 
 class OpenTexts(dict[Path, str]):
-    """In-editor texts keyed by resolved path, found under any spelling of the path.
+    """In-editor texts keyed by resolved path, found under any spelling of the path; the
+    files of the build on disk are read here too, bounded, instead of by the loader.
 
     The loader looks INCLUDEd files up as `including_dir / "name.mp"`, unresolved; resolving
-    on lookup lets `../common.mp` find the open buffer of the same file.
+    on lookup lets `../common.mp` find the open buffer of the same file. A file on disk is
+    read with `workspace.read_text`, so an INCLUDE (or a project source) naming a device, a
+    FIFO or a huge file never blocks or floods the server: that file counts as empty and
+    `refused` says why (the analysis reports it as E102). A file that is missing or not UTF-8
+    is left to the loader, which reports it as `mpc build` does.
     """
 
+    def __init__(self, texts: Mapping[Path, str] | None = None) -> None:
+        super().__init__({p.resolve(): t for p, t in (texts or {}).items()})
+        self.disk: dict[Path, str] = {}
+        self.refused: dict[Path, str] = {}  # resolved path -> why it was not read
+
     def __contains__(self, key: object) -> bool:
-        return isinstance(key, Path) and super().__contains__(key.resolve())
+        if not isinstance(key, Path):
+            return False
+        resolved = key.resolve()
+        if super().__contains__(resolved) or resolved in self.disk or resolved in self.refused:
+            return True
+        try:
+            self.disk[resolved] = read_text(resolved)
+        except RefusedFile as exc:
+            self.refused[resolved] = exc.reason
+        except (OSError, UnicodeDecodeError):
+            return False
+        return True
 
     def __getitem__(self, key: Path) -> str:
-        return super().__getitem__(key.resolve())
+        resolved = key.resolve()
+        if super().__contains__(resolved):
+            return super().__getitem__(resolved)
+        if resolved in self.disk:
+            return self.disk[resolved]
+        if resolved in self.refused:
+            return ""
+        raise KeyError(key)
 
 
 @dataclass(frozen=True)
@@ -214,7 +243,7 @@ def _analyse(path: Path, text: str, context: BuildContext, open_texts: Mapping[P
     # a FATEK or CSIM project: its .mp files are M8194H language, checked by that family
     options = context.options if family is None else replace(context.options, target="et")
     resolved = path.resolve()
-    texts = OpenTexts({p.resolve(): t for p, t in open_texts.items()})
+    texts = OpenTexts(open_texts)
     texts[resolved] = text
     analysis = Analysis(resolved, split_lines(text), catalogue, options)
     paths = [path if p.resolve() == resolved else p for p in context.sources]
@@ -225,8 +254,11 @@ def _analyse(path: Path, text: str, context: BuildContext, open_texts: Mapping[P
     scratch = DiagnosticSink()  # the compiler's own run above reports; this one is discarded
     sources = load_sources(paths, scratch, allow_outside=options.allow_outside_includes,
                            texts=texts)
+    diagnostics = [*diagnostics, *_refusals(sources.files, paths, texts.refused)]
     by_display: dict[str, SourceText] = {}
     for source in sources.files:
+        if source.path.resolve() in texts.refused:
+            continue
         lines = analysis.lines if source.path.resolve() == resolved else \
             split_lines(source.text)
         entry = SourceText(source.path.resolve(), source.display, lines)
@@ -246,6 +278,34 @@ def _analyse(path: Path, text: str, context: BuildContext, open_texts: Mapping[P
         analysis.diagnostics.insert(0, EditorDiagnostic(line_range(0, 0, 0), "error", "",
                                                         context.problem, "", (), None))
     return analysis
+
+
+def _refusals(files: list[SourceFile], roots: list[Path], refused: Mapping[Path, str]
+              ) -> list[Diagnostic]:
+    """E102 for each INCLUDE (and project source) naming a file the server would not read:
+    the loader saw it as empty, so the build would otherwise pass in silence."""
+    if not refused:
+        return []
+    found: list[Diagnostic] = []
+    for root in roots:
+        reason = refused.get(root.resolve())
+        if reason is not None:
+            found.append(Diagnostic("E102", Severity.ERROR, f"cannot read {root}: {reason}",
+                                    Span(str(root), 1), hint=_REFUSED_HINT))
+    for source in files:
+        for statement in source.statements:
+            if not isinstance(statement, ast.Include) or "\0" in statement.path:
+                continue
+            target = (source.path.parent / statement.path).resolve()
+            reason = refused.get(target)
+            if reason is not None:
+                found.append(Diagnostic("E102", Severity.ERROR,
+                                        f"cannot include {statement.path}: {reason}",
+                                        statement.span, hint=_REFUSED_HINT))
+    return found
+
+
+_REFUSED_HINT = f"the language server reads only regular files of at most {LIMIT_TEXT}"
 
 
 class _Family(Protocol):

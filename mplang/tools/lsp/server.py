@@ -6,19 +6,29 @@ edits). Its diagnostics are published; hover, completion, definition, code lense
 hints are answered from the latest analysis. Positions cross the boundary here, converted
 between code points and the client's negotiated encoding. A handler that fails logs the
 error and answers nothing: one bad input never takes the server down.
+
+Hostile input: messages are read by `transport` (bounded, resynchronising after a framing
+error) instead of pygls' own loop, and a request on a document the client did not open reads
+it only if it is a regular file of at most `workspace.MAX_FILE_BYTES` inside the workspace:
+never a device, FIFO or socket, which could block the server or feed it without end.
 """
 
 from __future__ import annotations
 
+import asyncio
 import functools
 import logging
+import os
+import sys
+import threading
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any, BinaryIO, TypeVar
 from urllib.parse import unquote
 
 from lsprotocol import types as lsp
 from pygls import uris
+from pygls.io_ import StdoutWriter
 from pygls.lsp.server import LanguageServer
 
 from mplang import __version__
@@ -33,7 +43,14 @@ from mplang.tools.lsp.positions import (
     split_lines,
     to_client_character,
 )
-from mplang.tools.lsp.workspace import Overrides, context_for
+from mplang.tools.lsp.transport import Framer, serve, stream_reader
+from mplang.tools.lsp.workspace import (
+    Overrides,
+    RefusedFile,
+    context_for,
+    read_text,
+    refusal,
+)
 
 logger = logging.getLogger("mplang.tools.lsp")
 R = TypeVar("R")
@@ -82,9 +99,37 @@ class MpLanguageServer(LanguageServer):
         # spelling, which is what the client matches diagnostics and locations against.
         return unquote(uri) in self.workspace.text_documents
 
+    def workspace_roots(self) -> list[Path]:
+        """The folders the client named (root and workspace folders), resolved."""
+        workspace = self.workspace
+        named = [workspace.root_uri, *(folder.uri for folder in workspace.folders.values())]
+        roots = []
+        for uri in named:
+            path = uris.to_fs_path(uri) if uri and uris.uri_scheme(uri) == "file" else None
+            if path:
+                roots.append(Path(path).resolve())
+        return roots
+
+    def document_text(self, uri: str) -> str:
+        """The text of a document: the editor's when it is open, else the file's, read only if
+        it is a regular file of at most MAX_FILE_BYTES inside the workspace (when the client
+        named one). pygls would read any path, /dev/zero included, to its end."""
+        if self.is_open(uri):
+            return self.workspace.get_text_document(uri).source
+        if uris.uri_scheme(uri) != "file":
+            return ""  # an unsaved buffer the client did not open: no text (as pygls)
+        path = self.document_path(uri)
+        reason = refusal(os.stat(path))  # a missing file fails here, as it always did
+        if reason is not None:
+            raise RefusedFile(path, reason)
+        roots = self.workspace_roots()
+        if roots and not any(path.resolve().is_relative_to(root) for root in roots):
+            raise RefusedFile(path, "not open in the editor and outside the workspace")
+        return read_text(path)
+
     def analyse_uri(self, uri: str) -> Analysis:
         """Check a document; an open one's analysis is kept for the requests that follow."""
-        text = self.workspace.get_text_document(uri).source
+        text = self.document_text(uri)
         others = {self.document_path(u).resolve(): self.workspace.get_text_document(u).source
                   for u in self.analyses if u != uri and self.is_open(u)}
         path = self.document_path(uri)
@@ -136,7 +181,7 @@ class MpLanguageServer(LanguageServer):
         if entry is not None:
             return entry.lines
         try:
-            return split_lines(path.read_text(encoding="utf-8"))
+            return split_lines(read_text(path))
         except (OSError, UnicodeDecodeError):
             return []
 
@@ -173,6 +218,53 @@ class MpLanguageServer(LanguageServer):
                               code_description=docs, source="mpc",
                               related_information=related or None)
 
+    # ------------------------------------------------------------------ transport
+    def start_io(self, stdin: BinaryIO | None = None, stdout: BinaryIO | None = None) -> None:
+        """Serve over stdio as pygls does, but read with the bounded `transport`."""
+        self._stop_event = stop = threading.Event()
+        self.protocol.set_writer(StdoutWriter(stdout or sys.stdout.buffer))
+        framer = Framer(stream_reader(stdin or sys.stdin.buffer))
+        try:
+            asyncio.run(serve(framer, self.protocol, stop, self.report_dropped,
+                              self.report_server_error))
+        except BrokenPipeError:
+            logger.error("the connection to the client is lost; shutting down")
+        except (KeyboardInterrupt, SystemExit):
+            pass
+        finally:
+            self.shutdown()  # type: ignore[no-untyped-call]  # pygls: unannotated
+
+    def start_tcp(self, host: str, port: int) -> None:
+        """Serve one client over TCP as pygls does, but read with the bounded `transport`."""
+        self._stop_event = stop = threading.Event()
+
+        async def connection(reader: asyncio.StreamReader, writer: asyncio.StreamWriter
+                             ) -> None:
+            self.protocol.set_writer(writer)
+            await serve(Framer(reader.read), self.protocol, stop, self.report_dropped,
+                        self.report_server_error)
+            self.shutdown()  # type: ignore[no-untyped-call]  # pygls: unannotated
+
+        async def listen() -> None:
+            server = await asyncio.start_server(connection, host, port)
+            self._server = server
+            async with server:
+                await server.serve_forever()
+
+        try:
+            asyncio.run(listen())
+        except asyncio.CancelledError:
+            logger.debug("the server was cancelled")
+
+    def report_dropped(self, reason: str) -> None:
+        """Input that was no message: to stderr and to the editor's log, not as a popup."""
+        logger.warning("%s", reason)
+        try:
+            self.window_log_message(lsp.LogMessageParams(type=lsp.MessageType.Warning,
+                                                         message=f"mpc lsp: {reason}"))
+        except Exception:
+            logger.exception("cannot report the dropped input to the client")
+
     def snippets_supported(self) -> bool:
         capabilities = self.client_capabilities.text_document
         completion = capabilities.completion if capabilities else None
@@ -189,6 +281,15 @@ def _guarded(server: MpLanguageServer
         def run(params: Any) -> R | None:
             try:
                 return handler(params)
+            except RefusedFile as exc:  # expected of hostile input: no traceback
+                logger.warning("%s: %s", handler.__name__, exc)
+                try:
+                    server.window_log_message(lsp.LogMessageParams(
+                        type=lsp.MessageType.Warning,
+                        message=f"mpc lsp: {handler.__name__}: {exc}"))
+                except Exception:
+                    logger.exception("cannot report the error to the client")
+                return None
             except Exception as exc:
                 logger.exception("%s failed", handler.__name__)
                 try:

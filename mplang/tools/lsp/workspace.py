@@ -6,15 +6,79 @@ every program of the project, and the project file's options and slot pins apply
 listed among those sources is checked the same way, so the editor agrees with `mpc build`.
 Any other document is checked on its own, with its INCLUDEs, as `mpc build FILE` would.
 Options given to `mpc lsp` on its command line win over the project file's.
+
+The server reads from disk only what it can read safely (`read_text`): regular files of at most
+`MAX_FILE_BYTES`, never a device, FIFO or socket, which could block the server or feed it
+without end.
 """
 
 from __future__ import annotations
 
+import errno
+import os
+import stat
 from dataclasses import dataclass
 from pathlib import Path
 
-from mplang.m8194h.compiler import Options
+from mplang.ir.unit import Options
 from mplang.tools.project import ProjectError, find_project, load_project
+
+# The largest file the server reads from disk: .mp sources are a few KiB; anything near this is
+# not a macro program, and reading it would only cost memory and time.
+MAX_FILE_BYTES = 1024 * 1024
+LIMIT_TEXT = f"{MAX_FILE_BYTES / 2**20:g} MiB"
+_CHUNK = 64 * 1024
+# O_NONBLOCK: should a FIFO take the place of a checked file, opening it does not wait for a
+# writer. O_NOCTTY: a terminal never becomes the server's. O_BINARY (Windows): bytes as stored.
+_OPEN_FLAGS = os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0) | \
+    getattr(os, "O_BINARY", 0)
+
+
+class RefusedFile(OSError):
+    """A file the server will not read (not a regular file, or too large)."""
+
+    def __init__(self, path: Path, reason: str) -> None:
+        super().__init__(f"cannot read {path}: {reason}")
+        self.path = path
+        self.reason = reason
+
+
+def refusal(info: os.stat_result) -> str | None:
+    """Why a file with this status is not read, or None when it may be."""
+    if not stat.S_ISREG(info.st_mode):
+        return "not a regular file"
+    if info.st_size > MAX_FILE_BYTES:
+        return f"larger than {LIMIT_TEXT} ({info.st_size} bytes)"
+    return None
+
+
+def read_text(path: Path) -> str:
+    """A file's text as `Path.read_text` gives it (UTF-8, universal newlines), read only when
+    it is a regular file of at most MAX_FILE_BYTES: checked with stat before it is opened,
+    with fstat once open, and never more than the limit read. Raises RefusedFile, OSError
+    (missing, unreadable) or UnicodeDecodeError."""
+    info = os.stat(path)
+    if stat.S_ISDIR(info.st_mode):  # as open() fails on it, so the loader's message stays
+        raise IsADirectoryError(errno.EISDIR, os.strerror(errno.EISDIR), str(path))
+    reason = refusal(info)
+    if reason is not None:
+        raise RefusedFile(path, reason)
+    handle = os.open(path, _OPEN_FLAGS)
+    try:
+        reason = refusal(os.fstat(handle))  # the file may have changed since the stat
+        if reason is not None:
+            raise RefusedFile(path, reason)
+        data = bytearray()
+        while len(data) <= MAX_FILE_BYTES:
+            chunk = os.read(handle, min(_CHUNK, MAX_FILE_BYTES + 1 - len(data)))
+            if not chunk:
+                break
+            data += chunk
+    finally:
+        os.close(handle)
+    if len(data) > MAX_FILE_BYTES:  # it grew after the fstat
+        raise RefusedFile(path, f"larger than {LIMIT_TEXT}")
+    return data.decode("utf-8").replace("\r\n", "\n").replace("\r", "\n")
 
 
 @dataclass(frozen=True)
@@ -51,6 +115,14 @@ def context_for(document: Path, overrides: Overrides | None = None) -> BuildCont
     found = find_project(document.parent)
     if found is None:
         return BuildContext(alone, _defaults(overrides))
+    try:
+        reason = refusal(os.stat(found))
+    except OSError as exc:
+        reason = exc.strerror or str(exc)
+    if reason is not None:  # find_project saw a regular file; a huge one is not read
+        return BuildContext(alone, _defaults(overrides), found,
+                            f"cannot read {found}: {reason} (checked without the project "
+                            "file)")
     try:
         project = load_project(found)
     except ProjectError as exc:

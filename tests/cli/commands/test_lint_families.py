@@ -12,7 +12,7 @@ from click.testing import CliRunner
 from mplang import csim, fatek
 from mplang.cli import EXIT_NO_INPUT, EXIT_OK, EXIT_SOURCE_ERRORS, EXIT_USAGE, main
 from mplang.m8194h.compiler import Options
-from mplang.m8194h.image import render_diagnostics_json, render_sarif, render_text
+from mplang.tools.report import render_diagnostics_json, render_sarif, render_text
 
 ROOT = Path(__file__).resolve().parents[3]
 SAMPLES = ROOT / "samples"

@@ -11,7 +11,7 @@ from click.testing import CliRunner
 
 from mplang import csim
 from mplang.cli import EXIT_OK, EXIT_OUTPUT, EXIT_RUN_FAILED, EXIT_USAGE, main
-from mplang.m8194h.trace import trace_from_samples
+from mplang.family.trace import trace_from_samples
 from mplang.tools.plot import PlotRequest, render
 
 ROOT = Path(__file__).resolve().parents[3]

@@ -18,7 +18,7 @@ from hypothesis import strategies as st
 
 from mplang.m8194h.compiler import compile_source
 from mplang.m8194h.run import pick_program
-from mplang.m8194h.sim import axis_io
+from mplang.m8194h.sim import axis_io, signals
 from mplang.m8194h.sim.axis_io import AxisSensors
 from mplang.m8194h.sim.controller import VirtualController
 from mplang.m8194h.sim.motion import MotionModel
@@ -74,11 +74,11 @@ def cruise_time(position: float) -> float:
        d=st.sampled_from([1, -1]), invert=st.booleans(), periodic=st.booleans())
 def test_signal_next_change_is_the_first_position_in_another_state(
         lo: int, width: int, p: int, d: int, invert: bool, periodic: bool) -> None:
-    sig: axis_io._Intervals | axis_io._Periodic
+    sig: signals._Intervals | signals._Periodic
     if periodic:
-        sig = axis_io._Periodic(width + 5, lo, width % (width + 5) or 1)
+        sig = signals._Periodic(width + 5, lo, width % (width + 5) or 1)
     else:
-        sig = axis_io._Intervals([(lo, lo + width)])
+        sig = signals._Intervals([(lo, lo + width)])
     if invert:
         sig = sig.complement()
     nxt = sig.next_change(p, d)
@@ -89,9 +89,9 @@ def test_signal_next_change_is_the_first_position_in_another_state(
 
 
 def test_complement_of_half_lines_and_gaps() -> None:
-    sig = axis_io._Intervals([(None, -10), (0, 5), (20, None)]).complement()
+    sig = signals._Intervals([(None, -10), (0, 5), (20, None)]).complement()
     assert sig.parts == [(-9, -1), (6, 19)]
-    assert axis_io._Intervals([]).complement().parts == [(None, None)]
+    assert signals._Intervals([]).complement().parts == [(None, None)]
 
 
 # ----------------------------------------------------------------------- hardware limits

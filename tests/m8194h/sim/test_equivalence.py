@@ -8,7 +8,7 @@ from dataclasses import dataclass
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from mplang.ir.lower import apply_operator
+from mplang.ir.fold import apply_operator
 from mplang.m8194h.compiler import compile_source
 from mplang.m8194h.run import run_build
 

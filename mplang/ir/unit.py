@@ -1,0 +1,95 @@
+"""A `.mp` unit lowered to macro lines: what every family's back end starts from.
+
+`Options` are the build settings a project or the command line gives (word order, target,
+temporaries, variable pool, slot pins), `lower_unit` lowers every program and configuration
+block of a declared unit in one path that the M8194H compiler, the other families' compilers
+and the editor's budget display share.
+"""
+
+from __future__ import annotations
+
+import contextlib
+from dataclasses import dataclass
+
+from mplang.ir.configure import (
+    InitLowerer,
+    InterruptWiring,
+    TriggerTable,
+    build_trigger_table,
+    wire_interrupts,
+)
+from mplang.ir.lower import DEFAULT_VAR_POOL, ConstError, ProgramLowerer, Scope
+from mplang.ir.macro import LoweredProgram
+from mplang.lang import ast
+from mplang.lang.diagnostics import DiagnosticSink, Span
+
+DEFAULT_TEMPS = range(500, 512)
+
+
+@dataclass(frozen=True)
+class SlotPin:
+    """`name = "MP3"` in a project's `[slots]` table; `span` is that line of mpc.toml."""
+
+    name: str
+    kind: str
+    slot: int
+    span: Span
+
+
+@dataclass(frozen=True)
+class Options:
+    word_order: int | None = None  # None: the device default
+    target: str = "et"  # "et" (ET-M8194H, TCP), "rs" (RS-M8194H, RTU), or another family's
+    temps: range = DEFAULT_TEMPS
+    allow_outside_includes: bool = False
+    pins: tuple[SlotPin, ...] = ()  # slot pins of a project file (mpc.toml [slots])
+    var_pool: range = DEFAULT_VAR_POOL  # where unpinned `VAR name` declarations go
+
+
+def _lower_init(unit: ast.Unit, scope: Scope, sink: DiagnosticSink, target: str
+                ) -> LoweredProgram | None:
+    """The build's one INIT block, lowered (E801 for any further block)."""
+    for extra in unit.inits[1:]:
+        first = unit.inits[0]
+        sink.add("E801", extra.span, f"a second INIT block (the first is at "
+                 f"{first.span.file}:{first.span.line})", hint="merge them into one")
+    if not unit.inits:
+        return None
+    return InitLowerer(scope, unit.inits[0], target).lower_init()
+
+
+def configuration_blocks(unit: ast.Unit) -> list[tuple[str, Span]]:
+    """("INIT" | "INTERRUPTS" | "TRIGGERS", header span) of every configuration block: the
+    other families have no counterpart for them and must say so, never drop them."""
+    blocks: list[tuple[str, Span]] = [("INIT", b.span) for b in unit.inits]
+    blocks += [("INTERRUPTS", b.span) for b in unit.interrupts]
+    blocks += [("TRIGGERS", b.span) for b in unit.triggers]
+    return sorted(blocks, key=lambda item: (item[1].file, item[1].line))
+
+
+@dataclass
+class LoweredUnit:
+    """A build lowered up to the linker: programs (interrupt wiring injected), the INIT
+    block, the wiring and the trigger table."""
+
+    programs: list[LoweredProgram]
+    init: LoweredProgram | None
+    wiring: InterruptWiring
+    triggers: TriggerTable | None
+
+
+def lower_unit(unit: ast.Unit, scope: Scope, sink: DiagnosticSink, options: Options
+               ) -> LoweredUnit:
+    """Every program and configuration block of a declared unit, lowered and checked: the
+    one path the compiler and the editor's budget display share."""
+    catalogue = scope.catalogue
+    names = {p.name.upper(): p for p in unit.programs if p.name}
+    lowered: list[LoweredProgram] = []
+    for program in unit.programs:
+        with contextlib.suppress(ConstError):  # already reported where it arose
+            lowered.append(ProgramLowerer(scope, program, options.temps, options.target,
+                                          names).lower_program())
+    init = _lower_init(unit, scope, sink, options.target)
+    wiring = wire_interrupts(unit.interrupts, lowered, init, catalogue, sink, names)
+    triggers = build_trigger_table(unit.triggers, catalogue, sink, names)
+    return LoweredUnit(lowered, init, wiring, triggers)

@@ -1,0 +1,506 @@
+"""Download an image into one device and verify every program: `Flasher` runs the download
+over one `DeviceLink`, `flash` is the library call.
+
+The device's own protocol (ET 6801-6835, appendix 12.1.12-12.1.13) decides the sequence. Per
+program:
+
+1. Read input register 100. A device left in MP or ISR download state (a download cut short,
+   by us or by someone else) is sent the matching close frame and must read ready (0) again.
+   If that close stored a truncated program in another slot, the slot is emptied (create +
+   close) so that no half program can be called.
+2. Create, every line, close: one FC16 at holding register 8000 per frame.
+3. Read 100-114: ready again, registers 110/111 name this slot, 114 (download error) is 0.
+
+Failures, and what is done about them:
+
+- a Modbus exception 0x06 (busy), or ILLEGAL FUNCTION with cause 0xC1 (DPRAM full): the frame
+  was refused, not stored; wait (growing pauses) and send the same frame again;
+- any other exception: the device refused the frame. Register 102 gives the cause, reported
+  in words at the source line of that frame; the download is closed and the slot emptied;
+- a download error in 110-114 after the close: reported in words at the source line that
+  holds the device's 0-based slot line;
+- no answer, or a lost connection, during a frame: whether the device stored the frame is
+  unknown, so the program is downloaded again from its create frame (step 1 closes the
+  half-open download first), up to `retries` times. Reads are simply repeated (DeviceLink).
+
+`FlashOptions` holds the choices of a run: word order, incremental record, busy timeout.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from datetime import UTC, datetime
+from typing import Any
+
+from mplang.ir import catalogue as catalogue_module
+from mplang.ir.catalogue import Catalogue
+from mplang.m8194h.encode import Encoder
+from mplang.m8194h.flash.image import FlashImage, FlashInit, FlashProgram, FlashTriggers
+from mplang.m8194h.flash.record import FlashRecord
+from mplang.m8194h.flash.registers import (
+    CAUSE_REGISTER,
+    CHIP_INITIALIZED,
+    CHIP_STATE_REGISTER,
+    DEVICE_BUSY,
+    DPRAM_FULL,
+    IDENTITY_COUNT,
+    IDENTITY_FIRST,
+    ILLEGAL_FUNCTION,
+    STATE_REGISTER,
+    STATES,
+    STATUS_COUNT,
+    STATUS_FIRST,
+    TRIGGER_REGISTER,
+    WORD_ORDER_REGISTER,
+)
+from mplang.m8194h.flash.report import (
+    FlashFailure,
+    FlashReport,
+    ProgramResult,
+    Refused,
+    StepResult,
+)
+from mplang.m8194h.modbus import (
+    DeviceException,
+    DeviceLink,
+    Endpoint,
+    LinkError,
+    LinkLost,
+    LinkTimeout,
+    backoff,
+)
+
+INIT_TIMEOUT_S = 2.0  # how long LOAD_INITIAL may take before the table counts unverified
+INIT_POLL_S = 0.01
+BUSY_PAUSE_FIRST_S, BUSY_PAUSE_MAX_S = 0.01, 0.5  # the FIFO drains in milliseconds
+
+
+@dataclass(frozen=True)
+class FlashOptions:
+    set_word_order: bool = False
+    """Write the image's word order to holding register 14 when the device's differs.
+    Default: refuse, because the register changes how every client reads 32-bit values."""
+    rebuild: Callable[[int], FlashImage] | None = None
+    """Build the image again for the device's word order when it differs (sources given
+    without an explicit word order); takes precedence over `set_word_order`."""
+    busy_timeout: float = 10.0
+    """Seconds one frame may keep meeting a busy device before flashing gives up."""
+    record: FlashRecord | None = None
+    """Flash incrementally against this record (None: write every program, record nothing)."""
+    address: str | None = None
+    """The device's key in the record [default: the endpoint's description]."""
+    force: bool = False
+    """Write every program even if the record says the device holds it (and record them)."""
+
+
+def _results(image: FlashImage) -> list[ProgramResult]:
+    return [ProgramResult(p.kind, p.slot, p.name, p.source, len(p.frames))
+            for p in image.programs]
+
+
+# ----------------------------------------------------------------------------- flashing
+class Flasher:
+    """One flash run over one `DeviceLink`. `report` is kept current, so a caller that
+    cancels the run (Ctrl-C) still knows what was verified."""
+
+    def __init__(self, image: FlashImage, link: DeviceLink,
+                 options: FlashOptions = FlashOptions(),
+                 progress: Callable[[str], None] | None = None,
+                 catalogue: Catalogue | None = None) -> None:
+        self.image = image
+        self.link = link
+        self.options = options
+        self.progress = progress or (lambda _text: None)
+        self.catalogue = catalogue or catalogue_module.load()
+        self.profile = self.catalogue.profile
+        self.report = FlashReport(link.endpoint.describe(), image.word_order, image.build_id,
+                                  _results(image))
+        self._set_steps()
+        self._current: ProgramResult | StepResult | None = None
+        self.address = options.address or link.endpoint.describe()
+        self._entry: dict[str, Any] | None = None  # this device's record, once trusted
+
+    def _set_steps(self) -> None:
+        image = self.image
+        self.report.init = None if image.init is None else StepResult(
+            "init", len(image.init.frames))
+        self.report.triggers = None if image.triggers is None else StepResult("triggers", 0)
+
+    def _encoder(self) -> Encoder:
+        """Create and close frames in the image's word order (a rebuild may change it)."""
+        return Encoder(self.catalogue, self.image.word_order)
+
+    def _note(self, text: str) -> None:
+        self.report.notes.append(text)
+        self.progress(f"note: {text}")
+
+    async def run(self) -> FlashReport:
+        start = time.monotonic()
+        frames = sum(len(p.frames) for p in self.image.programs)
+        self.progress(f"{self.report.device}: {len(self.image.programs)} program(s), "
+                      f"{frames} frames")
+        try:
+            await self._connect()
+            unchanged = await self._consult_record()
+            self.report.frames_planned = sum(len(p.frames) for p in self.image.programs
+                                             if p.slot_label not in unchanged) + (
+                len(self.image.init.frames) if self.image.init is not None else 0)
+            if unchanged:
+                labels = [p.slot_label for p in self.image.programs
+                          if p.slot_label in unchanged]
+                self.progress(f"{len(labels)} program(s) unchanged since the recorded flash, "
+                              f"not written: {', '.join(labels)}")
+            for program, result in zip(self.image.programs, self.report.programs,
+                                       strict=True):
+                if program.slot_label in unchanged:
+                    result.status = "unchanged"
+                    continue
+                self._current = result
+                await self._program(program, result)
+                self._current = None
+            if self.image.init is not None and self.report.init is not None:
+                self._current = self.report.init
+                await self._init(self.image.init, self.report.init)
+                self._current = None
+            if self.image.triggers is not None and self.report.triggers is not None:
+                self._current = self.report.triggers
+                await self._triggers(self.image.triggers, self.report.triggers)
+                self._current = None
+        except FlashFailure as failure:
+            self._fail(failure.outcome, str(failure), failure.where)
+        except Refused as refusal:
+            self._fail("rejected", f"the device refused a frame needed to make it ready: "
+                       f"{refusal}")
+        except DeviceException as exc:
+            self._fail("rejected", f"the device refused a request: {exc}")
+        except LinkError as exc:
+            self._fail("interrupted", f"the link failed: {exc}")
+        except asyncio.CancelledError:
+            self._fail("interrupted", "interrupted before every program was verified")
+            raise
+        finally:
+            self.link.close()
+            self.report.seconds = time.monotonic() - start
+        return self.report
+
+    def _fail(self, outcome: str, message: str, where: str | None = None) -> None:
+        self.report.outcome, self.report.error, self.report.where = outcome, message, where
+        current = self._current
+        if current is not None and current.status == "pending":
+            current.status = {"rejected": "rejected", "unverified": "unverified"}.get(
+                outcome, "interrupted")
+            current.error, current.where = message, where
+
+    # ---------------------------------------------------------------- connection
+    async def _connect(self) -> None:
+        """Open the link and settle the word order; any link failure here means there is
+        no device to talk to."""
+        try:
+            await self.link.open()
+            (device_order,) = await self.link.read_holding(WORD_ORDER_REGISTER, 1)
+        except LinkError as exc:
+            raise FlashFailure("no-device", str(exc)) from None
+        except DeviceException as exc:
+            raise FlashFailure("no-device", f"{self.link.endpoint.describe()} does not answer "
+                               f"as an M8194H: reading holding register "
+                               f"{WORD_ORDER_REGISTER} gives {exc}") from None
+        wanted = self.image.word_order
+        if device_order == wanted:
+            return
+        if self.options.rebuild is not None and device_order in (0, 1):
+            self.image = self.options.rebuild(device_order)
+            self.report.word_order = self.image.word_order
+            self.report.build_id = self.image.build_id
+            self.report.programs = _results(self.image)
+            self._set_steps()
+            self._note(f"the device's word order (holding register {WORD_ORDER_REGISTER}) is "
+                       f"{device_order}: built for it")
+            return
+        if not self.options.set_word_order:
+            raise FlashFailure("rejected", f"the device's word order (holding register "
+                               f"{WORD_ORDER_REGISTER}) is {device_order}, the image's "
+                               f"{wanted}: build with --word-order {device_order}, or let "
+                               f"mpc flash set the device's with --set-word-order")
+        await self.link.write_holding(WORD_ORDER_REGISTER, [wanted])
+        (now,) = await self.link.read_holding(WORD_ORDER_REGISTER, 1)
+        if now != wanted:
+            raise FlashFailure("unverified", f"holding register {WORD_ORDER_REGISTER} reads "
+                               f"{now} after writing {wanted}")
+        self._note(f"set the device's word order (holding register {WORD_ORDER_REGISTER}) "
+                   f"from {device_order} to {wanted}")
+
+    # -------------------------------------------------------------------- record
+    async def _consult_record(self) -> frozenset[str]:
+        """The slots the device holds exactly as the image wants them, by the record; empty
+        if there is no record, `force`, or the device no longer matches its record."""
+        record = self.options.record
+        if record is None:
+            return frozenset()
+        if record.problem:
+            self._note(record.problem)
+            record.problem = None
+        identity = await self.link.read_input(IDENTITY_FIRST, IDENTITY_COUNT)
+        registers = await self.link.read_input(STATE_REGISTER, STATUS_FIRST + STATUS_COUNT
+                                               - STATE_REGISTER)
+        state, status = registers[0], registers[STATUS_FIRST - STATE_REGISTER:]
+        old = record.entry(self.address)
+        fresh: dict[str, Any] = {"identity": identity, "word_order": self.image.word_order,
+                                 "last_status": status, "slots": {}}
+        trusted = False
+        if old is None:
+            pass
+        elif old.get("identity") != identity:
+            self._note(f"the device at {self.address} is not the one recorded (module id and "
+                       "firmware, input registers 81-85, differ): writing every program")
+        elif old.get("word_order") != self.image.word_order:
+            self._note("the word order changed since the recorded flash: writing every program")
+        elif state != 0 or old.get("last_status") != status:
+            self._note("the device's download status (input registers 110-114) changed since "
+                       "the recorded flash (another download?): writing every program")
+        else:
+            trusted = True
+            fresh["slots"] = dict(old["slots"])
+        self._entry = fresh
+        record.devices[self.address] = fresh
+        record.save()
+        if not trusted or self.options.force:
+            return frozenset()
+        slots = fresh["slots"]
+        return frozenset(
+            p.slot_label for p in self.image.programs
+            if isinstance(slots.get(p.slot_label), dict)
+            and slots[p.slot_label].get("hash") == p.content_hash(self.image.word_order))
+
+    def _forget(self, slot_label: str) -> None:
+        """Before a slot is written: the record may no longer vouch for it."""
+        record = self.options.record
+        if record is not None and self._entry is not None and \
+                self._entry["slots"].pop(slot_label, None) is not None:
+            record.save()
+
+    def _remember(self, program: FlashProgram, status: list[int]) -> None:
+        record = self.options.record
+        if record is None or self._entry is None:
+            return
+        self._entry["slots"][program.slot_label] = {
+            "hash": program.content_hash(self.image.word_order), "name": program.name,
+            "source": program.source, "build_id": self.image.build_id,
+            "at": datetime.now(UTC).isoformat(timespec="seconds")}
+        self._entry["last_status"] = status
+        record.save()
+
+    # ------------------------------------------------------------------ programs
+    async def _program(self, program: FlashProgram, result: ProgramResult) -> None:
+        start = time.monotonic()
+        failures = 0
+        self._forget(program.slot_label)
+        while True:
+            try:
+                await self._make_ready(program)
+                result.downloads += 1
+                for index in range(len(program.frames)):
+                    await self._send(program, result, index)
+                await self._verify(program, result)
+                break
+            except (LinkTimeout, LinkLost) as exc:
+                failures += 1
+                if failures > self.link.endpoint.retries:
+                    await self._abandon(program)  # never leave a half download behind
+                    raise FlashFailure("interrupted", f"{program.label}: {exc}; gave up after "
+                                       f"{failures} downloads") from None
+                self._note(f"{program.label}: {exc}: downloading it again from its create "
+                           "frame")
+                await asyncio.sleep(backoff(failures, self.link.endpoint.timeout))
+        result.status = "verified"
+        result.seconds = time.monotonic() - start
+        if result.download_status is not None:
+            self._remember(program, result.download_status)
+        extra = [f"{result.downloads} downloads"] if result.downloads > 1 else []
+        extra += [f"{result.busy_waits} busy waits"] if result.busy_waits else []
+        self.progress(f"{program.label}: {len(program.frames)} frames verified "
+                      f"({result.seconds * 1000:.0f} ms{', ' if extra else ''}"
+                      f"{', '.join(extra)})")
+
+    async def _make_ready(self, program: FlashProgram) -> None:
+        """Bring a device left in a download state back to ready (step 1 of the module
+        docstring)."""
+        (state,) = await self.link.read_input(STATE_REGISTER, 1)
+        if state == 0:
+            return
+        if state not in (1, 2):
+            raise FlashFailure("rejected", f"input register {STATE_REGISTER} reads {state}, "
+                               "not a state of the M8194H (0 ready, 1/2 MP/ISR download)")
+        kind = "mp" if state == 1 else "isr"
+        await self._write(self._encoder().close_frame(kind), None)
+        registers = await self.link.read_input(STATE_REGISTER, STATUS_FIRST + STATUS_COUNT
+                                               - STATE_REGISTER)
+        if registers[0] != 0:
+            raise FlashFailure("rejected", f"the device stays in {STATES.get(registers[0])} "
+                               "state after a close frame")
+        mp_no, isr_no, _command, _line, error = registers[STATUS_FIRST - STATE_REGISTER:]
+        slot = mp_no if kind == "mp" else isr_no
+        self._note(f"the device was in {STATES[state]} state (a download cut short): closed "
+                   f"it{f' ({kind.upper()}{slot})' if slot else ''}")
+        if slot and error == 0 and (kind, slot) != (program.kind, program.slot):
+            await self._empty(kind, slot)
+
+    async def _empty(self, kind: str, slot: int) -> None:
+        """Download an empty program into a slot a cut-short download left a truncated
+        program in: an empty program returns at once when called, a truncated one may not."""
+        encoder = self._encoder()
+        self._forget(f"{kind.upper()}{slot}")
+        await self._write(encoder.create_frame(kind, slot), None)
+        await self._write(encoder.close_frame(kind), None)
+        self._note(f"{kind.upper()}{slot} held a truncated program: emptied it")
+
+    async def _write(self, frame: list[int], result: ProgramResult | None) -> None:
+        """One frame; a busy device (exception 0x06, or cause 0xC1 DPRAM full) gets the same
+        frame again after growing pauses. Any other refusal raises Refused, with the cause in
+        words."""
+        waited = 0.0
+        attempt = 0
+        while True:
+            try:
+                await self.link.write_frame(frame)
+                return
+            except DeviceException as exc:
+                cause = None
+                if exc.code == ILLEGAL_FUNCTION:
+                    (cause,) = await self.link.read_input(CAUSE_REGISTER, 1)
+                if exc.code != DEVICE_BUSY and cause != DPRAM_FULL:
+                    reason = exc.name if cause is None else (
+                        f"{exc.name}, cause {cause:#04x} ("
+                        f"{self.profile.illegal_function_causes.get(cause, 'unknown cause')})")
+                    raise Refused(exc, cause, reason) from None
+                attempt += 1
+                pause = backoff(attempt, BUSY_PAUSE_MAX_S, BUSY_PAUSE_FIRST_S)
+                if waited + pause > self.options.busy_timeout:
+                    raise FlashFailure("interrupted", f"the device stayed busy for "
+                                       f"{waited:.1f} s") from None
+                if result is not None:
+                    result.busy_waits += 1
+                await asyncio.sleep(pause)
+                waited += pause
+
+    async def _send(self, program: FlashProgram, result: ProgramResult, index: int) -> None:
+        frame = program.frames[index]
+        try:
+            await self._write(frame, result)
+            self.report.frames_written += 1
+        except FlashFailure:  # the device stayed busy: close what was opened
+            if index > 0:
+                await self._abandon(program)
+            raise
+        except Refused as refusal:
+            if index > 0:
+                await self._abandon(program)
+            raise FlashFailure("rejected", f"{program.label}: the device refused frame "
+                               f"{index} ({self._describe(frame)}): {refusal}",
+                               program.where(index)) from None
+
+    async def _abandon(self, program: FlashProgram) -> None:
+        """After a refused frame, or giving up on a program: end the download and empty the
+        slot, so the device is ready and holds no truncated program. Failures here are noted,
+        not raised: the refusal is what the user must see."""
+        try:
+            (state,) = await self.link.read_input(STATE_REGISTER, 1)
+            if state in (1, 2):
+                await self._write(self._encoder().close_frame("mp" if state == 1 else "isr"), None)
+            await self._empty(program.kind, program.slot)
+        except (LinkError, DeviceException, Refused, FlashFailure) as exc:
+            self._note(f"{program.label}: could not tidy up after the refusal: {exc}")
+
+    async def _verify(self, program: FlashProgram, result: ProgramResult) -> None:
+        registers = await self.link.read_input(STATE_REGISTER, STATUS_FIRST + STATUS_COUNT
+                                               - STATE_REGISTER)
+        state = registers[0]
+        status = registers[STATUS_FIRST - STATE_REGISTER:]
+        result.download_status = status
+        mp_no, isr_no, command, line, error = status
+        expected = (program.slot, 0) if program.kind == "mp" else (0, program.slot)
+        if state != 0:
+            raise FlashFailure("unverified", f"{program.label}: the device is in "
+                               f"{STATES.get(state, state)} state after the close frame",
+                               program.where(len(program.frames) - 1))
+        if (mp_no, isr_no) != expected:
+            raise FlashFailure("unverified", f"{program.label}: the download status "
+                               f"(input registers 110-114) is for MP{mp_no}/ISR{isr_no}, "
+                               "not for this program")
+        if error:
+            index = program.frame_at(line, self.catalogue)
+            known = self.catalogue.by_code.get(command)
+            name = known.short_name if known is not None else f"command {command:#06x}"
+            reason = self.profile.download_errors.get(error, "unknown download error")
+            raise FlashFailure("rejected", f"{program.label}: the device refused the program: "
+                               f"download error {error:#04x} ({reason}) at slot line {line} "
+                               f"({name})", program.where(index))
+
+    # ------------------------------------------------------- initial table, triggers
+    async def _init(self, init: FlashInit, result: StepResult) -> None:
+        """Write the initial table (always: no register tells whether the device's table
+        still matches a record), then wait for LOAD_INITIAL to finish: input register 101
+        reads 4 while the table loads and 5 when the initialization finished (12.1.12)."""
+        start = time.monotonic()
+        for index, frame in enumerate(init.frames):
+            try:
+                await self._write(frame, None)
+            except Refused as refusal:
+                raise FlashFailure("rejected", f"INIT: the device refused frame {index} "
+                                   f"({self._describe(frame)}): {refusal}",
+                                   init.where(index)) from None
+            self.report.frames_written += 1
+        deadline = time.monotonic() + INIT_TIMEOUT_S
+        while True:
+            (state,) = await self.link.read_input(CHIP_STATE_REGISTER, 1)
+            if state == CHIP_INITIALIZED:
+                break
+            if time.monotonic() > deadline:
+                raise FlashFailure("unverified", f"INIT: input register {CHIP_STATE_REGISTER} "
+                                   f"reads {state} {INIT_TIMEOUT_S:.0f} s after LOAD_INITIAL, "
+                                   f"not {CHIP_INITIALIZED} (initialization finished)",
+                                   init.where(len(init.frames) - 1))
+            await asyncio.sleep(INIT_POLL_S)
+        result.status = "verified"
+        result.seconds = time.monotonic() - start
+        result.detail = f"input register {CHIP_STATE_REGISTER} = {CHIP_INITIALIZED}"
+        self.progress(f"INIT: {len(init.frames)} frames written, initial table loaded "
+                      f"({result.seconds * 1000:.0f} ms)")
+
+    async def _triggers(self, triggers: FlashTriggers, result: StepResult) -> None:
+        """Switch FRnet DI triggering on (or off) and read the register back. The table
+        itself cannot be downloaded: the manual sets it only through the vendor utility."""
+        start = time.monotonic()
+        wanted = int(triggers.enabled)
+        where = f"{triggers.source}:{triggers.line}" if triggers.source else None
+        try:
+            await self.link.write_holding(TRIGGER_REGISTER, [wanted])
+        except DeviceException as exc:
+            raise FlashFailure("rejected", f"TRIGGERS: the device refused holding register "
+                               f"{TRIGGER_REGISTER} = {wanted}: {exc}", where) from None
+        (now,) = await self.link.read_holding(TRIGGER_REGISTER, 1)
+        if now != wanted:
+            raise FlashFailure("unverified", f"TRIGGERS: holding register {TRIGGER_REGISTER} "
+                               f"reads {now} after writing {wanted}", where)
+        result.status = "verified"
+        result.seconds = time.monotonic() - start
+        result.detail = f"holding register {TRIGGER_REGISTER} = {wanted}"
+        state = "enabled" if wanted else "disabled"
+        self.progress(f"TRIGGERS: FRnet DI triggering {state} (holding register "
+                      f"{TRIGGER_REGISTER} reads {now})")
+        self._note(f"the trigger table ({len(triggers.entries)} channels) is not downloadable: "
+                   "enter it in EzMove (Setting -> FRnet DI..., Send Table) as "
+                   "`mpc build --format triggers` lists it")
+
+    def _describe(self, frame: list[int]) -> str:
+        command = self.catalogue.by_code.get(frame[0])
+        words = " ".join(f"{w:04X}" for w in frame)
+        return f"{command.short_name} {words}" if command is not None else words
+
+
+async def flash(image: FlashImage, endpoint: Endpoint, options: FlashOptions = FlashOptions(),
+                progress: Callable[[str], None] | None = None) -> FlashReport:
+    """Download every program of `image` into the device at `endpoint` and verify each."""
+    return await Flasher(image, DeviceLink(endpoint), options, progress).run()

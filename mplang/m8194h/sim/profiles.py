@@ -1,0 +1,212 @@
+"""Speed plans and profiles of the virtual M8194H.
+
+An axis's speed settings (`_AxisSettings`) give the `_Plan` a command latches when it is
+issued; a plan and a distance give a `_Profile`: the path length ``s(t)`` of one motion, a
+chain of constant-jerk pieces (a piecewise cubic in time) evaluated in closed form.  The
+motion model (`motion`) and the home search (`homing`) both plan with these, so they sit
+below both.
+
+Units: positions in pulses (``int``), speeds in pulses/s, accelerations in pulses/s²,
+jerks in pulses/s³, time in seconds (``float``).
+
+Sources are the RS-M8194H manual (``/work/shared/manuals/001_404865bff90dda3e.txt``,
+cited below as "manual line N"); where the manual is silent the choice is stated.
+
+Conventions and simplifications
+-------------------------------
+* Speed resolution (manual l.1146): drive and start speeds (SV, V, VSV, VV and the
+  CONTINUE_MOVE speed) are rounded to the nearest multiple of ``MAX_V / 8000`` when
+  a motion starts (a non-zero drive speed is at least one step).  The power-on
+  MAX_V is 200 000 PPS (factory table, manual l.9705), so the default step is 25 PPS.
+  Accelerations and jerks are used as given (the manual's MAX_V/64 granularity for
+  A/D, l.5157, is not modelled).
+* A start speed above the drive speed means a constant-speed move at the drive
+  speed (as in the CONTINUE_MOVE example, manual l.5679-5681: SV 2000, speed 1000).
+* T-curve (NORMAL_SPEED 0/2, manual l.4934): SV → V at A, cruise, V → SV at D
+  (mode 0 uses A for both ramps), then the move ends.  When the distance is too short
+  the profile is a triangle whose peak ``vp`` solves
+  ``(vp²-SV²)/2A + (vp²-SV²)/2D = distance``.
+* S-curve (modes 1/3): each ramp is a pure jerk-limited "parabolic S": the
+  acceleration rises linearly at K to its peak and falls back to zero at -K (no
+  constant-acceleration stretch, since modes 1/3 take no A/D), so a ramp by ``dv``
+  lasts ``2*sqrt(dv/K)`` and covers ``(v0+v1)*sqrt(dv/K)``.  The deceleration ramp
+  uses L (mode 3) or K (mode 1).  Short moves lower the peak speed so that the
+  two ramps exactly cover the distance (closed-form cubic, Newton-polished).
+* Offset pulses AO / VAO (7.1.8, l.5351; l.6369; power-on 8): a fixed move (single axis
+  or interpolation) plans its ramps over the distance less the offset and runs the offset
+  pulses at the start speed after the deceleration, "compensation [of] the pulses when the
+  deceleration speed does not reach the initial speed" (l.5351); the move still ends
+  exactly on its target.  A negative offset (which would cut the deceleration short) and
+  offsets in continuous-interpolation chains are not applied.
+"""
+
+from __future__ import annotations
+
+import math
+from bisect import bisect_right
+from dataclasses import dataclass
+
+_INF = math.inf
+#: power-on maximum speed (factory initial table, manual line 9705)
+DEFAULT_MAX_V = 200_000
+_SPEED_STEPS = 8000
+
+
+@dataclass
+class _AxisSettings:
+    max_v: int = DEFAULT_MAX_V
+    mode: int = 0
+    sv: int = 1000
+    v: int = 10000
+    a: int = 100_000
+    d: int = 100_000
+    k: int = 1_000_000
+    l: int = 1_000_000  # noqa: E741 - the manual's name
+    ao: int = 8  # power-on value, manual l.5351
+
+
+def _quantise(speed: float, max_v: float) -> float:
+    """Round a speed to the controller's resolution MAX_V/8000 (manual l.1146)."""
+    res = max_v / _SPEED_STEPS
+    if speed <= 0:
+        return 0.0
+    return max(res, round(speed / res) * res)
+
+
+class _Profile:
+    """Path length s(tau) for tau >= 0, a chain of constant-jerk pieces."""
+
+    __slots__ = ("_p", "_v", "duration", "length", "segs", "starts")
+
+    def __init__(self, s0: float, v0: float) -> None:
+        self.starts: list[float] = []
+        self.segs: list[tuple[float, float, float, float]] = []
+        self.duration = 0.0
+        self.length = s0
+        self._p = s0
+        self._v = v0
+
+    def add(self, dur: float, a0: float, jerk: float) -> None:
+        if dur <= 0.0:
+            return
+        self.starts.append(self.duration)
+        self.segs.append((self._p, self._v, a0, jerk))
+        self._p += self._v * dur + a0 * dur * dur / 2.0 + jerk * dur**3 / 6.0
+        self._v += a0 * dur + jerk * dur * dur / 2.0
+        self.duration += dur
+
+    def forever(self) -> None:
+        """Cruise at the present speed without end."""
+        self.starts.append(self.duration)
+        self.segs.append((self._p, self._v, 0.0, 0.0))
+        self.duration = _INF
+        self.length = _INF
+
+    def state(self, tau: float) -> tuple[float, float, float]:
+        """(s, ds/dt, d2s/dt2) at tau seconds after the start."""
+        if tau >= self.duration or not self.segs:
+            return self.length, 0.0, 0.0
+        i = bisect_right(self.starts, tau) - 1
+        if i < 0:
+            i = 0
+        dt = tau - self.starts[i]
+        if dt < 0.0:
+            dt = 0.0
+        p, v, a, j = self.segs[i]
+        s = p + v * dt + a * dt * dt / 2.0 + j * dt**3 / 6.0
+        if s > self.length:
+            s = self.length
+        return s, v + a * dt + j * dt * dt / 2.0, a + j * dt
+
+
+def _ramp(prof: _Profile, v0: float, v1: float, rate: float, s_curve: bool) -> None:
+    """Append a speed change v0 -> v1 (rate = acceleration, or jerk for S-curves)."""
+    dv = v1 - v0
+    if dv == 0.0:
+        return
+    sign = 1.0 if dv > 0 else -1.0
+    if s_curve:
+        half = math.sqrt(abs(dv) / rate)
+        prof.add(half, 0.0, sign * rate)
+        prof.add(half, sign * rate * half, -sign * rate)
+    else:
+        prof.add(abs(dv) / rate, sign * rate, 0.0)
+
+
+def _ramp_dist(v0: float, v1: float, rate: float, s_curve: bool) -> float:
+    if s_curve:
+        return (v0 + v1) * math.sqrt(abs(v1 - v0) / rate)
+    return abs(v1 * v1 - v0 * v0) / (2.0 * rate)
+
+
+@dataclass(frozen=True)
+class _Plan:
+    """Speed parameters latched when a command is issued."""
+
+    sv: float
+    v: float
+    acc: float  # acceleration, or jerk for S-curves
+    dec: float
+    s_curve: bool
+    constant: bool = False
+    offset: float = 0.0  # AO / VAO: pulses kept back from the deceleration, run at SV
+
+
+def _point_to_point(dist: float, plan: _Plan) -> _Profile:
+    """Profile covering exactly `dist` pulses of path, starting and ending at SV."""
+    v = max(plan.v, 1.0)
+    sv = min(plan.sv, v)
+    prof = _Profile(0.0, sv)
+    if dist <= 0.0:
+        return prof
+    if plan.constant or sv >= v:
+        prof = _Profile(0.0, v)
+        prof.add(dist / v, 0.0, 0.0)
+        prof.length = dist
+        return prof
+    creep = min(plan.offset, dist) if plan.offset > 0.0 and sv > 0.0 else 0.0
+    if creep:
+        prof = _point_to_point(dist - creep, _Plan(sv, v, plan.acc, plan.dec, plan.s_curve))
+        prof.add(creep / sv, 0.0, 0.0)
+        prof.length = dist
+        return prof
+    acc, dec, sc = plan.acc, plan.dec, plan.s_curve
+    need = _ramp_dist(sv, v, acc, sc) + _ramp_dist(v, sv, dec, sc)
+    if need <= dist:
+        peak = v
+        cruise = (dist - need) / v
+    else:
+        cruise = 0.0
+        if sc:
+            # (2 sv + w^2) w c = dist with w^2 = peak - sv, c = 1/sqrt(K) + 1/sqrt(L)
+            c = 1.0 / math.sqrt(acc) + 1.0 / math.sqrt(dec)
+            q = dist / c
+            p = 2.0 * sv
+            w = q ** (1.0 / 3.0)
+            if p > 0.0:
+                w = min(w, q / p)  # both are upper bounds of the root
+            for _ in range(60):  # Newton from above converges monotonically
+                f = w * w * w + p * w - q
+                step = f / (3.0 * w * w + p) if w > 0.0 or p > 0.0 else 0.0
+                w -= step
+                if abs(step) <= 1e-15 * max(1.0, w):
+                    break
+            peak = sv + w * w
+        else:
+            peak = math.sqrt(sv * sv + 2.0 * dist * acc * dec / (acc + dec))
+    _ramp(prof, sv, peak, acc, sc)
+    prof.add(cruise, 0.0, 0.0)
+    _ramp(prof, peak, sv, dec, sc)
+    prof.length = dist
+    return prof
+
+
+def _single_plan(st: _AxisSettings) -> _Plan:
+    v = _quantise(st.v, st.max_v)
+    sv = _quantise(st.sv, st.max_v)
+    mode = st.mode
+    if mode in (1, 3):
+        return _Plan(sv, v, float(max(st.k, 1)), float(max(st.l if mode == 3 else st.k, 1)),
+                     True, offset=float(st.ao))
+    return _Plan(sv, v, float(max(st.a, 1)), float(max(st.d if mode == 2 else st.a, 1)), False,
+                 offset=float(st.ao))

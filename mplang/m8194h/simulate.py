@@ -1,0 +1,53 @@
+"""`mpc sim` for the M8194H: a virtual controller served over Modbus TCP and/or RTU until
+stopped, with its macro memory kept in a file and the build (if any) downloaded first, as
+`mpc flash` would."""
+
+from __future__ import annotations
+
+import asyncio
+import signal
+
+from mplang.family.face import FamilyBuild, Say, ServeRequest, ServiceError
+from mplang.m8194h.image import BuildResult
+from mplang.m8194h.sim import service
+from mplang.m8194h.sim.controller import VirtualController
+
+DEFAULT_TCP = ("127.0.0.1", 1502)
+"""Where `mpc sim` listens when given neither --tcp nor --serial."""
+
+
+def serve(build: FamilyBuild | None, request: ServeRequest, say: Say) -> None:
+    """Load the memory file, download `build`, then serve until Ctrl-C, SIGTERM or
+    `request.duration`. Every failure is a `ServiceError`: "memory" for the memory file,
+    "refused" when the controller refuses the build, "transport" for the ports."""
+    controller = VirtualController(word_order=request.word_order or 0)
+    memory = request.memory
+    try:
+        if memory is not None and memory.exists():
+            service.load_memory(controller, memory)
+            say(f"macro memory {memory}: {len(controller.tables)} program(s)")
+        if build is not None:
+            assert isinstance(build, BuildResult)
+            service.preload(controller, build)
+            say(f"{len(build.programs)} program(s) downloaded")
+            if memory is not None:
+                service.save_memory(controller, memory)
+    except service.ServiceError as exc:
+        raise ServiceError("memory" if exc.kind == "memory" else "refused", str(exc)) from None
+    options = service.SimOptions(
+        tcp=request.tcp if request.tcp is not None or request.serial is not None
+        else DEFAULT_TCP, serial=request.serial, unit=request.unit, baudrate=request.baud,
+        parity=request.parity, stopbits=request.stopbits, speed=request.speed, memory=memory,
+        duration=request.duration, verbose=request.verbose)
+
+    async def main_task() -> None:
+        stop_event = asyncio.Event()
+        loop = asyncio.get_running_loop()
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            loop.add_signal_handler(sig, stop_event.set)
+        await service.serve(options, controller, say, stop_event)
+
+    try:
+        asyncio.run(main_task())
+    except service.ServiceError as exc:
+        raise ServiceError("memory" if exc.kind == "memory" else "transport", str(exc)) from None
