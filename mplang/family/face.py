@@ -34,6 +34,21 @@ class NoSuchProgram(RunSetupError):
     """`--call` names a program that is not in the build."""
 
 
+class BadImage(ValueError):
+    """An image file a family cannot read back; the message starts with the place."""
+
+
+class Disassembled(Protocol):
+    """What `disassemble` returns: `.mp` source, and what could not be carried over
+    exactly (empty when the source rebuilds to the very same frames)."""
+
+    @property
+    def text(self) -> str: ...
+
+    @property
+    def problems(self) -> list[str]: ...
+
+
 class ServiceError(Exception):
     """A virtual device cannot be served as asked. `kind`: "usage" (the request does not
     fit the family: the command line is wrong), "memory" (the memory file cannot be read or
@@ -179,8 +194,9 @@ class Family(Protocol):
         ...
 
     @property
-    def disassemble(self) -> Callable[[Any], Any] | None:
-        """`mpc disasm` of the family's images, or None where it has none."""
+    def disassemble(self) -> Callable[[Path, range], Disassembled] | None:
+        """`mpc disasm`: an image file of the family (its temporaries pool given) back to
+        `.mp` (raising `BadImage` or `OSError`), or None where the family has no image."""
         ...
 
     def check_native(self, paths: list[Path], target: str | None = None) -> FamilyBuild: ...

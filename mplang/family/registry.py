@@ -69,3 +69,8 @@ def family_of_path(path: Path) -> Family | None:
     suffix = path.suffix.lower()
     entry = next((e for e in FAMILIES if suffix in e.suffixes), None)
     return None if entry is None else entry.load()
+
+
+def family_of_title(title: str) -> Family | None:
+    """The family an image names (`"target": {"family": TITLE}`); None for no such name."""
+    return next((f for f in families() if title == f.TITLE), None)

@@ -24,7 +24,6 @@ from mplang.m8194h.run import RunReport, run_family
 
 if TYPE_CHECKING:
     from mplang.m8194h.disasm import Disassembly
-    from mplang.m8194h.flash import FlashImage
 
 TITLE = "M8194H"
 TARGETS = ("et", "rs")
@@ -76,8 +75,9 @@ def serve(build: AnyBuild | None, request: ServeRequest, say: Say) -> None:
     simulate.serve(build, request, say)
 
 
-def disassemble(image: FlashImage) -> Disassembly:
-    """An image back to `.mp` (`mplang.m8194h.disasm`), imported when called, as `serve`."""
+def disassemble(path: Path, temps: range) -> Disassembly:
+    """An image JSON back to `.mp` (`mplang.m8194h.disasm`), imported when called, as
+    `serve`."""
     from mplang.m8194h import disasm
 
-    return disasm.disassemble(image)
+    return disasm.disassemble_file(path, temps)

@@ -14,6 +14,7 @@ from mplang.cli.common import (
     parse_temps,
     write_output,
 )
+from mplang.family.face import Family
 
 
 @click.command("disasm", short_help="Turn an image JSON back into .mp source.")
@@ -30,13 +31,16 @@ def command(image: str, output: str | None, temp_vars: range) -> None:
     Every program is rebuilt from the text and compared frame for frame with the image;
     frames that cannot be carried over exactly are named on standard error (exit 14).
     """
-    from mplang.m8194h.disasm import disassemble_file
-    from mplang.m8194h.flash import ImageError
+    from mplang.family.face import BadImage
 
     path = Path(image)
+    family = _image_family(path)
+    if family.disassemble is None:
+        raise click.UsageError(f"{image}: {family.TITLE} images cannot be disassembled: the "
+                               "build's own listing is its source")
     try:
-        result = disassemble_file(path, temp_vars)
-    except ImageError as exc:
+        result = family.disassemble(path, temp_vars)
+    except BadImage as exc:
         click.echo(f"mpc: {exc}", err=True)
         sys.exit(EXIT_NO_INPUT)
     except OSError as exc:
@@ -49,3 +53,24 @@ def command(image: str, output: str | None, temp_vars: range) -> None:
         click.echo(f"mpc: {len(result.problems)} frame(s) or program(s) not carried over "
                    "exactly", err=True)
         sys.exit(EXIT_NOT_EXACT)
+
+
+def _image_family(path: Path) -> Family:
+    """The family an image names (`"target": {"family": TITLE}`, or a target's name); the
+    first registered family when it names none or cannot be read (whose loader then says
+    what is wrong)."""
+    import json
+
+    from mplang.family.registry import families, family_of_target, family_of_title
+
+    try:
+        data = json.loads(path.read_text(encoding="utf-8", errors="replace"))
+    except (OSError, ValueError, RecursionError):
+        data = None
+    target = data.get("target") if isinstance(data, dict) else None
+    found = None
+    if isinstance(target, dict) and isinstance(target.get("family"), str):
+        found = family_of_title(target["family"])
+    elif isinstance(target, str):  # the other families write their target's name
+        found = family_of_target(target)
+    return found if found is not None else families()[0]

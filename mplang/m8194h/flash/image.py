@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from mplang.family.face import BadImage
 from mplang.ir import catalogue as catalogue_module
 from mplang.ir.catalogue import Catalogue
 from mplang.m8194h.compiler import IMAGE_FORMAT, BuildResult
@@ -20,7 +21,7 @@ from mplang.m8194h.encode import Encoder
 from mplang.m8194h.modbus import MAX_WRITE_REGISTERS
 
 
-class ImageError(ValueError):
+class ImageError(BadImage):
     """An image JSON that cannot be flashed; the message starts with the place."""
 
 
