@@ -16,6 +16,9 @@ DEFAULT_PERIOD = 0.001
 """Sampling period in seconds of simulated time (1 ms)."""
 
 CSV_COLUMNS_PER_AXIS = ("lp", "ep", "velocity")
+SAME_INSTANT_S = 1e-7
+"""Samples closer than this are one instant (the CSV counts microseconds): float sums such
+as 0.214 and 0.21400000000000002 must not make two rows, the second with a false velocity."""
 
 
 @dataclass
@@ -45,7 +48,7 @@ class Trace:
     def add(self, now: float, readings: Sequence[tuple[float, float, float]]) -> None:
         """One sample: (LP, EP, velocity) per axis at `now`. A second sample at the same
         instant replaces the first: the later reading is the settled one."""
-        if self.time and now <= self.time[-1]:
+        if self.time and now <= self.time[-1] + SAME_INSTANT_S:
             self._drop_last()
         self.time.append(now)
         for index, (lp, ep, velocity) in enumerate(readings):
@@ -122,7 +125,7 @@ def trace_from_samples(samples: Sequence[tuple[float, Mapping[str, float]]], per
     trace = Trace(period, tuple(names), unit=unit)
     last = dict.fromkeys(names, 0.0)
     for when, point in samples:
-        if trace.time and when <= trace.time[-1]:
+        if trace.time and when <= trace.time[-1] + SAME_INSTANT_S:
             trace._drop_last()
         previous = trace.time[-1] if trace.time else None
         for index, name in enumerate(names):

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 from mplang.family.face import NoSuchProgram, RunSetupError
 from mplang.family.trace import Trace
-from mplang.m8194h.image import BuildResult
+from mplang.m8194h.image import BuildResult, ProgramImage
 from mplang.m8194h.sim.controller import RunResult, VirtualController
 from mplang.m8194h.sim.preload import ServiceError, preload
 from mplang.m8194h.trace import run_traced
@@ -66,12 +66,19 @@ def pick_program(build: BuildResult, call: str | None, first_file: str | None) -
     if match:
         slot = int(match.group(1))
         if not any(p.placement.slot == slot for p in mps):
-            raise NoSuchProgram(f"MP{slot} is not part of this build")
+            raise NoSuchProgram(f"MP{slot} is not part of this build{_callable(mps)}")
         return slot
     named = [p for p in mps if (p.program.name or "").upper() == call.upper()]
     if not named:
-        raise NoSuchProgram(f"no MP named {call!r} in this build")
+        raise NoSuchProgram(f"no MP named {call!r} in this build{_callable(mps)}")
     return named[0].placement.slot
+
+
+def _callable(mps: list[ProgramImage]) -> str:
+    """"; callable: MP100 tour, MP131 home" for a message (every MP of the build)."""
+    names = [f"MP{p.placement.slot}" + (f" {p.program.name}" if p.program.name else "")
+             for p in sorted(mps, key=lambda p: p.placement.slot)]
+    return f"; callable: {', '.join(names)}" if names else ""
 
 
 def run_build(build: BuildResult, call: str | None = None, first_file: str | None = None,
