@@ -36,8 +36,10 @@ EXIT_WOULD_REFORMAT = 12
 EXIT_OMISSIONS = 13
 EXIT_NOT_EXACT = 14
 EXIT_INTERNAL = 70
-FLASH_EXIT = {"verified": EXIT_OK, "no-device": EXIT_NO_DEVICE, "rejected": EXIT_REJECTED,
-              "unverified": EXIT_UNVERIFIED, "interrupted": EXIT_INTERRUPTED}
+FLASH_EXIT = {"verified": EXIT_OK, "no-port": EXIT_TRANSPORT, "no-device": EXIT_NO_DEVICE,
+              "rejected": EXIT_REJECTED, "unverified": EXIT_UNVERIFIED,
+              "interrupted": EXIT_INTERRUPTED, "mixed": EXIT_FLEET_MIXED}
+"""A flash's outcome (`mplang.family.face.FLASH_OUTCOMES`) -> the exit code."""
 
 F = TypeVar("F", bound=Callable[..., Any])
 

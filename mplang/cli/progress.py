@@ -11,9 +11,22 @@ import asyncio
 import sys
 import time
 from collections.abc import Callable
-from typing import TextIO
+from typing import Protocol, TextIO
 
-from mplang.m8194h.flash import FlashReport
+
+class FlashReport(Protocol):
+    """What the display reads of a family's flash reports (the M8194H's
+    `mplang.m8194h.flash.FlashReport`)."""
+
+    @property
+    def frames_planned(self) -> int: ...
+
+    @property
+    def frames_written(self) -> int: ...
+
+    @property
+    def seconds(self) -> float: ...
+
 
 REDRAW_S = 0.1
 BAR_WIDTH = 24

@@ -8,7 +8,9 @@ from __future__ import annotations
 from mplang.csim.build import (
     BUILD_OPTIONS,
     DEFAULT_FORMAT,
+    FLASH_INSTEAD,
     FLASH_OPTIONS,
+    FLASHES_FLEETS,
     FORMATS,
     NO_TRANSPORT,
     POSITION_UNIT,
@@ -23,13 +25,37 @@ from mplang.csim.build import (
     check_native,
 )
 from mplang.csim.compile import compile_mp
+from mplang.csim.flashing import flash as flash_devices
 from mplang.csim.run import FamilyRun, NoSuchProgram, RunSetupError, run_build
 from mplang.csim.service import serve
 
 disassemble = None
 """No image format to read back: a CSIM lists its program itself (ULP)."""
 
-__all__ = ["BUILD_OPTIONS", "DEFAULT_FORMAT", "FLASH_OPTIONS", "FORMATS", "NO_TRANSPORT",
-           "POSITION_UNIT", "PROTOCOL", "SERVE_OPTIONS", "SUFFIXES", "TARGETS", "TITLE",
-           "TRANSPORTS", "CsimProgram", "FamilyBuild", "FamilyRun", "NoSuchProgram",
-           "RunSetupError", "check_native", "compile_mp", "disassemble", "run_build", "serve"]
+__all__ = [
+    "BUILD_OPTIONS",
+    "DEFAULT_FORMAT",
+    "FLASHES_FLEETS",
+    "FLASH_INSTEAD",
+    "FLASH_OPTIONS",
+    "FORMATS",
+    "NO_TRANSPORT",
+    "POSITION_UNIT",
+    "PROTOCOL",
+    "SERVE_OPTIONS",
+    "SUFFIXES",
+    "TARGETS",
+    "TITLE",
+    "TRANSPORTS",
+    "CsimProgram",
+    "FamilyBuild",
+    "FamilyRun",
+    "NoSuchProgram",
+    "RunSetupError",
+    "check_native",
+    "compile_mp",
+    "disassemble",
+    "flash_devices",
+    "run_build",
+    "serve",
+]

@@ -29,6 +29,8 @@ BUILD_OPTIONS: frozenset[str] = frozenset()
 """No build option beyond the common ones (no word order: the CSIM is not Modbus)."""
 SERVE_OPTIONS: frozenset[str] = frozenset()
 FLASH_OPTIONS: frozenset[str] = frozenset()
+FLASHES_FLEETS = False
+FLASH_INSTEAD = ""
 """`mpc sim` options beyond the common ones (the serial line, speed, duration)."""
 
 

@@ -16,14 +16,16 @@ types), and the registry (`mplang.family.registry`) finds them by name.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Awaitable, Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any, Protocol, TypeVar
 
 from mplang.family.trace import Trace
 from mplang.ir.unit import Options
-from mplang.lang.diagnostics import Diagnostic
+from mplang.lang.diagnostics import Diagnostic, Span
+
+T = TypeVar("T")
 
 
 class RunSetupError(ValueError):
@@ -77,6 +79,116 @@ class ServeRequest:
     verbose: bool
     word_order: int | None
     describe: str  # the family (and target) in words, for messages
+
+
+class CommandError(Exception):
+    """A family cannot do what the command asks, for a reason the command line or the input
+    carries: `kind` "usage" (exit 2) or "input" (exit 3); `param` names the option to blame,
+    if one is."""
+
+    def __init__(self, kind: str, message: str, param: str | None = None) -> None:
+        super().__init__(message)
+        self.kind = kind
+        self.param = param
+
+
+class FlashTarget(Protocol):
+    """One device to flash, as a project file or the command line describes it
+    (`mplang.tools.project.Target`)."""
+
+    @property
+    def name(self) -> str: ...
+    @property
+    def host(self) -> str | None: ...
+    @property
+    def port(self) -> int: ...
+    @property
+    def serial(self) -> str | None: ...
+    @property
+    def unit(self) -> int: ...
+    @property
+    def baud(self) -> int: ...
+    @property
+    def parity(self) -> str: ...
+    @property
+    def stopbits(self) -> int: ...
+    @property
+    def timeout(self) -> float | None: ...
+    @property
+    def retries(self) -> int | None: ...
+    @property
+    def word_order(self) -> int | None: ...
+    @property
+    def target(self) -> str | None: ...
+    @property
+    def image(self) -> Path | None: ...
+    @property
+    def sources(self) -> Sequence[Path]: ...
+    @property
+    def span(self) -> Span | None: ...
+
+    def address(self) -> str: ...
+
+
+@dataclass(frozen=True)
+class FlashJob:
+    """What `mpc flash` asks of a family: the devices (all of this family), what to build
+    for them, and how. `timeout` and `retries` are the command line's when it gave them
+    (None: each device's own, then the project's `[flash]`, then the defaults)."""
+
+    devices: Sequence[FlashTarget]
+    paths: list[Path]  # FILE... or the project's sources, for devices without their own
+    options: Options
+    werror: bool
+    word_order_fixed: bool  # --word-order or the project's word-order was given
+    dry_run: bool
+    as_json: bool
+    force: bool
+    set_word_order: bool
+    record: Path | None  # --record, else the project's [flash] record
+    timeout: float | None
+    retries: int | None
+    settings_timeout: float | None  # the project's [flash] values
+    settings_retries: int | None
+    settings_set_word_order: bool
+    fleet: bool  # --fleet: every device at once, a table at the end
+
+
+class Progress(Protocol):
+    """A running flash as the user sees it: lines, and (on a terminal) a progress bar fed
+    by the reports the flash keeps."""
+
+    def say(self, text: str) -> None: ...
+
+    def drive(self, work: Callable[[], Awaitable[T]], fallback: Callable[[], T]) -> T:
+        """Run the coroutine `work()` while the display redraws; Ctrl-C and SIGTERM cancel
+        it, and `fallback()` gives what it left."""
+        ...
+
+
+class FlashUI(Protocol):
+    """What the command gives a family's flash: where lines go, how a build's diagnostics
+    are reported, and a progress display."""
+
+    def say(self, text: str) -> None:
+        """A line on standard error (`mpc flash: ...`)."""
+        ...
+
+    def out(self, text: str) -> None:
+        """Standard output (JSON summaries, dry-run plans)."""
+        ...
+
+    def checked(self, build: FamilyBuild) -> None:
+        """Report the build's diagnostics; end the command (exit 1) if it has errors, or
+        warnings with --werror."""
+        ...
+
+    def progress(self, reports: Callable[[], Sequence[Any]]) -> Progress: ...
+
+
+FLASH_OUTCOMES = ("verified", "no-port", "no-device", "rejected", "unverified",
+                  "interrupted", "mixed")
+"""What a flash can end in; the command maps each to its exit code."""
 
 
 class FamilyBuild(Protocol):
@@ -191,6 +303,24 @@ class Family(Protocol):
     def serve(self) -> Callable[[FamilyBuild | None, ServeRequest, Say], None] | None:
         """`mpc sim`: serve the virtual device until stopped (raising `ServiceError`), or
         None where the family has no device service."""
+        ...
+
+    @property
+    def flash_devices(self) -> Callable[[FlashJob, FlashUI], str] | None:
+        """`mpc flash`: download, verify and report (one of `FLASH_OUTCOMES`), raising
+        `CommandError` for what the job asks wrongly; None where nothing can reach the
+        family's devices (`NO_TRANSPORT` says why, `FLASH_INSTEAD` what to do)."""
+        ...
+
+    @property
+    def FLASHES_FLEETS(self) -> bool:
+        """Whether `flash` takes many devices at once (`mpc flash --fleet`)."""
+        ...
+
+    @property
+    def FLASH_INSTEAD(self) -> str:
+        """For a family that cannot be flashed: what to do instead (`{target}` stands for
+        the target); "" for the others."""
         ...
 
     @property

@@ -10,7 +10,9 @@ from mplang.family.face import NoSuchProgram, RunSetupError
 from mplang.fatek.build import (
     BUILD_OPTIONS,
     DEFAULT_FORMAT,
+    FLASH_INSTEAD,
     FLASH_OPTIONS,
+    FLASHES_FLEETS,
     FORMATS,
     NO_TRANSPORT,
     POSITION_UNIT,
@@ -28,10 +30,35 @@ from mplang.fatek.run import FamilyRun, NoSuchTable, run_build
 
 serve = None
 """No device service: nothing can reach a FATEK positioning table (`NO_TRANSPORT`)."""
+flash_devices = None
+"""Nothing to flash into (`NO_TRANSPORT`; `FLASH_INSTEAD` says what to do)."""
 disassemble = None
 """No image to read back: the listing is the program."""
 
-__all__ = ["BUILD_OPTIONS", "DEFAULT_FORMAT", "FLASH_OPTIONS", "FORMATS", "NO_TRANSPORT",
-           "POSITION_UNIT", "PROTOCOL", "SERVE_OPTIONS", "SUFFIXES", "TARGETS", "TITLE",
-           "TRANSPORTS", "FamilyBuild", "FamilyRun", "NoSuchProgram", "NoSuchTable",
-           "RunSetupError", "check_native", "compile_mp", "disassemble", "run_build", "serve"]
+__all__ = [
+    "BUILD_OPTIONS",
+    "DEFAULT_FORMAT",
+    "FLASHES_FLEETS",
+    "FLASH_INSTEAD",
+    "FLASH_OPTIONS",
+    "FORMATS",
+    "NO_TRANSPORT",
+    "POSITION_UNIT",
+    "PROTOCOL",
+    "SERVE_OPTIONS",
+    "SUFFIXES",
+    "TARGETS",
+    "TITLE",
+    "TRANSPORTS",
+    "FamilyBuild",
+    "FamilyRun",
+    "NoSuchProgram",
+    "NoSuchTable",
+    "RunSetupError",
+    "check_native",
+    "compile_mp",
+    "disassemble",
+    "flash_devices",
+    "run_build",
+    "serve",
+]

@@ -37,6 +37,10 @@ BUILD_OPTIONS: frozenset[str] = frozenset()
 """No build option beyond the common ones (no word order: no Modbus image)."""
 SERVE_OPTIONS: frozenset[str] = frozenset()
 FLASH_OPTIONS: frozenset[str] = frozenset()
+FLASHES_FLEETS = False
+FLASH_INSTEAD = ("Write the register table with `mpc build --target {target} --format table` "
+                 "(or the listing with --format fbs) and enter it in WinProladder")
+"""What `mpc flash` suggests instead ({target}: the target asked for)."""
 
 
 @dataclass

@@ -16,7 +16,14 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from mplang.family.face import FamilyBuild as AnyBuild
-from mplang.family.face import NoSuchProgram, RunSetupError, Say, ServeRequest
+from mplang.family.face import (
+    FlashJob,
+    FlashUI,
+    NoSuchProgram,
+    RunSetupError,
+    Say,
+    ServeRequest,
+)
 from mplang.ir.unit import Options
 from mplang.m8194h.compiler import compile_paths
 from mplang.m8194h.image import DEFAULT_FORMAT, FORMATS, BuildResult
@@ -38,6 +45,8 @@ the M8194H's alone."""
 FLASH_OPTIONS = frozenset({"--unit", "--word-order", "--set-word-order", "--record",
                            "--retries"})
 """`mpc flash` options beyond the common ones: Modbus, image frames, the flash record."""
+FLASHES_FLEETS = True
+FLASH_INSTEAD = ""
 SERVE_OPTIONS = frozenset({"--unit", "--memory", "--word-order"})
 """`mpc sim` options beyond the common ones: the RTU address, the macro memory file and the
 word order of the virtual controller."""
@@ -45,10 +54,32 @@ word order of the virtual controller."""
 FamilyBuild = BuildResult
 FamilyRun = RunReport
 
-__all__ = ["BUILD_OPTIONS", "DEFAULT_FORMAT", "FLASH_OPTIONS", "FORMATS", "NO_TRANSPORT",
-           "POSITION_UNIT", "PROTOCOL", "SERVE_OPTIONS", "SUFFIXES", "TARGETS", "TITLE",
-           "TRANSPORTS", "FamilyBuild", "FamilyRun", "NoSuchProgram", "RunSetupError",
-           "check_native", "compile_mp", "disassemble", "run_build", "serve"]
+__all__ = [
+    "BUILD_OPTIONS",
+    "DEFAULT_FORMAT",
+    "FLASHES_FLEETS",
+    "FLASH_INSTEAD",
+    "FLASH_OPTIONS",
+    "FORMATS",
+    "NO_TRANSPORT",
+    "POSITION_UNIT",
+    "PROTOCOL",
+    "SERVE_OPTIONS",
+    "SUFFIXES",
+    "TARGETS",
+    "TITLE",
+    "TRANSPORTS",
+    "FamilyBuild",
+    "FamilyRun",
+    "NoSuchProgram",
+    "RunSetupError",
+    "check_native",
+    "compile_mp",
+    "disassemble",
+    "flash_devices",
+    "run_build",
+    "serve",
+]
 
 
 def compile_mp(paths: list[Path], options: Options, target: str) -> BuildResult:
@@ -81,3 +112,11 @@ def disassemble(path: Path, temps: range) -> Disassembly:
     from mplang.m8194h import disasm
 
     return disasm.disassemble_file(path, temps)
+
+
+def flash_devices(job: FlashJob, ui: FlashUI) -> str:
+    """Download and verify over Modbus (`mplang.m8194h.flashing`), imported when called, as
+    `serve`."""
+    from mplang.m8194h import flashing
+
+    return flashing.flash(job, ui)

@@ -3,23 +3,21 @@
 What is flashed where comes from the command line first, then from the project file: FILE...
 (sources or one image JSON) or `[project] sources`; `--tcp`/`--serial`, `--to NAME` (one of
 mpc.toml's `[targets]`), or `--fleet FILE` (every `[targets.NAME]` of FILE, concurrently).
-The work itself is `mplang.m8194h.flash`; this module only resolves those choices and reports.
-A device of another controller family (a CSIM) goes to `mplang.cli.family_flash`.
+The work itself is the family's (`Family.flash_devices`: the M8194H's
+`mplang.m8194h.flashing`, the CSIM's `mplang.csim.flashing`); this module only resolves those
+choices and reports.
 """
 
 from __future__ import annotations
 
 import sys
-from collections.abc import Awaitable, Callable
-from dataclasses import dataclass, replace
+from collections.abc import Awaitable, Callable, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import click
 
 from mplang.cli.common import (
-    EXIT_FLEET_MIXED,
-    EXIT_SOURCE_ERRORS,
     FLASH_EXIT,
     BuildSetup,
     InputError,
@@ -31,13 +29,13 @@ from mplang.cli.common import (
     with_common,
     with_serial_line,
 )
-from mplang.cli.families import Selection, select
-from mplang.m8194h.compiler import Options, compile_paths
+from mplang.cli.families import Selection, refuse_options, select
+from mplang.family.face import FamilyBuild
+from mplang.family.registry import families
 from mplang.tools.project import Project, ProjectError, Target, load_fleet
 
 if TYPE_CHECKING:
     from mplang.cli.progress import FlashDisplay
-    from mplang.m8194h import flash as flashing
 
 T = TypeVar("T")
 
@@ -93,8 +91,7 @@ def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | N
     with DLP, listed back with ULP and compared, then saved with SAVE P. FATEK FBs-PLC
     tables cannot be flashed (the manual documents no transport): see mpc build --format
     table."""
-    from mplang.m8194h import flash as flashing
-    from mplang.m8194h.modbus import Endpoint
+    from mplang.family.face import CommandError, FlashJob
 
     def given(name: str) -> bool:
         source = ctx.get_parameter_source(name)
@@ -119,72 +116,81 @@ def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | N
                                    f"the same device ({device.address()})")
         seen[device.address()] = device.name
     chosen = [(device, _selection(setup, device, given("target"))) for device in targets]
-    others = [(device, selection) for device, selection in chosen
-              if selection.family.PROTOCOL != "modbus"]
-    if others and fleet is not None:
-        from mplang.cli.family_flash import refuse_transport
-
-        for _, selection in others:
-            refuse_transport(selection, False)  # a family nothing can flash: say why
-        names = ", ".join(f"{device.name} ({selection.describe})" for device, selection in others)
-        raise click.UsageError(f"--fleet flashes M8194H devices, and {fleet} also lists {names}: "
-                               "flash each of those on its own (--to NAME, or --serial PORT "
-                               "--target TARGET)")
-    if others:
-        from mplang.cli.family_flash import FlashRequest, flash_family
-
-        device, selection = others[0]
-        settings = setup.project.flash if setup.project is not None else None
-        flash_family(selection, setup, device, FlashRequest(
-            tcp_given=tcp is not None, dry_run=dry_run, as_json=as_json,
-            timeout=timeout if given("timeout") else device.timeout
-            or (settings.timeout if settings else None) or DEFAULT_TIMEOUT,
-            m8194h_options={option: given(name) for option, name in M8194H_FLASH_OPTIONS}))
-        return
-    images = _Images(setup.paths, setup.options, setup.werror, word_order is not None
-                     or (setup.project is not None and setup.project.word_order is not None))
-    settings = setup.project.flash if setup.project is not None else None
-    record_path = record_file or (settings.record if settings else None) \
-        or flashing.default_record_path()
-    devices: list[flashing.FleetDevice] = []
-    for device in targets:
-        image, rebuild = images.for_target(device)
-        endpoint = Endpoint(
-            host=device.host, port=device.port, serial=device.serial, baudrate=device.baud,
-            parity=device.parity, stopbits=device.stopbits, unit=device.unit,
-            timeout=timeout if given("timeout") else
-            device.timeout or (settings.timeout if settings else None) or DEFAULT_TIMEOUT,
-            retries=retries if given("retries") else _first_int(
-                device.retries, settings.retries if settings else None, DEFAULT_RETRIES))
-        devices.append(flashing.FleetDevice(device.name, image, endpoint, flashing.FlashOptions(
-            set_word_order=set_word_order or bool(settings and settings.set_word_order),
-            rebuild=rebuild, address=device.address(), force=force)))
-    record = flashing.FlashRecord(record_path)
-    if dry_run:
-        _dry_run(devices, record, as_json)
-        return
-    for job in devices:
-        job.options = replace(job.options, record=record)
-    if fleet is None:
-        _flash_one(devices[0], as_json)
+    if fleet is not None:
+        _check_fleet(fleet, chosen)
     else:
-        _flash_fleet(devices, as_json)
+        refuse_transport(chosen[0][1], tcp is not None)
+        refuse_options(chosen[0][1], {option: given(name) for option, name in FLASH_OPTIONS},
+                       "FLASH_OPTIONS")
+    family = chosen[0][1].family
+    assert family.flash_devices is not None  # refused above otherwise
+    settings = setup.project.flash if setup.project is not None else None
+    job = FlashJob(
+        devices=targets, paths=setup.paths, options=setup.options, werror=setup.werror,
+        word_order_fixed=word_order is not None
+        or (setup.project is not None and setup.project.word_order is not None),
+        dry_run=dry_run, as_json=as_json, force=force, set_word_order=set_word_order,
+        record=record_file or (settings.record if settings else None),
+        timeout=timeout if given("timeout") else None,
+        retries=retries if given("retries") else None,
+        settings_timeout=settings.timeout if settings else None,
+        settings_retries=settings.retries if settings else None,
+        settings_set_word_order=bool(settings and settings.set_word_order),
+        fleet=fleet is not None)
+    try:
+        outcome = family.flash_devices(job, _FlashUI(setup.werror))
+    except CommandError as exc:
+        if exc.kind == "input":
+            raise InputError(str(exc)) from None
+        if exc.param is not None:
+            raise click.BadParameter(str(exc), param_hint=exc.param) from None
+        raise click.UsageError(str(exc)) from None
+    sys.exit(FLASH_EXIT[outcome])
 
 
-M8194H_FLASH_OPTIONS = (("--unit", "unit"), ("--word-order", "word_order"),
-                        ("--set-word-order", "set_word_order"), ("--record", "record_file"),
-                        ("--retries", "retries"))
-"""Options of `mpc flash` that only an M8194H (Modbus, image frames, flash record) has."""
+FLASH_OPTIONS = (("--unit", "unit"), ("--word-order", "word_order"),
+                 ("--set-word-order", "set_word_order"), ("--record", "record_file"),
+                 ("--retries", "retries"))
+"""Options of `mpc flash` beyond the common ones: refused for a family whose
+`FLASH_OPTIONS` does not take them."""
 
 
 def _refuse_early(selection: Selection, tcp_given: bool) -> None:
-    """A family without a transport (FATEK), or a CSIM asked for over --tcp: refused at once,
-    whatever the device options."""
+    """A family without a transport (FATEK), or asked for over --tcp when it has no TCP:
+    refused at once, whatever the device options."""
     family = selection.family
-    if not family.TRANSPORTS or (tcp_given and "tcp" not in family.TRANSPORTS):
-        from mplang.cli.family_flash import refuse_transport
-
+    if family.flash_devices is None or (tcp_given and "tcp" not in family.TRANSPORTS):
         refuse_transport(selection, tcp_given)
+
+
+def refuse_transport(selection: Selection, tcp_given: bool) -> None:
+    """A usage error if the family cannot be flashed at all (why, and what to do instead),
+    or not over TCP."""
+    family = selection.family
+    if family.flash_devices is None or not family.TRANSPORTS:
+        target = selection.target or family.TARGETS[0]
+        instead = family.FLASH_INSTEAD.format(target=target)
+        raise click.UsageError(f"{selection.describe} programs cannot be flashed: "
+                               f"{family.NO_TRANSPORT}. {instead}")
+    if tcp_given and "tcp" not in family.TRANSPORTS:
+        raise click.UsageError(f"a {family.TITLE} is reached over RS232: give --serial PORT "
+                               "(--tcp is Modbus TCP, for the ET-M8194H)")
+
+
+def _check_fleet(fleet: Path, chosen: list[tuple[Target, Selection]]) -> None:
+    """A fleet is flashed at once by one family that flashes fleets: the others are named."""
+    for _, selection in chosen:
+        refuse_transport(selection, False)  # a family nothing can flash: say why
+    fleets = [f for f in families() if f.FLASHES_FLEETS]
+    kinds = {id(selection.family) for _, selection in chosen}
+    others = [(device, selection) for device, selection in chosen
+              if not selection.family.FLASHES_FLEETS or (len(kinds) > 1
+              and selection.family is not chosen[0][1].family)]
+    if others:
+        names = ", ".join(f"{device.name} ({selection.describe})" for device, selection in others)
+        raise click.UsageError(f"--fleet flashes {' or '.join(f.TITLE for f in fleets)} "
+                               f"devices, and {fleet} also lists {names}: flash each of those "
+                               "on its own (--to NAME, or --serial PORT --target TARGET)")
 
 
 def _selection(setup: BuildSetup, device: Target, cli_target: bool) -> Selection:
@@ -197,10 +203,6 @@ def _selection(setup: BuildSetup, device: Target, cli_target: bool) -> Selection
     target = own if own is not None else setup.options.target
     paths = [device.image] if device.image is not None else list(device.sources) or setup.paths
     return select(paths, target, setup.target_given or own is not None)
-
-
-def _first_int(*values: int | None) -> int:
-    return next(v for v in values if v is not None)
 
 
 def _targets(project: Project | None, tcp: tuple[str, int] | None, serial: str | None,
@@ -239,197 +241,61 @@ def _targets(project: Project | None, tcp: tuple[str, int] | None, serial: str |
                            "(mpc.toml) or --fleet FILE")
 
 
-@dataclass
-class _Images:
-    """Builds each distinct set of sources once (per word order), or loads an image JSON."""
+class _FlashUI:
+    """The family's flash, as the terminal shows it."""
 
-    paths: list[Path]
-    options: Options
-    werror: bool
-    fixed_order: bool
+    def __init__(self, werror: bool) -> None:
+        self.werror = werror
 
-    def __post_init__(self) -> None:
-        self._cache: dict[tuple[tuple[Path, ...], int | None, str],
-                          tuple[flashing.FlashImage,
-                                Callable[[int], flashing.FlashImage] | None]] = {}
+    def say(self, text: str) -> None:
+        click.echo(f"mpc flash: {text}", err=True)
 
-    def for_target(self, device: Target) -> tuple[flashing.FlashImage,
-                                                  Callable[[int], flashing.FlashImage] | None]:
-        if device.image is not None:
-            return self._load(device.image, device.word_order), None
-        paths = list(device.sources) or self.paths
-        if not paths:
-            raise click.UsageError("nothing to flash: give FILE..., or list sources in "
-                                   "mpc.toml ([project] sources or the target's own)")
-        options = self.options if device.word_order is None \
-            else replace(self.options, word_order=device.word_order)
-        if device.target is not None:  # an M8194H here: families are flashed elsewhere
-            options = replace(options, target=device.target)
-        key = (tuple(paths), options.word_order, options.target)
-        if key not in self._cache:
-            self._cache[key] = self._build(paths, options, device.word_order is not None)
-        return self._cache[key]
+    def out(self, text: str) -> None:
+        click.echo(text, nl=False)
 
-    def _load(self, path: Path, word_order: int | None) -> flashing.FlashImage:
-        from mplang.m8194h import flash as flashing
-
-        try:
-            image = flashing.load_image(path)
-        except OSError as exc:
-            raise InputError(f"cannot read {path}: {exc.strerror or exc}") from None
-        except flashing.ImageError as exc:
-            raise InputError(f"{exc}") from None
-        if word_order is not None and word_order != image.word_order:
-            raise InputError(f"{path}: the image is built for word order {image.word_order}, "
-                             f"its target asks for {word_order}")
-        return image
-
-    def _build(self, paths: list[Path], options: Options, target_fixes_order: bool
-               ) -> tuple[flashing.FlashImage, Callable[[int], flashing.FlashImage] | None]:
-        from mplang.m8194h import flash as flashing
-
-        images = [p for p in paths if p.suffix.lower() == ".json"]
-        if images:
-            if len(paths) != 1:
-                raise click.UsageError("give one image JSON, or .mp sources, not both")
-            if self.fixed_order and options.word_order is not None:
-                raise click.BadParameter("an image JSON carries its own word order; "
-                                         "--word-order is for building .mp sources",
-                                         param_hint="--word-order")
-            return self._load(images[0], None), None
-        result = compile_paths(paths, options)
-        code = report(result, self.werror)
+    def checked(self, build: FamilyBuild) -> None:
+        code = report(build, self.werror)
         if code:
-            sys.exit(EXIT_SOURCE_ERRORS)
-        image = flashing.image_from_build(result)
-        if self.fixed_order or target_fixes_order:
-            return image, None
+            sys.exit(code)
 
-        def build_for(order: int) -> flashing.FlashImage:
-            """Sources without a chosen word order follow the device's: the same build."""
-            return flashing.image_from_build(compile_paths(paths, replace(options,
-                                                                          word_order=order)))
-        return image, build_for
+    def progress(self, reports: Callable[[], Sequence[Any]]) -> _Progress:
+        from mplang.cli.progress import FlashDisplay
+
+        return _Progress(FlashDisplay(lambda: list(reports())))
 
 
-def _dry_run(devices: list[flashing.FleetDevice],
-             record: flashing.FlashRecord, as_json: bool) -> None:
-    import json
+class _Progress:
+    """A progress bar (on a terminal) with the flash's lines above it."""
 
-    from mplang.m8194h import flash as flashing
+    def __init__(self, display: FlashDisplay) -> None:
+        self.display = display
 
-    plans = []
-    for device in devices:
-        recorded = record.recorded_slots(device.options.address or "")
-        if as_json:
-            plan = flashing.plan_json(device.image, recorded)
-            plans.append({"device": device.name, **plan} if len(devices) > 1 else plan)
-            continue
-        if len(devices) > 1:
-            click.echo(f"; device {device.name} ({device.endpoint.describe()})")
-        click.echo(flashing.render_plan(device.image, recorded=recorded), nl=False)
-    if as_json:
-        click.echo(json.dumps(plans[0] if len(plans) == 1 else {"devices": plans}))
+    def say(self, text: str) -> None:
+        self.display.say(text)
 
+    def drive(self, work: Callable[[], Awaitable[T]], fallback: Callable[[], T]) -> T:
+        """Run `work()` with the display's redraw task beside it; Ctrl-C and SIGTERM cancel
+        the work, and `fallback()` gives what it left (the reports)."""
+        import asyncio
+        import logging
+        import signal
 
-def _flash_one(device: flashing.FleetDevice, as_json: bool) -> None:
-    import json
+        logging.getLogger("pymodbus").setLevel(logging.CRITICAL)
+        display = self.display
 
-    from mplang.cli.progress import FlashDisplay
-    from mplang.m8194h import flash as flashing
-    from mplang.m8194h.modbus import DeviceLink
+        async def main_task() -> T:
+            task = asyncio.ensure_future(work())
+            redraw = asyncio.ensure_future(display.run())
+            loop = asyncio.get_running_loop()
+            for sig in (signal.SIGINT, signal.SIGTERM):
+                loop.add_signal_handler(sig, task.cancel)
+            try:
+                return await task
+            except asyncio.CancelledError:
+                return fallback()
+            finally:
+                redraw.cancel()
+                await asyncio.gather(redraw, return_exceptions=True)
+                display.finish()
 
-    flasher: flashing.Flasher | None = None
-    display = FlashDisplay(lambda: [flasher.report] if flasher else [])
-    flasher = flashing.Flasher(device.image, DeviceLink(device.endpoint), device.options,
-                               display.say)
-    report_ = _drive(flasher.run, display, lambda: flasher.report)
-    written, unchanged = report_.count("verified"), report_.count("unchanged")
-    if report_.ok:
-        kept = f", {unchanged} unchanged" if unchanged else ""
-        steps = "".join(text for step, text in ((report_.init, ", initial table loaded"),
-                                                (report_.triggers, ", DI triggering set"))
-                        if step is not None)
-        display.say(f"{written} program(s) written and verified{kept}{steps} on "
-                    f"{report_.device}"
-                    + (f" (build {report_.build_id})" if report_.build_id else ""))
-    else:
-        where = f"{report_.where}: " if report_.where else ""
-        display.say(f"{where}error: {report_.error}")
-        display.say(f"{written} of {len(report_.programs)} program(s) written and verified"
-                    + (f", {unchanged} unchanged" if unchanged else ""))
-    if as_json:
-        click.echo(json.dumps(report_.to_json(), indent=1))
-    sys.exit(FLASH_EXIT[report_.outcome])
-
-
-def _drive(work: Callable[[], Awaitable[T]], display: FlashDisplay,
-           fallback: Callable[[], T]) -> T:
-    """Run `work()` (a coroutine function) with the display's redraw task beside it; Ctrl-C
-    and SIGTERM cancel the work, and `fallback()` gives what it left (the reports)."""
-    import asyncio
-    import logging
-    import signal
-
-    logging.getLogger("pymodbus").setLevel(logging.CRITICAL)
-
-    async def main_task() -> T:
-        task = asyncio.ensure_future(work())
-        redraw = asyncio.ensure_future(display.run())
-        loop = asyncio.get_running_loop()
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            loop.add_signal_handler(sig, task.cancel)
-        try:
-            return await task
-        except asyncio.CancelledError:
-            return fallback()
-        finally:
-            redraw.cancel()
-            await asyncio.gather(redraw, return_exceptions=True)
-            display.finish()
-
-    return asyncio.run(main_task())
-
-
-def _flash_fleet(devices: list[flashing.FleetDevice], as_json: bool) -> None:
-    import json
-
-    from mplang.cli.progress import FlashDisplay
-    from mplang.m8194h import flash as flashing
-
-    fleet: flashing.Fleet | None = None
-    display = FlashDisplay(lambda: fleet.reports if fleet else [])
-    fleet = flashing.Fleet(devices, lambda name, text: display.say(f"{name}: {text}"))
-    _drive(fleet.run, display, lambda: fleet.reports)
-    reports = fleet.reports
-    for line in fleet_table(devices, reports):
-        display.say(line)
-    if as_json:
-        click.echo(json.dumps({"ok": all(r.ok for r in reports), "devices": [
-            {"name": d.name, **r.to_json()} for d, r in zip(devices, reports, strict=True)]},
-            indent=1))
-    failed = {r.outcome for r in reports if not r.ok}
-    if not failed:
-        sys.exit(0)
-    sys.exit(FLASH_EXIT[failed.pop()] if len(failed) == 1 else EXIT_FLEET_MIXED)
-
-
-def fleet_table(devices: list[flashing.FleetDevice],
-                reports: list[flashing.FlashReport]) -> list[str]:
-    """One row per device: name, address, outcome, programs written / unchanged, time, and
-    the error where there is one."""
-    rows = [("DEVICE", "ADDRESS", "RESULT", "WRITTEN", "UNCHANGED", "SECONDS")]
-    for device, result in zip(devices, reports, strict=True):
-        outcome = "ok" if result.ok else result.outcome
-        rows.append((device.name, device.endpoint.describe(), outcome,
-                     str(result.count("verified")), str(result.count("unchanged")),
-                     f"{result.seconds:.2f}"))
-    widths = [max(len(row[i]) for row in rows) for i in range(len(rows[0]))]
-    lines = ["  ".join(cell.ljust(width) for cell, width in zip(row, widths, strict=True))
-             .rstrip() for row in rows]
-    for device, result in zip(devices, reports, strict=True):
-        if not result.ok:
-            where = f"{result.where}: " if result.where else ""
-            lines.append(f"{device.name}: {where}{result.error}")
-    return lines
-
+        return asyncio.run(main_task())

@@ -21,9 +21,9 @@ from mplang.cli import (
     EXIT_TRANSPORT,
     EXIT_UNVERIFIED,
     EXIT_USAGE,
-    family_flash,
     main,
 )
+from mplang.csim import flashing as csim_flashing
 from mplang.csim.device import CsimServer, Reply, VirtualCsim
 from mplang.csim.download import DownloadError
 from mplang.family.ptylink import PtyLink
@@ -164,7 +164,7 @@ def test_every_download_failure_has_its_exit_code(monkeypatch: pytest.MonkeyPatc
     def failing(*_args: object, **_kwargs: object) -> None:
         raise DownloadError(kind, f"a {kind} failure", 0)
 
-    monkeypatch.setattr(family_flash, "download", failing)
+    monkeypatch.setattr(csim_flashing, "download", failing)
     result, out, err = run("flash", FLOW, "--serial", "/dev/null", "--json")
     assert result == code
     assert f"mpc flash: {FLOW}:5: error: a {kind} failure" in err  # the first line's place
