@@ -77,7 +77,7 @@ def expand_inputs(patterns: tuple[str, ...]) -> list[Path]:
     for pattern in patterns:
         path = Path(pattern)
         if path.is_dir():
-            found = sorted(path.rglob("*.mp"))
+            found = sorted(p for p in path.rglob("*.mp") if p.is_file())  # no FIFOs
             if not found:
                 raise InputError(f"no .mp files in directory {pattern}")
             paths += found
