@@ -298,22 +298,49 @@ def parse_temps(text: str) -> range:
     return range(low, high + 1)
 
 
-def parse_address(text: str, default_port: int = 502) -> tuple[str, int]:
-    """HOST[:PORT], [IPv6]:PORT or a bare IPv6 address; ValueError with a hint if not."""
-    host, port_text = text, str(default_port)
-    if text.startswith("["):
-        host, _, rest = text[1:].partition("]")
-        if rest:
-            port_text = rest.removeprefix(":")
+LOOPBACK = "127.0.0.1"
+"""The host of an address that names only a port (`1502`, `:1502`)."""
+
+
+def parse_address(text: str, default_port: int | None = 502, *,
+                  any_port: bool = False) -> tuple[str, int]:
+    """One convention for every `--tcp` option and `tcp =` key: `HOST:PORT`, `PORT` alone (a
+    bare number is a port, never a host name; the host is 127.0.0.1, as for `:PORT`),
+    `HOST` (the command's `default_port`; None: the port must be given), `[IPv6]:PORT` or a
+    bare IPv6 address. `any_port` admits port 0 (a server's "any free port"). ValueError with
+    a hint otherwise."""
+    low = 0 if any_port else 1
+    if default_port is None:
+        forms = "write PORT or HOST:PORT (a bare number is a port on 127.0.0.1), e.g. 2087"
+    else:
+        forms = f"write HOST:PORT, PORT (on 127.0.0.1) or HOST (port {default_port}), e.g. " \
+            f"192.168.0.16:{default_port}"
+    host, port_text = text, ""
+    if text.isdigit():
+        host, port_text = "", text
+    elif text.startswith("["):
+        host, closed, rest = text[1:].partition("]")
+        if not closed or (rest and not rest.startswith(":")):
+            raise ValueError(f"{text!r}: {forms}")
+        port_text = rest[1:]
     elif text.count(":") == 1:
         host, port_text = text.split(":")
-    try:
+        if not port_text:
+            raise ValueError(f"{text!r}: {forms}")
+    # no colon: a host name; two or more (outside brackets): a bare IPv6 address
+    if not port_text:
+        if default_port is None:
+            raise ValueError(f"{text!r}: {forms}")
+        port = default_port
+    elif not port_text.isdigit() or not port_text.isascii():
+        raise ValueError(f"{text!r}: {forms}")
+    else:
         port = int(port_text)
-    except ValueError:
-        raise ValueError(f"{text!r}: write HOST or HOST:PORT, e.g. 192.168.0.16:502") from None
-    if not host or not 1 <= port <= 65535:
-        raise ValueError(f"{text!r}: write HOST or HOST:PORT with a port in 1..65535")
-    return host, port
+    if not low <= port <= 65535:
+        raise ValueError(f"{text!r}: the port must be in {low}..65535")
+    if host.strip() != host or (text.startswith("[") and not host):
+        raise ValueError(f"{text!r}: {forms}")
+    return host or LOOPBACK, port
 
 
 def _pins(table: Mapping[str, Any], where: _Locator) -> tuple[SlotPin, ...]:
