@@ -36,6 +36,8 @@ EXIT_WOULD_REFORMAT = 12
 EXIT_OMISSIONS = 13
 EXIT_NOT_EXACT = 14
 EXIT_INTERNAL = 70
+SERVER_PORT = 1502
+"""`mpc sim --tcp HOST`'s port (502 needs privileges; 1502 is the usual unprivileged one)."""
 FLASH_EXIT = {"verified": EXIT_OK, "no-port": EXIT_TRANSPORT, "no-device": EXIT_NO_DEVICE,
               "rejected": EXIT_REJECTED, "unverified": EXIT_UNVERIFIED,
               "interrupted": EXIT_INTERRUPTED, "mixed": EXIT_FLEET_MIXED}
@@ -79,7 +81,7 @@ def expand_inputs(patterns: tuple[str, ...]) -> list[Path]:
     for pattern in patterns:
         path = Path(pattern)
         if path.is_dir():
-            found = sorted(path.rglob("*.mp"))
+            found = sorted(p for p in path.rglob("*.mp") if p.is_file())  # no FIFOs
             if not found:
                 raise InputError(f"no .mp files in directory {pattern}")
             paths += found
@@ -215,27 +217,37 @@ def build_options(target: str, word_order: str | None, temp_vars: range,
 
 def parse_host_port(_ctx: click.Context, _param: click.Parameter,
                     value: str | None) -> tuple[str, int] | None:
+    """Where a server listens (`mpc sim --tcp`): the one `--tcp` convention of
+    `project.parse_address` (PORT alone is a port on 127.0.0.1), port 1502 by default and port
+    0 for any free one."""
     if value is None:
         return None
-    host, sep, port_text = value.rpartition(":")
-    if not sep:
-        host, port_text = value, "1502"
     try:
-        port = int(port_text)
-    except ValueError:
-        raise click.BadParameter(f"{value!r}: write HOST:PORT, e.g. 127.0.0.1:1502") from None
-    if not 0 <= port <= 65535:
-        raise click.BadParameter(f"port {port} is not in 0..65535")
-    return host.strip("[]") or "127.0.0.1", port
+        return project_module.parse_address(value, SERVER_PORT, any_port=True)
+    except ValueError as exc:
+        raise click.BadParameter(str(exc)) from None
 
 
 def parse_device_address(_ctx: click.Context, _param: click.Parameter,
                          value: str | None) -> tuple[str, int] | None:
-    """HOST[:PORT] with the Modbus TCP port 502 by default; IPv6 as [ADDR]:PORT or bare."""
+    """A device to reach (`mpc flash --tcp`): the same convention, with the Modbus TCP port
+    502 by default; a bare number is a port on 127.0.0.1 (a local `mpc sim`)."""
     if value is None:
         return None
     try:
         return project_module.parse_address(value)
+    except ValueError as exc:
+        raise click.BadParameter(str(exc)) from None
+
+
+def parse_listen_port(_ctx: click.Context, _param: click.Parameter,
+                      value: str | None) -> tuple[str, int] | None:
+    """Where a server without a usual port listens (`mpc lsp --tcp`): PORT (on 127.0.0.1)
+    or HOST:PORT, the same convention with the port always given."""
+    if value is None:
+        return None
+    try:
+        return project_module.parse_address(value, None)
     except ValueError as exc:
         raise click.BadParameter(str(exc)) from None
 

@@ -33,7 +33,9 @@ _RULES = [
          "assignment or a command with comma-separated arguments.",
          "Compare the line with the statement forms in docs/language.md."),
     Rule("E102", "include-not-found", E, "An INCLUDE names a file that cannot be read.",
-         "INCLUDE paths are resolved relative to the including file.",
+         "INCLUDE paths are resolved relative to the including file. Only a regular file is "
+         "read: a FIFO, a device or a directory is named and never opened, so an INCLUDE "
+         "cannot hang the build or read without end.",
          "Fix the path, or create the file."),
     Rule("E103", "include-cycle", E, "Files include each other in a cycle.",
          "Including a file that is already being included would repeat its programs forever.",

@@ -13,6 +13,9 @@ and an INCLUDE inside a library file names another library file.
 
 from __future__ import annotations
 
+import errno
+import os
+import stat
 from dataclasses import dataclass, field
 from importlib import resources
 from importlib.resources.abc import Traversable
@@ -49,6 +52,31 @@ def project_root(path: Path) -> Path:
     return path.parent
 
 
+FILE_KINDS = ((stat.S_ISDIR, "a directory"), (stat.S_ISFIFO, "a FIFO (named pipe)"),
+              (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+              (stat.S_ISSOCK, "a socket"))
+
+
+def not_regular(path: Path) -> str | None:
+    """What `path` is if not a regular file ("a FIFO (named pipe)", ...), else None. Uses
+    os.stat (following links), so nothing is opened: opening a FIFO for reading blocks until
+    a writer comes, and a device can be endless. OSError if it does not exist."""
+    mode = os.stat(path).st_mode
+    if stat.S_ISREG(mode):
+        return None
+    return next((kind for test, kind in FILE_KINDS if test(mode)), "a special file")
+
+
+def read_regular(path: Path) -> str:
+    """The text of a file checked by `not_regular`: opened without blocking (if a FIFO took
+    its place since, the open returns at once) and checked again on the open descriptor."""
+    descriptor = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+    with open(descriptor, encoding="utf-8") as stream:  # as Path.read_text reads
+        if not stat.S_ISREG(os.fstat(descriptor).st_mode):
+            raise OSError(errno.EINVAL, "it is no longer a regular file")
+        return stream.read()
+
+
 def _display(path: Path) -> str:
     try:
         return str(path.relative_to(Path.cwd()))
@@ -82,6 +110,13 @@ def load_sources(paths: list[Path], sink: DiagnosticSink, *,
             entry = library.get(path.resolve())
             if entry is not None:
                 return entry.read_text(encoding="utf-8")
+            if at is not None:  # an INCLUDE: a regular file, or nothing is opened
+                special = not_regular(path)
+                if special is not None:
+                    sink.add("E102", at, f"cannot include {display}: it is {special}, not a "
+                             "regular file", hint="INCLUDE names a .mp source file")
+                    return None
+                return read_regular(path)
             return path.read_text(encoding="utf-8")
         except UnicodeDecodeError as exc:
             sink.add("E105", at or Span(display, 1), f"{display} is not UTF-8 text ({exc.reason})")

@@ -11,6 +11,7 @@ line; for values, the line is found by reading the file's table and key lines).
 
 from __future__ import annotations
 
+import os
 import re
 import tomllib
 from collections.abc import Mapping
@@ -93,9 +94,61 @@ class Project:
     flash: FlashSettings = field(default_factory=lambda: FlashSettings(Path(DEFAULT_RECORD)))
     fmt: Mapping[str, Any] = field(default_factory=dict)
 
+    sources_line: int = 1  # the line of [project] sources, for messages about them
+
     @property
     def root(self) -> Path:
         return self.path.parent
+
+    def may_write(self, path: Path) -> bool:
+        """Whether mpc may write `path` on this file's word (not the command line's): inside
+        the project or the user's state or cache directory, symlinks followed."""
+        return write_refusal(self.root, str(path)) is None
+
+
+def user_directories() -> tuple[Path, ...]:
+    """The user's state and cache directories (XDG), where mpc keeps what belongs to no
+    project (the default flash record); a project file may name paths there too."""
+    try:
+        home = Path.home()
+    except (RuntimeError, KeyError):  # no HOME and no password entry: only the XDG variables
+        home = None
+    found: list[Path] = []
+    for variable, default in (("XDG_STATE_HOME", (".local", "state")),
+                              ("XDG_CACHE_HOME", (".cache",))):
+        value = os.environ.get(variable)
+        if value and os.path.isabs(value):
+            found.append(Path(value))
+        elif home is not None:
+            found.append(home.joinpath(*default))
+    return tuple(found)
+
+
+def write_refusal(root: Path, value: str) -> str | None:
+    """Why mpc will not write `value` (a path in the project file, relative to its folder
+    `root`), or None if it may. Allowed: inside the project or the user's state or cache
+    directory, after following every symlink on the way, so that `../victim.txt`, `/etc/x`
+    and a link leading out are all refused. The command line may name any path."""
+    target = root / value
+    try:
+        resolved = target.resolve()
+        project = root.resolve()
+        allowed = [project, *(folder.resolve() for folder in user_directories())]
+    except (OSError, RuntimeError, ValueError) as exc:
+        return f"{value!r} cannot be resolved ({exc})"
+    if resolved.is_dir():
+        return f"{value!r} is a directory: name a file"
+    if any(resolved.is_relative_to(folder) for folder in allowed):
+        return None
+    if os.path.isabs(value):
+        where = f"{value} is outside the project ({project})"
+    elif Path(os.path.normpath(project / value)).is_relative_to(project):  # by its text
+        where = f"{value} leads out of the project ({project}) through a symbolic link, to " \
+            f"{resolved}"
+    else:
+        where = f"{value} leads out of the project ({project})"
+    return f"{where}: a project file names files to write only inside its project or the " \
+        "user's state or cache directory; give any other path on the command line"
 
 
 def describe_targets() -> str:
@@ -189,7 +242,7 @@ def _expand(patterns: list[str], root: Path, table: str, key: str,
     for pattern in patterns:
         path = root / pattern
         if path.is_dir():
-            matches = sorted(path.rglob("*.mp"))
+            matches = sorted(p for p in path.rglob("*.mp") if p.is_file())  # no FIFOs
             if not matches:
                 raise where.error(table, key, f"no .mp files in directory {pattern}")
         elif path.is_file():
@@ -245,22 +298,49 @@ def parse_temps(text: str) -> range:
     return range(low, high + 1)
 
 
-def parse_address(text: str, default_port: int = 502) -> tuple[str, int]:
-    """HOST[:PORT], [IPv6]:PORT or a bare IPv6 address; ValueError with a hint if not."""
-    host, port_text = text, str(default_port)
-    if text.startswith("["):
-        host, _, rest = text[1:].partition("]")
-        if rest:
-            port_text = rest.removeprefix(":")
+LOOPBACK = "127.0.0.1"
+"""The host of an address that names only a port (`1502`, `:1502`)."""
+
+
+def parse_address(text: str, default_port: int | None = 502, *,
+                  any_port: bool = False) -> tuple[str, int]:
+    """One convention for every `--tcp` option and `tcp =` key: `HOST:PORT`, `PORT` alone (a
+    bare number is a port, never a host name; the host is 127.0.0.1, as for `:PORT`),
+    `HOST` (the command's `default_port`; None: the port must be given), `[IPv6]:PORT` or a
+    bare IPv6 address. `any_port` admits port 0 (a server's "any free port"). ValueError with
+    a hint otherwise."""
+    low = 0 if any_port else 1
+    if default_port is None:
+        forms = "write PORT or HOST:PORT (a bare number is a port on 127.0.0.1), e.g. 2087"
+    else:
+        forms = f"write HOST:PORT, PORT (on 127.0.0.1) or HOST (port {default_port}), e.g. " \
+            f"192.168.0.16:{default_port}"
+    host, port_text = text, ""
+    if text.isdigit():
+        host, port_text = "", text
+    elif text.startswith("["):
+        host, closed, rest = text[1:].partition("]")
+        if not closed or (rest and not rest.startswith(":")):
+            raise ValueError(f"{text!r}: {forms}")
+        port_text = rest[1:]
     elif text.count(":") == 1:
         host, port_text = text.split(":")
-    try:
+        if not port_text:
+            raise ValueError(f"{text!r}: {forms}")
+    # no colon: a host name; two or more (outside brackets): a bare IPv6 address
+    if not port_text:
+        if default_port is None:
+            raise ValueError(f"{text!r}: {forms}")
+        port = default_port
+    elif not port_text.isdigit() or not port_text.isascii():
+        raise ValueError(f"{text!r}: {forms}")
+    else:
         port = int(port_text)
-    except ValueError:
-        raise ValueError(f"{text!r}: write HOST or HOST:PORT, e.g. 192.168.0.16:502") from None
-    if not host or not 1 <= port <= 65535:
-        raise ValueError(f"{text!r}: write HOST or HOST:PORT with a port in 1..65535")
-    return host, port
+    if not low <= port <= 65535:
+        raise ValueError(f"{text!r}: the port must be in {low}..65535")
+    if host.strip() != host or (text.startswith("[") and not host):
+        raise ValueError(f"{text!r}: {forms}")
+    return host or LOOPBACK, port
 
 
 def _pins(table: Mapping[str, Any], where: _Locator) -> tuple[SlotPin, ...]:
@@ -402,9 +482,12 @@ def load_project(path: Path) -> Project:
     record = flash.get("record", DEFAULT_RECORD)
     if not isinstance(record, str) or not record:
         raise where.error("flash", "record", "must be a file path")
+    refusal = write_refusal(root, record)
+    if refusal is not None:
+        raise where.error("flash", "record", refusal)
     fmt = _table(data, "fmt", where)
     return Project(
-        path=path, sources=sources, target=target,
+        path=path, sources=sources, target=target, sources_line=where.line("project", "sources"),
         word_order=None if "word-order" not in project else
         _int(project["word-order"], 0, 1, "project", "word-order", where),
         temp_vars=temps,

@@ -8,6 +8,9 @@ from __future__ import annotations
 
 import asyncio
 import json
+import os
+import stat
+import threading
 from collections.abc import Awaitable, Callable
 from pathlib import Path
 
@@ -168,19 +171,64 @@ def test_a_cut_short_download_is_never_recorded_as_done(tmp_path: Path) -> None:
     run_on_one_device(steps)
 
 
-def test_an_unreadable_record_is_replaced_with_a_note(tmp_path: Path) -> None:
+@pytest.mark.parametrize("content", ["{ not json", "victim's notes\n",
+                                     '{"format": "something else", "devices": {}}'])
+def test_a_file_that_is_not_a_record_is_never_replaced(tmp_path: Path, content: str) -> None:
+    """Issue 19 item 6: the record path may name someone else's file (before, a damaged or
+    foreign file was replaced by the record). The format tag is checked before replacing:
+    the flash still verifies every program, says why nothing is recorded, and leaves the file
+    byte for byte."""
     path = tmp_path / "record.json"
-    path.write_text("{ not json")
+    path.write_text(content)
     record = FlashRecord(path)
-    assert record.problem and "cannot be read" in record.problem
+    assert record.problem and "left as it is" in record.problem
 
     async def steps(do: Flash, _face: DeviceFace, _counter: Counter) -> None:
         result = await do(image_of(JOB), FlashOptions(record=record, address="bench"))
         assert result.ok and result.count("verified") == 3
-        assert any("cannot be read" in note for note in result.notes)
+        assert any("is not an mpc flash record" in note and "records nothing" in note
+                   for note in result.notes)
 
     run_on_one_device(steps)
-    assert json.loads(path.read_text())["devices"]["bench"]["slots"]
+    assert path.read_text() == content
+    assert [p.name for p in tmp_path.iterdir()] == ["record.json"]  # no temporary left
+
+
+def test_a_record_path_that_is_a_fifo_or_directory_is_neither_opened_nor_replaced(
+        tmp_path: Path) -> None:
+    fifo, folder = tmp_path / "fifo.json", tmp_path / "folder.json"
+    os.mkfifo(fifo)
+    folder.mkdir()
+    for path in (fifo, folder):
+        records: list[FlashRecord] = []
+        worker = threading.Thread(target=lambda at=path, into=records: into.append(
+            FlashRecord(at)), daemon=True)
+        worker.start()
+        worker.join(60)
+        if worker.is_alive():  # a FIFO opened for reading waits for a writer: release it
+            with open(fifo, "w"):
+                pass
+            pytest.fail("the record's FIFO was opened")
+        (record,) = records
+        assert record.refused == "is not a regular file"
+        record.devices["bench"] = {"slots": {}}
+        record.save()
+    assert stat.S_ISFIFO(os.stat(fifo).st_mode) and folder.is_dir() and not any(folder.iterdir())
+
+
+def test_a_record_or_an_empty_file_is_replaced_and_a_file_swapped_in_later_is_not(
+        tmp_path: Path) -> None:
+    path = tmp_path / "record.json"
+    path.write_text("")
+    record = FlashRecord(path)
+    assert record.problem is None
+    record.devices["bench"] = {"slots": {"MP3": {"hash": "x"}}}
+    record.save()
+    again = FlashRecord(path)
+    assert again.problem is None and again.recorded_slots("bench") == {"MP3"}
+    path.write_text("not a record any more\n")  # replaced by something else since loading
+    again.save()
+    assert path.read_text() == "not a record any more\n" and again.refused
 
 
 def test_dry_run_marks_the_programs_the_record_holds() -> None:

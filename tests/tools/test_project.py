@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
 
 from mplang.cli import EXIT_NO_INPUT, EXIT_OK, EXIT_USAGE, main
+from mplang.cli.common import expand_inputs
 from mplang.tools.project import ProjectError, find_project, load_fleet, load_project
 
 FEEDER = """MP feeder
@@ -234,3 +236,97 @@ def test_a_device_target_builds_its_m8194h_image(tmp_path: Path,
     dry = runner.invoke(main, ["flash", "--dry-run", "--json"])
     assert dry.exit_code == EXIT_OK, dry.output
     assert json.loads(dry.stdout)["programs"][0]["slot"] == 1
+
+
+@pytest.mark.parametrize(("record", "message"), [
+    ("../victim.txt", "../victim.txt leads out of the project"),
+    ("state/../../victim.txt", "leads out of the project"),
+    ("{outside}/victim.txt", "victim.txt is outside the project"),
+    ("link/victim.txt", "link/victim.txt leads out of the project ({root}) through a "
+     "symbolic link, to {outside}/victim.txt"),
+    ("victim-link.json", "through a symbolic link, to {outside}/victim.txt"),
+    (".", "'.' is a directory: name a file"),
+])
+def test_a_flash_record_outside_the_project_is_refused_at_its_line(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, record: str, message: str) -> None:
+    """Issue 19 item 6: `[flash] record = "../victim.txt"` once replaced that file with JSON
+    on the next flash. Every path the project file names for writing stays inside the project
+    (symlinks followed) or the user's state or cache directory."""
+    monkeypatch.setenv("XDG_STATE_HOME", str(tmp_path / "xdg-state"))
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg-cache"))
+    root, outside = tmp_path / "cell", tmp_path / "elsewhere"
+    root.mkdir()
+    outside.mkdir()
+    victim = outside / "victim.txt"
+    victim.write_text("someone's file\n")
+    (tmp_path / "victim.txt").write_text("someone's file\n")
+    (root / "link").symlink_to(outside)
+    (root / "victim-link.json").symlink_to(victim)
+    path = project(root, f"[project]\nsources = \"src\"\n\n[flash]\n# where\nrecord = "
+                   f"\"{record.format(outside=outside)}\"\n")
+    with pytest.raises(ProjectError) as caught:
+        load_project(path)
+    text = str(caught.value)
+    assert text.startswith(f"{path}:6: [flash] record: "), text
+    assert message.format(root=root.resolve(), outside=outside.resolve()) in text, text
+    monkeypatch.chdir(root)
+    result = CliRunner().invoke(main, ["flash", "--dry-run", "--tcp", "127.0.0.1"])
+    assert result.exit_code == EXIT_NO_INPUT and "mpc.toml:6: [flash] record:" in result.output
+    assert "Traceback" not in result.output
+    assert victim.read_text() == (tmp_path / "victim.txt").read_text() == "someone's file\n"
+
+
+def test_a_flash_record_inside_the_project_or_the_users_directories_is_taken(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("XDG_STATE_HOME", str(tmp_path / "xdg-state"))
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg-cache"))
+    root = tmp_path / "cell"
+    root.mkdir()
+    (root / "inner").mkdir()
+    (root / "via-link").symlink_to(root / "inner")  # a link that stays inside is fine
+    for record, expected in (
+            ("state/record.json", root / "state" / "record.json"),
+            ("via-link/record.json", root / "via-link" / "record.json"),
+            (f"{tmp_path}/xdg-state/mpc/cell.json", tmp_path / "xdg-state/mpc/cell.json"),
+            (f"{tmp_path}/xdg-cache/cell.json", tmp_path / "xdg-cache/cell.json")):
+        path = project(root, f"[project]\nsources = \"src\"\n[flash]\nrecord = \"{record}\"\n")
+        assert load_project(path).flash.record == expected
+    path = project(root, "[project]\nsources = \"src\"\n")  # the default record
+    assert load_project(path).flash.record == root / ".mpc" / "flash-record.json"
+
+
+def test_mpc_fmt_rewrites_no_project_source_outside_the_project(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """`mpc fmt` without FILE rewrites the sources mpc.toml lists: only those inside the
+    project (a symlink leading out is followed and refused); --check reads them all, and a
+    file named on the command line is formatted wherever it is."""
+    root, outside = tmp_path / "cell", tmp_path / "elsewhere"
+    (root / "src").mkdir(parents=True)
+    outside.mkdir()
+    ugly = "mp 1 a\nvar1=1\nend mp\n"
+    (outside / "shared.mp").write_text(ugly)
+    (root / "src" / "own.mp").write_text(ugly)
+    (root / "src" / "linked.mp").symlink_to(outside / "shared.mp")
+    project(root, "[project]\n# the sources\nsources = [\"src/own.mp\", \"src/linked.mp\"]\n",
+            {})
+    monkeypatch.chdir(root)
+    runner = CliRunner()
+    refused = runner.invoke(main, ["fmt"])
+    assert refused.exit_code == EXIT_NO_INPUT, refused.output
+    assert "mpc.toml:3: [project] sources: src/linked.mp is outside the project" in \
+        refused.output
+    assert (outside / "shared.mp").read_text() == (root / "src" / "own.mp").read_text() == ugly
+    assert runner.invoke(main, ["fmt", "--check"]).exit_code == 12  # would reformat both
+    named = runner.invoke(main, ["fmt", "src/linked.mp"])
+    assert named.exit_code == EXIT_OK and (outside / "shared.mp").read_text() != ugly
+
+
+def test_a_fifo_in_a_source_directory_is_not_a_source(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Issue 19 item 7: a directory contributes its regular .mp files; a FIFO among them
+    would hang the build that opens it."""
+    path = project(tmp_path, "[project]\nsources = \"src\"\n")
+    os.mkfifo(tmp_path / "src" / "pipe.mp")
+    assert [p.name for p in load_project(path).sources] == ["feeder.mp", "mover.mp"]
+    monkeypatch.chdir(tmp_path)
+    assert [p.name for p in expand_inputs(("src",))] == ["feeder.mp", "mover.mp"]

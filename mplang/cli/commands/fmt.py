@@ -230,6 +230,14 @@ def command(files: tuple[str, ...], check: bool, show_diff: bool, indent: int | 
         if project is None or not project.sources:
             raise click.UsageError("give FILE... (.mp sources), or run where an mpc.toml "
                                    "lists them (docs/project.md)")
+        if not (check or show_diff):  # rewriting in place on the project file's word
+            outside = [p for p in project.sources if not project.may_write(p)]
+            if outside:
+                raise InputError(
+                    f"{project.path}:{project.sources_line}: [project] sources: "
+                    f"{os.path.relpath(outside[0])} is outside the project "
+                    f"({os.path.relpath(project.root)}), and mpc fmt rewrites only files "
+                    "inside it: name the file on the command line to format it")
         files = tuple(os.path.relpath(p) for p in project.sources)
     options = _options(indent, keyword_case, base)
     if STDIN in files:

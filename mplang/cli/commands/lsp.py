@@ -7,7 +7,13 @@ import sys
 
 import click
 
-from mplang.cli.common import EXIT_TRANSPORT, EXIT_USAGE, guarded, parse_temps
+from mplang.cli.common import (
+    EXIT_TRANSPORT,
+    EXIT_USAGE,
+    guarded,
+    parse_listen_port,
+    parse_temps,
+)
 
 LOG_FORMAT = "mpc lsp: %(levelname)s: %(message)s"
 
@@ -30,24 +36,10 @@ def _parse_pool(ctx: click.Context, param: click.Parameter, value: str | None
     return None if value is None else parse_temps(ctx, param, value)
 
 
-def _parse_listen(_ctx: click.Context, _param: click.Parameter,
-                  value: str | None) -> tuple[str, int] | None:
-    """`PORT` (on 127.0.0.1) or `HOST:PORT`."""
-    if value is None:
-        return None
-    host, _, port_text = value.rpartition(":")
-    try:
-        port = int(port_text)
-    except ValueError:
-        raise click.BadParameter(f"{value!r}: write PORT or HOST:PORT, e.g. 2087") from None
-    if not 1 <= port <= 65535:
-        raise click.BadParameter(f"port {port} is not in 1..65535")
-    return host.strip("[]") or "127.0.0.1", port
-
-
 @click.command("lsp", short_help="Language server for .mp files (editors).")
-@click.option("--tcp", "listen", callback=_parse_listen, default=None, metavar="[HOST:]PORT",
-              help="Serve one client over TCP instead of stdio (host default 127.0.0.1).")
+@click.option("--tcp", "listen", callback=parse_listen_port, default=None,
+              metavar="[HOST:]PORT", help="Serve one client over TCP instead of stdio: PORT "
+              "(a bare number is a port, on 127.0.0.1) or HOST:PORT.")
 @click.option("--target", type=click.Choice(["et", "rs"]), default=None,
               help="Controller the checks are for: ET-M8194H or RS-M8194H [default: the "
               "project file's, else et].")

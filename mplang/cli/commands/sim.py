@@ -25,9 +25,10 @@ from mplang.cli.families import build_checked, refuse_options, select
 
 @click.command("sim", short_help="Serve a virtual M8194H over Modbus TCP and/or RTU.")
 @click.argument("files", nargs=-1)
-@click.option("--tcp", callback=parse_host_port, default=None, metavar="HOST:PORT",
-              help="Serve Modbus TCP here (port 0: any free port) [default without --serial: "
-              "127.0.0.1:1502].")
+@click.option("--tcp", callback=parse_host_port, default=None, metavar="[HOST:]PORT",
+              help="Serve Modbus TCP here: HOST:PORT, PORT (a bare number is a port, on "
+              "127.0.0.1) or HOST (port 1502); port 0: any free port [default without "
+              "--serial: 127.0.0.1:1502].")
 @click.option("--serial", default=None, metavar="PORT|pty",
               help="Serve Modbus RTU (a CSIM: its RS232 protocol) on this serial device; "
               "'pty' makes a linked pseudo-terminal pair and prints the end to open.")

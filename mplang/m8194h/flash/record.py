@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import os
+import stat
 import tempfile
 from pathlib import Path
 from typing import Any
@@ -30,27 +31,31 @@ class FlashRecord:
     """What mpc last verified in which device: a JSON file, `{"format", "devices": {address:
     {"identity", "word_order", "last_status", "slots": {"MP3": {"hash", "name", "source",
     "build_id", "at"}}}}}`. Written (atomically) after every change, so an interrupted run
-    keeps what it verified. A record that cannot be read is replaced, with a note: flashing
+    keeps what it verified. Only a flash record (its format tag) or an empty file is ever
+    replaced: anything else at the path (a file that is not a record, a damaged record, a
+    FIFO, a directory) is left as it is, with a note, and this run records nothing. Flashing
     everything is always correct, only slower."""
 
     def __init__(self, path: Path) -> None:
         self.path = path
         self.devices: dict[str, dict[str, Any]] = {}
         self.problem: str | None = None
-        try:
-            data = json.loads(path.read_text(encoding="utf-8"))
-        except FileNotFoundError:
+        self.refused: str | None = None
+        """Why the file at `path` is not replaced (None: it may be)."""
+        data = _existing(path)
+        if isinstance(data, str):
+            self._refuse(data)
             return
-        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-            self.problem = f"the flash record {path} cannot be read ({exc}): starting afresh"
+        if data is None:
             return
-        devices = data.get("devices") if isinstance(data, dict) else None
-        if not isinstance(data, dict) or data.get("format") != RECORD_FORMAT or \
-                not isinstance(devices, dict):
-            self.problem = f"{path} is not an mpc flash record: starting afresh"
-            return
-        self.devices = {key: entry for key, entry in devices.items()
+        self.devices = {key: entry for key, entry in data["devices"].items()
                         if isinstance(entry, dict) and isinstance(entry.get("slots"), dict)}
+
+    def _refuse(self, reason: str) -> None:
+        self.refused = reason
+        self.problem = f"{self.path} {reason}: it is left as it is and this flash records " \
+            "nothing, so the next one writes every program again (remove the file, or name " \
+            "another with --record FILE)"
 
     def entry(self, address: str) -> dict[str, Any] | None:
         return self.devices.get(address)
@@ -60,7 +65,14 @@ class FlashRecord:
         return frozenset(entry["slots"]) if entry else frozenset()
 
     def save(self) -> None:
-        """Write the file atomically (a crash leaves the old or the new record, never half)."""
+        """Write the file atomically (a crash leaves the old or the new record, never half),
+        unless what is there now is not a flash record: that is never replaced."""
+        if self.refused is None:
+            found = _existing(self.path)  # again: the file may have changed since the start
+            if isinstance(found, str):
+                self._refuse(found)
+        if self.refused is not None:
+            return
         self.path.parent.mkdir(parents=True, exist_ok=True)
         text = json.dumps({"format": RECORD_FORMAT, "devices": self.devices}, indent=1,
                           sort_keys=True)
@@ -72,3 +84,29 @@ class FlashRecord:
         except BaseException:
             Path(temporary).unlink(missing_ok=True)
             raise
+
+
+def _existing(path: Path) -> dict[str, Any] | str | None:
+    """The flash record at `path` (its JSON object), None if there is nothing to keep there
+    (no file, or an empty one), or why what is there is not a flash record. A special file is
+    judged by os.stat and never opened."""
+    try:
+        info = os.stat(path)
+    except FileNotFoundError:
+        return None
+    except OSError as exc:
+        return f"cannot be checked ({exc.strerror or exc})"
+    if not stat.S_ISREG(info.st_mode):
+        return "is not a regular file"
+    if info.st_size == 0:
+        return None
+    try:
+        data = json.loads(path.read_bytes().decode("utf-8"))
+    except OSError as exc:
+        return f"cannot be read ({exc.strerror or exc})"
+    except (UnicodeDecodeError, ValueError, RecursionError):
+        return "is not an mpc flash record (not JSON)"
+    if not isinstance(data, dict) or data.get("format") != RECORD_FORMAT or \
+            not isinstance(data.get("devices"), dict):
+        return f"is not an mpc flash record (no \"format\": \"{RECORD_FORMAT}\")"
+    return data

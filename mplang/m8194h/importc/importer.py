@@ -97,6 +97,11 @@ class Importer:
         self.prefixes: dict[str, int] = {"RSM": 0, "ETM": 0}
         self.lines = [line.rstrip("\r") for line in text.split("\n")]
         self.echoed: set[int] = set()
+        self.defined: set[str] = set()
+        """The names of `values.constants`, upper case (.mp names ignore case): kept as the
+        constants are added, not rebuilt for each one."""
+        self.suggestions: dict[str, str] = {}
+        """Unknown function -> its hint: difflib is slow, and a file repeats its mistakes."""
 
     # ------------------------------------------------------------------ output
     @property
@@ -232,10 +237,10 @@ class Importer:
                 value = self.values.evaluate(expr, None)
             except Unconvertible:
                 return False
-        usable = self.scope.reserved(name) is None and name.upper() not in \
-            {k.upper() for k in self.values.constants}
+        usable = self.scope.reserved(name) is None and name.upper() not in self.defined
         spelled = name if usable else None
         self.values.constants[name] = Constant(value, spelled)
+        self.defined.add(name.upper())
         if spelled is None:
             self.echo("C", event)
             return True
@@ -270,10 +275,11 @@ class Importer:
     def vendor_call(self, name: str, args: list[list[Token]], event: Event) -> None:
         command = self.catalogue.lookup(name)
         if command is None:
-            names = [c.name.replace("RSM_", name[:4], 1) for c in self.catalogue.commands]
-            close = difflib.get_close_matches(name.upper(), names, n=1, cutoff=0.7)
-            hint = f" (did you mean {close[0]}?)" if close else ""
-            self.not_converted(event, f"unknown function {name}{hint}")
+            if name not in self.suggestions:
+                names = [c.name.replace("RSM_", name[:4], 1) for c in self.catalogue.commands]
+                close = difflib.get_close_matches(name.upper(), names, n=1, cutoff=0.7)
+                self.suggestions[name] = f" (did you mean {close[0]}?)" if close else ""
+            self.not_converted(event, f"unknown function {name}{self.suggestions[name]}")
             return
         short = command.short_name
         if short in ("MP_CREATE", "MP_ISR_CREATE"):

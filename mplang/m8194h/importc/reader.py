@@ -8,6 +8,7 @@ from __future__ import annotations
 import re
 from collections.abc import Iterator
 from dataclasses import dataclass, field
+from functools import cached_property
 
 CONTROL_WORDS = frozenset({"if", "while", "for", "switch"})
 LONE_CONTROL_WORDS = frozenset({"else", "do"})
@@ -29,9 +30,12 @@ TOKEN = re.compile(r"""
   | (?P<ident>[A-Za-z_][A-Za-z0-9_]*)
   | (?P<punct><<=|>>=|->|\+\+|--|<<|>>|<=|>=|==|!=|&&|\|\||[-+*/%&|^]=|::|.)
 """, re.VERBOSE | re.DOTALL)
+DIRECTIVE_START = re.compile(r"[ \t]*#")
+"""A preprocessor line: `#` after nothing but blanks (matched at a line's start, so the cost
+is that of the blanks, never of the rest of the file)."""
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class Token:
     kind: str  # ident number string char punct comment directive
     text: str
@@ -52,13 +56,15 @@ def tokenize(text: str) -> Iterator[Token]:
     at_line_start = True
     while pos < len(text):
         if at_line_start:
-            stripped = len(text) - len(text[pos:].lstrip(" \t"))
-            if stripped < len(text) and text[stripped] == "#":
+            hash_mark = DIRECTIVE_START.match(text, pos)
+            if hash_mark is not None:
+                stripped = hash_mark.end() - 1
                 end = _directive_end(text, stripped)
                 yield Token("directive", text[stripped:end], line, stripped - line_start + 1,
                             stripped, end)
-                line += text.count("\n", stripped, end)
-                if "\n" in text[stripped:end]:
+                newlines = text.count("\n", stripped, end)
+                if newlines:
+                    line += newlines
                     line_start = text.rindex("\n", stripped, end) + 1
                 pos, at_line_start = end, False
                 continue
@@ -108,7 +114,10 @@ def _directive_end(text: str, start: int) -> int:
         elif char == "\n" or text.startswith(("//", "/*"), pos):
             break
         pos += 1
-    return len(text[:pos].rstrip())
+    end = min(pos, len(text))
+    while end > start and text[end - 1].isspace():  # rstrip, without copying the file
+        end -= 1
+    return end
 
 
 @dataclass
@@ -121,8 +130,10 @@ class Event:
     line: int
     trailing: list[Token] = field(default_factory=list)  # comments on its line or inside it
 
-    @property
+    @cached_property
     def end_line(self) -> int:
+        """Computed once: the tokens of an event never change, and a run of comments after
+        a long statement asks for it once per comment."""
         return max(t.end_line for t in self.tokens) if self.tokens else self.line
 
 
@@ -195,48 +206,44 @@ def events(text: str) -> list[Event]:
 
 def _with_blank_lines(items: list[Event], text: str, used: set[int]) -> list[Event]:
     """Insert one "blank" event for each run of empty lines between events."""
-    total = text.count("\n") + 1
-    blank_lines = {n for n in range(1, total + 1) if n not in used and
-                   not _line_text(text, n).strip()}
+    blank_lines = [False] + [not line.strip() for line in text.split("\n")]
+    for number in used:
+        if number < len(blank_lines):
+            blank_lines[number] = False
     out: list[Event] = []
     last_line = 0
     for event in items:
-        if any(n in blank_lines for n in range(last_line + 1, event.line)):
+        if any(blank_lines[last_line + 1:event.line]):
             out.append(Event("blank", [], event.line))
         out.append(event)
         last_line = max([event.end_line, *(c.end_line for c in event.trailing)])
     return out
 
 
-def _line_text(text: str, number: int) -> str:
-    lines = text.split("\n")
-    return lines[number - 1] if 0 < number <= len(lines) else ""
-
-
 def _split_control(tokens: list[Token]) -> Iterator[tuple[str, list[Token]]]:
     """Peel `if (...)`, `for (...)`, `else`, `do`, `case x:` and `label:` heads off a
-    statement: they are C control flow, the rest is an ordinary statement."""
-    rest = tokens
-    while rest:
-        first = rest[0]
-        if first.kind == "ident" and first.text in CONTROL_WORDS and len(rest) > 1 and \
-                rest[1].text == "(":
-            end = matching(rest, 1)
-            yield "control", rest[:end + 1]
-            rest = rest[end + 1:]
+    statement: they are C control flow, the rest is an ordinary statement. Walks the tokens
+    once (an index, not shrinking copies: a long run of heads stays linear)."""
+    at, count = 0, len(tokens)
+    while at < count:
+        first = tokens[at]
+        following = tokens[at + 1].text if at + 1 < count else None
+        if first.kind == "ident" and first.text in CONTROL_WORDS and following == "(":
+            end = matching(tokens, at + 1)
+            yield "control", tokens[at:end + 1]
+            at = end + 1
         elif first.kind == "ident" and first.text in LONE_CONTROL_WORDS:
             yield "control", [first]
-            rest = rest[1:]
+            at += 1
         elif first.kind == "ident" and first.text in ("case", "default"):
-            end = next((i for i, t in enumerate(rest) if t.text == ":"), len(rest) - 1)
-            yield "control", rest[:end + 1]
-            rest = rest[end + 1:]
-        elif first.kind == "ident" and len(rest) > 1 and rest[1].text == ":" and \
-                first.text not in TYPE_WORDS:
-            yield "control", rest[:2]
-            rest = rest[2:]
+            end = next((i for i in range(at, count) if tokens[i].text == ":"), count - 1)
+            yield "control", tokens[at:end + 1]
+            at = end + 1
+        elif first.kind == "ident" and following == ":" and first.text not in TYPE_WORDS:
+            yield "control", tokens[at:at + 2]
+            at += 2
         else:
-            yield "statement", rest
+            yield "statement", tokens[at:]
             return
 
 
