@@ -183,6 +183,7 @@ class UnsupportedRequest(ModbusPDU):
     device answers ILLEGAL FUNCTION whatever it holds."""
 
     face: DeviceFace | None = None
+    unit: int | None = None  # the RTU slave address; None over TCP, which answers every unit
 
     def decode(self, data: bytes) -> None:
         """Nothing to decode: the function code is all the answer needs."""
@@ -192,8 +193,8 @@ class UnsupportedRequest(ModbusPDU):
         return rtu_frame_size(data)
 
     async def datastore_update(self, context: object, device_id: int) -> ModbusPDU:
-        if self.face is not None:
-            self.face.refuse_function(self.function_code)
+        if self.face is not None and self.unit in (None, device_id):  # another slave's
+            self.face.refuse_function(self.function_code)  # request leaves 102 alone
         return ExceptionResponse(self.function_code, ExcCodes.ILLEGAL_FUNCTION)
 
 
@@ -203,9 +204,10 @@ class DeviceDecoder(DecodePDU):
     so FC 7, 8, 11, 17, 43 ... are answered with exception 1 and register 102 = 1 (RS 11366)
     rather than by pymodbus's own diagnostics and identification."""
 
-    def __init__(self, face: DeviceFace) -> None:
+    def __init__(self, face: DeviceFace, unit: int | None = None) -> None:
         super().__init__(True)
         self.face = face
+        self.unit = unit
         served = face.controller.profile.raw["modbus"]["function_codes"]
         self.served = frozenset(int(fc) for fc in served)
         self.pdu_table = {fc: DecodePDU.pdu_table[fc] for fc in self.served}
@@ -220,8 +222,8 @@ class DeviceDecoder(DecodePDU):
     def decode(self, frame: bytes) -> ModbusPDU | None:
         if frame and frame[0] not in self.served:
             request = UnsupportedRequest()
-            request.function_code = frame[0] & 0x7F
-            request.face = self.face
+            request.function_code = frame[0]
+            request.face, request.unit = self.face, self.unit
             return request
         return super().decode(frame)
 
@@ -268,7 +270,7 @@ async def serve_rtu(face: DeviceFace, port: str, unit: int = 1, baudrate: int = 
     server = ModbusSerialServer(face.device(unit), framer=FramerType.RTU, port=port,
                                 baudrate=baudrate, parity=parity, stopbits=stopbits,
                                 bytesize=8, broadcast_enable=True, trace_packet=hook)
-    server.decoder = DeviceDecoder(face)
+    server.decoder = DeviceDecoder(face, unit)
     await server.serve_forever(background=True)
     return server
 

@@ -13,6 +13,7 @@ import socket
 import struct
 import subprocess
 import sys
+import time
 from collections.abc import Callable, Coroutine
 from pathlib import Path
 from typing import Any
@@ -317,13 +318,32 @@ def test_table_3_only_the_manuals_function_codes_over_tcp() -> None:
 
 
 def test_table_3_only_the_manuals_function_codes_over_rtu() -> None:
+    received: list[bytes] = []
+
+    def heard(sending: bool, data: bytes) -> bytes:
+        if not sending:
+            received.append(data)
+        return data
+
+    def other_slave(client: RawRtu) -> None:
+        """FC17 for slave 9 leaves slave 2's register 102 alone (and gets no answer)."""
+        assert client.ask(fc4(27, 2)) == bytes([0x84, 0x02])
+        request = b"\x09\x11" + crc16(b"\x09\x11")
+        os.write(client.fd, request)
+        for _ in range(500):  # until the device has taken it in (one request at a time)
+            if request in b"".join(received):
+                break
+            time.sleep(0.01)
+        assert registers(client.ask(fc4(102, 1))) == [0xC0]
+
     async def scenario() -> None:
         face = served()
         with PtyLink() as link:
-            server = await serve_rtu(face, link.device_end, unit=2)
+            server = await serve_rtu(face, link.device_end, unit=2, trace_packet=heard)
             client = RawRtu(link.client_end, 2)
             try:
                 await asyncio.to_thread(check_function_codes, client.ask)
+                await asyncio.to_thread(other_slave, client)
             finally:
                 client.close()
                 await stop(server)
