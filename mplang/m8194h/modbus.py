@@ -4,7 +4,9 @@ The server side puts a `RegisterMap` behind pymodbus's `SimDevice`: four separat
 (coils, discrete inputs, holding and input registers) whose `action` hook runs the virtual
 controller up to the present moment, then answers from the register map or refuses with the
 device's Modbus exception. The controller's simulated clock follows the wall clock (times a
-speed factor), so a client sees programs run and axes move in real time.
+speed factor), so a client sees programs run and axes move in real time. The server decodes
+only the function codes the manual documents (`DeviceDecoder`): any other is refused as the
+device refuses it, never answered by pymodbus itself (diagnostics, server identification).
 
 The client side (`DeviceLink`, below the server) is the downloader's transport to one real
 or virtual device over Modbus TCP or RTU. It raises mplang's own exceptions (`LinkError`
@@ -21,8 +23,8 @@ from dataclasses import dataclass, field
 from pymodbus.client import AsyncModbusSerialClient, AsyncModbusTcpClient
 from pymodbus.constants import ExcCodes
 from pymodbus.exceptions import ConnectionException, ModbusException, ModbusIOException
-from pymodbus.framer import FramerType
-from pymodbus.pdu import ModbusPDU
+from pymodbus.framer import FramerRTU, FramerType
+from pymodbus.pdu import DecodePDU, ExceptionResponse, ModbusPDU
 from pymodbus.server import ModbusSerialServer, ModbusTcpServer
 from pymodbus.simulator import DataType, SimData, SimDevice
 
@@ -112,6 +114,11 @@ class DeviceFace:
             return ExcCodes(refusal.code)
         return None
 
+    def refuse_function(self, function_code: int) -> None:
+        """A request whose function code the device does not serve (exception 1 follows)."""
+        self.requests += 1
+        self.refusals.append(self.registers.unsupported(function_code))
+
     def _serve(self, fc: int, start: int, address: int, count: int, current: list[int],
                values: list[int] | list[bool] | None) -> None:
         regs = self.registers
@@ -137,7 +144,7 @@ class DeviceFace:
             words = _words(bits[first_word * 16:last_bit])
             current[first_word - start:first_word - start + len(words)] = words
         else:
-            raise Refusal(1, reason=f"function code {fc} is not supported")
+            raise regs.unsupported(fc)
 
     def device(self, unit: int) -> SimDevice:
         """The pymodbus device: separate coil, discrete input, holding and input blocks."""
@@ -145,6 +152,9 @@ class DeviceFace:
         discrete = [SimData(0, values=[False] * DISCRETE_SPAN, datatype=DataType.BITS)]
         holding = [
             SimData(0, count=HOLDING_SPAN, datatype=DataType.REGISTERS),
+            SimData(self.registers.md_first,
+                    count=self.registers.md_end - self.registers.md_first,
+                    datatype=DataType.REGISTERS),
             SimData(SUBFUNCTION_FIRST, count=SUBFUNCTION_LAST - SUBFUNCTION_FIRST + 1,
                     datatype=DataType.REGISTERS),
             SimData(SIM_DI_FIRST, count=SIM_DI_LAST - SIM_DI_FIRST + 1,
@@ -153,6 +163,69 @@ class DeviceFace:
         inputs = [SimData(0, count=INPUT_SPAN, datatype=DataType.REGISTERS)]
         return SimDevice(id=unit, simdata=(coils, discrete, holding, inputs),
                          action=self.action)
+
+
+def rtu_frame_size(data: bytes) -> int:
+    """The length of the RTU frame at the start of `data` (unit, function, data, CRC) when
+    its end can only be found by its CRC: the shortest prefix whose last two bytes are the
+    CRC of the rest, or 0 when `data` holds none (yet)."""
+    crc = 0xFFFF
+    limit = min(len(data), FramerRTU.MAX_SIZE) - 2
+    for end, byte in enumerate(data[:limit], start=1):
+        crc = ((crc >> 8) & 0xFF) ^ FramerRTU.crc16_table[(crc ^ byte) & 0xFF]
+        if end >= 2 and (data[end] | data[end + 1] << 8) == crc:
+            return end + 2
+    return 0
+
+
+class UnsupportedRequest(ModbusPDU):
+    """A request with a function code the device does not serve. Its body is not read: the
+    device answers ILLEGAL FUNCTION whatever it holds."""
+
+    face: DeviceFace | None = None
+    unit: int | None = None  # the RTU slave address; None over TCP, which answers every unit
+
+    def decode(self, data: bytes) -> None:
+        """Nothing to decode: the function code is all the answer needs."""
+
+    @classmethod
+    def calculateRtuFrameSize(cls, data: bytes) -> int:
+        return rtu_frame_size(data)
+
+    async def datastore_update(self, context: object, device_id: int) -> ModbusPDU:
+        if self.face is not None and self.unit in (None, device_id):  # another slave's
+            self.face.refuse_function(self.function_code)  # request leaves 102 alone
+        return ExceptionResponse(self.function_code, ExcCodes.ILLEGAL_FUNCTION)
+
+
+class DeviceDecoder(DecodePDU):
+    """pymodbus's request decoder limited to the function codes of the device profile
+    (`[modbus] function_codes`: 1-6, 15, 16). Any other decodes to an `UnsupportedRequest`,
+    so FC 7, 8, 11, 17, 43 ... are answered with exception 1 and register 102 = 1 (RS 11366)
+    rather than by pymodbus's own diagnostics and identification."""
+
+    def __init__(self, face: DeviceFace, unit: int | None = None) -> None:
+        super().__init__(True)
+        self.face = face
+        self.unit = unit
+        served = face.controller.profile.raw["modbus"]["function_codes"]
+        self.served = frozenset(int(fc) for fc in served)
+        self.pdu_table = {fc: DecodePDU.pdu_table[fc] for fc in self.served}
+
+    def lookupPduClass(self, data: bytes) -> type[ModbusPDU] | None:
+        """RTU framing: an unsupported function code starts a frame only where a complete
+        one (valid CRC) is there; otherwise the byte is skipped, as for any garbage."""
+        if len(data) > 1 and data[1] not in self.served:
+            return UnsupportedRequest if rtu_frame_size(data) else None
+        return super().lookupPduClass(data)
+
+    def decode(self, frame: bytes) -> ModbusPDU | None:
+        if frame and frame[0] not in self.served:
+            request = UnsupportedRequest()
+            request.function_code = frame[0]
+            request.face, request.unit = self.face, self.unit
+            return request
+        return super().decode(frame)
 
 
 class RtuSilence:
@@ -172,6 +245,8 @@ async def serve_tcp(face: DeviceFace, host: str, port: int,
     """Listen for Modbus TCP on host:port (port 0: any free port); return the server and the
     port it listens on. Every unit id is answered: the ET-M8194H is the only device there."""
     server = ModbusTcpServer(face.device(0), address=(host, port), trace_packet=trace_packet)
+    server.decoder = DeviceDecoder(face)  # before any connection: each framer takes it
+    face.registers.connections = lambda: len(server.active_connections)
     await server.serve_forever(background=True)
     sockets = getattr(server.transport, "sockets", None) or []
     bound = sockets[0].getsockname()[1] if sockets else port
@@ -195,6 +270,7 @@ async def serve_rtu(face: DeviceFace, port: str, unit: int = 1, baudrate: int = 
     server = ModbusSerialServer(face.device(unit), framer=FramerType.RTU, port=port,
                                 baudrate=baudrate, parity=parity, stopbits=stopbits,
                                 bytesize=8, broadcast_enable=True, trace_packet=hook)
+    server.decoder = DeviceDecoder(face, unit)
     await server.serve_forever(background=True)
     return server
 

@@ -22,7 +22,7 @@ from mplang.ir.catalogue import Catalogue, Command
 from mplang.ir.lower import apply_operator, wrap32
 from mplang.ir.macro import BVarRef, Operand, VarRef
 from mplang.m8194h.encode import Encoder
-from mplang.m8194h.sim import axis_commands, initial_table, interpolation_commands
+from mplang.m8194h.sim import axis_commands, initial_table, interpolation_commands, machine_data
 from mplang.m8194h.sim.initial_table import AxisColumn, InitialTable
 from mplang.m8194h.sim.motion import MotionModel
 from mplang.m8194h.sim.tables import DownloadError, MacroTable, StoredLine, decode_frame, validate
@@ -139,6 +139,7 @@ class VirtualController:
         self.unmodelled: list[AxisColumn] = [self.initial_table.config.factory] * 4
         self.loading_until: float | None = None  # register 101 shows 4 until then
         self.triggers = Triggers(self)  # chapter 10: the FRnet DI trigger table
+        self.md = machine_data.MachineData(self)  # MD0..MD2047 (3.19), non-volatile
         self._load_initial_now()  # "directly after power on" (RS 9738)
 
     @property
@@ -158,7 +159,7 @@ class VirtualController:
         """One FC16 write at register 8000. Returns 0, or the register-102 cause of the
         ILLEGAL FUNCTION exception the device answers with; raises `DeviceBusy` when a
         real-time command finds the FIFO full."""
-        cause = self._write(frame)
+        cause = self.md.subfunction(frame) if self.md.owns(frame) else self._write(frame)
         self.illegal_cause = cause
         return cause
 
@@ -745,12 +746,12 @@ class VirtualController:
     def save(self, path: Path) -> None:
         """Persist macro memory (the device's non-volatile FRAM): every stored table as the
         frames that downloaded it, with the word order they were written in, the initial
-        parameter table and the FRnet DI trigger table."""
+        parameter table, the FRnet DI trigger table and the machine data."""
         programs = {f"{kind}{slot}": [list(line.frame) for line in table.lines]
                     for (kind, slot), table in sorted(self.tables.items())}
         data = {"format": MEMORY_FORMAT, "word_order": self.word_order, "programs": programs,
                 "initial_table": self.initial_table.to_json(),
-                "triggers": self.triggers.to_json()}
+                "triggers": self.triggers.to_json(), machine_data.JSON_KEY: self.md.to_json()}
         tmp = path.with_name(path.name + ".tmp")
         tmp.write_text(json.dumps(data, indent=1))
         tmp.replace(path)  # never leave a half-written memory file behind
@@ -758,9 +759,9 @@ class VirtualController:
     def restore(self, path: Path) -> None:
         """Load macro memory saved by `save`, validating every table like a download, and
         power on with it: a saved initial table is loaded into the live settings, a saved
-        trigger table (and its enable flag) is in force. Files without those keys (written
-        before they existed) keep the controller's. Raises ValueError with the reason if
-        the file is not such a memory image."""
+        trigger table (and its enable flag) is in force, the machine data are the file's (0
+        where it has none); files without the first two keys keep the controller's. Raises
+        ValueError with the reason if the file is not such a memory image."""
         try:
             data = json.loads(path.read_text(encoding="utf-8"))
         except (json.JSONDecodeError, UnicodeDecodeError) as exc:
@@ -796,3 +797,4 @@ class VirtualController:
             self._load_initial_now()
         if "triggers" in data:
             self.triggers.from_json(data["triggers"])
+        self.md.from_json(data.get(machine_data.JSON_KEY, {}))

@@ -39,13 +39,10 @@ COIL_SPAN = 132  # coils: FRnet DO 0..127, servo state 128..131
 DISCRETE_SPAN = 288  # discrete inputs: FRnet DI, axis status, stop causes, DI signals
 
 
-def _check_pairs(pairs: tuple[tuple[int, int], ...], address: int, end: int) -> None:
-    """Refuse an access [address, end) that cuts a 32-bit value in half."""
-    for low, high in pairs:
-        for edge in (address, end):
-            if low < edge < high and (edge - low) % 2:
-                raise Refusal(ILLEGAL_FUNCTION, 0xC0,
-                              "a 32-bit value takes two registers, most significant first")
+def _cuts_pair(pairs: tuple[tuple[int, int], ...], address: int, end: int) -> bool:
+    """Whether an access [address, end) cuts a 32-bit value in half."""
+    return any(low < edge < high and (edge - low) % 2
+               for low, high in pairs for edge in (address, end))
 
 
 @dataclass(frozen=True)
@@ -69,8 +66,32 @@ class RegisterMap:
         self.call_register = int(raw["registers"]["call_mp"])
         self.word_order_register = int(raw["registers"]["word_order"])
         self.frnet_event_register = int(raw["registers"]["frnet_event"])
+        self.connection_register = int(raw["registers"]["connection_count"])
+        self.split_dword = (int(raw["registers"]["split_dword_exception"]),
+                            int(raw["registers"]["split_dword_cause"]))
+        self.md = controller.md
+        self.md_first = self.md.holding_base  # MD0 .. MD2047 at 3000 + 2n (RS 2528)
+        self.md_end = self.md_first + 2 * self.md.count
+        self.unsupported_cause = int(raw["modbus"]["unsupported_cause"])
+        # the number of connected Modbus TCP clients (ET input register 86, ET 18559): the
+        # server that serves this map sets it
+        self.connections: Callable[[], int] = lambda: 0
 
     # ----------------------------------------------------------------- helpers
+    def _check_pairs(self, pairs: tuple[tuple[int, int], ...], address: int, end: int) -> None:
+        """Refuse an access that cuts a 32-bit value in half: exception 2 (RS 939) and
+        register 102 = 0xC0 (profile `registers.split_dword_*`)."""
+        if _cuts_pair(pairs, address, end):
+            code, cause = self.split_dword
+            self.vc.illegal_cause = cause
+            raise Refusal(code, cause, "a 32-bit value takes two registers, the first first")
+
+    def unsupported(self, function_code: int) -> Refusal:
+        """A function code the manual does not document: exception 1, register 102 = 1."""
+        self.vc.illegal_cause = self.unsupported_cause
+        return Refusal(ILLEGAL_FUNCTION, self.unsupported_cause,
+                       f"function code {function_code} is not supported")
+
     def _pair(self, value: int) -> list[int]:
         """A signed 32-bit value as two registers in the present word order."""
         value &= 0xFFFFFFFF
@@ -109,6 +130,8 @@ class RegisterMap:
             ((range(70, 71), range(130, 140)), self._in_io),
             ((range(71, 72),), self._in_fifo),
             ((range(81, 86),), self._in_identity),
+            ((range(self.connection_register, self.connection_register + 1),),
+             self._in_connections),
             ((range(100, 103), range(110, 120)), self._in_states),
         ]
 
@@ -148,6 +171,9 @@ class RegisterMap:
         regs[82:84] = self._pair(int(self.identity["rsm_firmware"]))
         regs[84:86] = self._pair(int(self.identity["i8094h_firmware"]))
 
+    def _in_connections(self, regs: list[int]) -> None:
+        regs[self.connection_register] = min(self.connections(), 0xFFFF)
+
     def _in_states(self, regs: list[int]) -> None:
         vc = self.vc
         regs[100] = {"ready": 0, "mp": 1, "isr": 2}[vc.state]
@@ -161,7 +187,7 @@ class RegisterMap:
         end = address + count
         if address < 0 or end > INPUT_SPAN:
             raise Refusal(ILLEGAL_ADDRESS, reason=f"input registers end at {INPUT_SPAN - 1}")
-        _check_pairs(INPUT_PAIRS, address, end)
+        self._check_pairs(INPUT_PAIRS, address, end)
         regs = [0] * INPUT_SPAN
         for spans, fill in self._input_fillers():
             if any(span.start < end and address < span.stop for span in spans):
@@ -173,8 +199,13 @@ class RegisterMap:
         """FC3; only the areas the request overlaps are computed."""
         end = address + count
         if address >= 0 and end <= HOLDING_SPAN:
-            _check_pairs(HOLDING_PAIRS, address, end)
+            self._check_pairs(HOLDING_PAIRS, address, end)
             return self._holding(address, end)
+        if address >= self.md_first and end <= self.md_end:
+            self._check_pairs(((self.md_first, self.md_end),), address, end)
+            first = (address - self.md_first) // 2
+            words = [self.md.word(n) for n in range(first, (end - self.md_first) // 2)]
+            return [r for word in words for r in self._pair(word)]
         if address >= SUBFUNCTION_FIRST and end <= SUBFUNCTION_LAST + 1:
             return [0] * count  # the sub-function window is write-only: it reads as zeros
         if address >= SIM_DI_FIRST and end <= SIM_DI_LAST + 1:
@@ -214,9 +245,15 @@ class RegisterMap:
             for k, value in enumerate(values):  # through the controller: triggers see it
                 self.vc.set_di_group(8 + address - SIM_DI_FIRST + k, value)
             return
+        if address >= self.md_first and end <= self.md_end:
+            self._check_pairs(((self.md_first, self.md_end),), address, end)
+            for k in range(0, len(values), 2):  # raw words: a float MD keeps any bits
+                word = self._join(values[k], values[k + 1]) & 0xFFFFFFFF
+                self.md.set_word((address + k - self.md_first) // 2, word)
+            return
         if not (address >= 0 and end <= HOLDING_SPAN):
             raise Refusal(ILLEGAL_ADDRESS, reason=f"holding {address}..{end - 1} is not writable")
-        _check_pairs(HOLDING_PAIRS, address, end)
+        self._check_pairs(HOLDING_PAIRS, address, end)
         k = 0
         while k < len(values):
             k += self._write_one(address + k, values, k)

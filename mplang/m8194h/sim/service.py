@@ -1,8 +1,9 @@
 """`mpc sim`: a virtual M8194H served over Modbus TCP and/or RTU until told to stop.
 
 The library entry point is `serve`; the CLI only parses options and prints. Macro memory
-(the device's FRAM) can live in a file: it is loaded at start and written after every
-successful download and at the end, so a restart keeps the programs as the device does.
+(the device's FRAM: programs, initial and trigger tables, machine data) can live in a file:
+it is loaded at start and written after every change and at the end, so a restart keeps it
+as the device does.
 """
 
 from __future__ import annotations

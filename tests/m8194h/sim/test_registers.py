@@ -89,10 +89,12 @@ def test_refusals_carry_the_register_102_cause() -> None:
     assert refusal(regs.write_holding, 8, [21]).cause == 0x02  # MP21 is empty
     assert refusal(regs.write_holding, 8000, [0x0C4E, 1, 0, 5]).cause == 0x08  # macro as RTC
     assert regs.read_input(102, 1) == [0x08]
+    # a 32-bit value cut in half: exception 2 (Table 3, RS 939) and cause 0xC0 (RS 11368)
     half = refusal(regs.write_holding, 301, [1, 2])  # VAR0's low word and VAR1's high word
-    assert (half.code, half.cause) == (ILLEGAL_FUNCTION, 0xC0)
+    assert (half.code, half.cause) == (ILLEGAL_ADDRESS, 0xC0)
+    assert regs.read_input(102, 1) == [0xC0]
     cut = refusal(regs.read_input, 27, 2)  # from the LSW of X's LP to the MSW of Y's
-    assert (cut.code, cut.cause) == (ILLEGAL_FUNCTION, 0xC0)
+    assert (cut.code, cut.cause) == (ILLEGAL_ADDRESS, 0xC0)
     assert refusal(regs.read_holding, 300, 3).cause == 0xC0
     assert regs.read_input(24, 4) == [0, 0, 0, 0]  # whole pairs from a single register on
     assert refusal(regs.write_holding, 14, [2]).code == ILLEGAL_VALUE
