@@ -491,11 +491,6 @@ _RULES = [
     Rule("E645", "fatek-table-size", E, "The program unrolls into too many steps.",
          "Loops are unrolled at compile time and a table holds at most 250 steps (FB 573).",
          "Use fewer iterations, or close the loop with LABEL/GOTO so it becomes a jump."),
-    Rule("E646", "fatek-absolute-zero", E,
-         "A move to absolute position 0 from an unknown position.",
-         "A stroke of 0 means a continuous run, ADR or ABS alike (FB 955-957), so DRV ABS "
-         "cannot go to 0; it becomes a relative move only where the position is known.",
-         "Move to an absolute position first, or move relatively."),
     Rule("E647", "fatek-range", E, "A speed, stroke or time outside the PLC's ranges.",
          "SPD is 1-921600 (FUN147 1-1840000), a stroke at most 99999999 (LIN 1999999) and a "
          "time 0-65535 x 0.01 s (FB 883, 958, 2191, 2261).",
