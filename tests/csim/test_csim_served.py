@@ -89,7 +89,7 @@ def served() -> Iterator[ServedCsim]:
 
 
 @pytest.mark.parametrize("path", SAMPLES, ids=[p.name for p in SAMPLES])
-def test_served_and_mpc_run_end_at_the_same_place(served: ServedCsim, path: Path) -> None:
+def test_cs_22_27_served_and_mpc_run_end_at_the_same_place(served: ServedCsim, path: Path) -> None:
     """CS 22-27 (jog) and every other sample: the device runs the program against the wall
     clock, `mpc run` in simulated time; both end at the same positions."""
     build = csim.check_native([path])

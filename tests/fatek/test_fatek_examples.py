@@ -13,6 +13,7 @@ import pytest
 
 from mplang.fatek import FamilyRun, check_native, run_build
 from mplang.fatek.model import Register
+from mplang.fatek.profile import load
 
 SAMPLES = Path(__file__).resolve().parents[2] / "samples" / "fatek"
 MM = 200  # coordinates.fbs: 1 mm = 200 Ps
@@ -165,3 +166,15 @@ def test_11_6_wr1_b10_continuous_run_until_ext_cuts_it() -> None:
     assert flags_at(run, 1.0) == CONTINUOUS | PULSING | 2
     assert flags_at(run, 2.0) & (CONTINUOUS | PULSING) == PULSING  # step 2 pulses at once
     assert run.registers[Register("R", 51)] == DONE | 2
+
+
+def test_11_6_the_literal_reading_of_fb_955_keeps_abs_0_running(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """semantics.abs_zero = 'continuous' (the profile's visible alternative): ABS 0 runs on
+    forward, and the checker warns (W603) that nothing in the step ends it."""
+    monkeypatch.setitem(load().raw["semantics"], "abs_zero", "continuous")
+    build = check_native([SAMPLES / "coordinates.fbs"])
+    assert [d.code for d in build.diagnostics] == ["W603"]
+    run = run_build(build, None, 30.0)
+    assert not run.finished and "runs for ever" in (run.error or "")
+    assert run.legs[2].targets is None and run.positions[0] > 300 * MM
