@@ -461,7 +461,8 @@ _RULES = [
          "FB does not say where GOTO NEXT goes from the last step; the virtual controller wraps "
          "to step 1.", "Write GOTO 1 or MEND."),
     Rule("W603", "fbs-runs-for-ever", W, "A continuous run that nothing in the step can end.",
-         "A stroke of 0 runs without end (FB 955-957) and LINE runs until its exit condition "
+         "An ADR stroke of 0 runs without end (FB 955-957; ABS 0 is the position 0, FB 66, "
+         "75) and LINE runs until its exit condition "
          "(FB 2299); WAIT is only checked after the output completes, so only EXT or ACT end "
          "such a step.", "Give the step EXT contact or ACT TIME, or a stroke."),
     Rule("W604", "fbs-speed-above-maximum", W, "A constant SPD above the axis's maximum speed.",
