@@ -66,6 +66,8 @@ class VirtualCsim:
         self.started = clock()
         self.printed_sent = 0
         self.lock = threading.Lock()
+        self.paused_host_commands = frozenset(
+            str(name) for name in self.protocol["paused_host_commands"])
 
     # ----------------------------------------------------------------------- time
     def simulated_now(self) -> float:
@@ -164,7 +166,11 @@ class VirtualCsim:
             return statement.target is not None or "external" in self.profile.parameters[
                 statement.name].use
         spec = self.profile.commands.get(statement.name)
-        return spec is not None and ("external" in spec.use or statement.name in RUNNING_OK)
+        if spec is None:
+            return False
+        if self.machine.motion.path_paused and statement.name in self.paused_host_commands:
+            return True  # the pause state takes these from anyone (device.toml [protocol])
+        return "external" in spec.use or statement.name in RUNNING_OK
 
     @staticmethod
     def is_motion(statement: Statement) -> bool:
@@ -202,7 +208,9 @@ class VirtualCsim:
                 return self.error(6, problem)
             address = machine.resolve(st.operands[0]) if st.operands else 0
             machine.start(address)
-            machine.clock = max(machine.clock, self.simulated_now())
+            # The program starts at the instant `handle` caught the machine up to (its
+            # clock and the motions' clock are the same there); reading the wall clock again
+            # here would start the program later than the motions it issues.
             self.printed_sent = len(machine.printed)
             return self.ok()
         if name == "EXIT":

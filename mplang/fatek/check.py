@@ -237,7 +237,8 @@ class Checker:
             self.sink.add("E610", stroke_span, f"a negative stroke with the direction "
                           f"'{motion.direction}'", hint="with + or - the stroke is unsigned; "
                           "leave the direction blank to let the sign decide (FB 891-898)")
-        if motion.stroke == 0 and (step.condition is None or step.condition.op == "WAIT"):
+        if motion.stroke == 0 and self.profile.zero_runs_on(motion.coord) and (
+                step.condition is None or step.condition.op == "WAIT"):
             self.sink.add("W603", stroke_span, f"{motion.op} stroke 0 runs for ever (FB "
                           "955-957), and this step has no EXT or ACT to end it",
                           hint="end a continuous run with EXT contact or ACT TIME, or give a "

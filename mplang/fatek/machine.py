@@ -74,6 +74,7 @@ class Machine:
     carry: Carry | None = None
     steps_run: int = 0
     log: list[str] = field(default_factory=list)
+    wr_trace: list[tuple[float, int]] = field(default_factory=list)
     contacts: Contacts = field(init=False)
 
     def __post_init__(self) -> None:
@@ -98,6 +99,24 @@ class Machine:
         low, high = split32(value)
         self.set_word(register, low)
         self.set_word(register.offset(1), high)
+
+    def wr_bit(self, key: str) -> int:
+        """The mask of one WR+1 status bit (FB 757-763; `[registers]` of the profile)."""
+        return 1 << int(self.profile.raw["registers"][key])
+
+    def set_flags(self, on: int = 0, off: int = 0) -> None:
+        """Turn WR+1 status bits on and off at the present time. Every change is kept in
+        `wr_trace`, because a run reports the registers only at its end, while the ladder
+        reads B9 (waiting for the transition), B10 (continuous run) and B12 (pulsing) as
+        they change."""
+        if self.table.wr is None:
+            return
+        register = self.table.wr.offset(1)
+        before = self.word(register)
+        after = (before | on) & ~off & 0xFFFF
+        if after != before:
+            self.set_word(register, after)
+            self.wr_trace.append((self.time, after))
 
     def value32(self, value: Value) -> int:
         return value if isinstance(value, int) else self.read32(value)
@@ -137,6 +156,7 @@ class Machine:
         if wr is not None:
             self.set_word(wr, entry - 1)
             self.set_word(wr.offset(1), count & 0xFF)
+            self.wr_trace.append((self.time, count & 0xFF))
         for axis in self.axes:
             self.relays.discard(Contact("M", self.profile.register("ready_flag") + axis))
         number = entry
@@ -176,11 +196,15 @@ class Machine:
         self.note(f"step {number}: {' / '.join(step.lines())}")
         motion = step.motion
         start = self.time
+        pulsing, continuous = self.wr_bit("wr_pulsing_bit"), self.wr_bit("wr_continuous_bit")
         if isinstance(motion, Drive):
             last, leg, segment_start = self.drive(number, speed)
+            self.set_flags(on=pulsing | (continuous if leg.profile.length == INF else 0))
         elif isinstance(motion, Line):
             last, leg, segment_start = number, self.line(step, speed), start
+            self.set_flags(on=pulsing | (continuous if motion.op == "LINE" else 0))
         elif isinstance(motion, Home):
+            self.set_flags(on=pulsing)
             self.home(step, speed)
             last, leg, segment_start = number, None, start
         else:
@@ -200,10 +224,8 @@ class Machine:
         else:
             self.set_word(Register("D", self.profile.register("group_step") + self.table.unit),
                           number)
-        if self.table.wr is not None:
-            flags = self.word(self.table.wr.offset(1))
-            self.set_word(self.table.wr.offset(1),
-                          flags | 1 << int(self.profile.raw["registers"]["wr_done_bit"]))
+        self.set_flags(on=self.wr_bit("wr_done_bit"),
+                       off=self.wr_bit("wr_pulsing_bit") | self.wr_bit("wr_continuous_bit"))
 
     def target(self, step: Step, number: int) -> int:
         count = len(self.table.steps)
@@ -274,7 +296,7 @@ class Machine:
                 raise PlcError(41, f"step {step.number}: ABS inside a DRVC chain")
             raw = self.stroke(step, motion)
             cap = speed if index == 0 else self.speed(step)
-            if raw == 0:
+            if raw == 0 and self.profile.zero_runs_on(motion.coord):
                 segments.append(Segment(INF, cap))
                 if index == 0:
                     direction = -1 if motion.direction == "-" else 1
@@ -382,12 +404,15 @@ class Machine:
         self.set_step_done(step.number)
         if condition is None:
             return
+        waiting = self.wr_bit("wr_waiting_bit")
+        self.set_flags(on=waiting)
         if condition.time is not None:
             wait = self.value16(condition.time) / 100
             if condition.op == "ACT":
                 self.advance(max(self.time, segment_start + wait))
             else:
                 self.advance(self.time + wait)
+            self.set_flags(off=waiting)
             return
         assert condition.contact is not None
         when = self.contacts.next_on(condition.contact, self.time, None)
@@ -396,6 +421,7 @@ class Machine:
                 " (no SIM line drives it)"
             raise Stuck(f"{where} waits for {condition.contact}, which never turns ON{source}")
         self.advance(when)
+        self.set_flags(off=waiting)
 
     def check_time(self, when: float, leg: Leg | None, where: str) -> None:
         """Stop the run at max_time, or at once for a continuous run nothing can end."""

@@ -215,10 +215,12 @@ class MoveOps(EvaluatorBase):
         if stroke is None:
             state.position = None
             return
-        if isinstance(stroke, int) and absolute and stroke == 0:
+        if isinstance(stroke, int) and absolute and stroke == 0 and \
+                self.cx.profile.semantics("abs_zero") == "continuous":
             if state.position is None:
-                self.fail("E646", line.span, "a move to absolute 0 from an unknown position: "
-                          "DRV ABS with a stroke of 0 is a continuous run (FB 955-957)",
+                self.fail("E647", line.span, "a move to absolute 0 from an unknown position: "
+                          "with semantics.abs_zero = 'continuous', DRV ABS with a stroke of 0 "
+                          "is a continuous run (FB 955-957)",
                           hint="move to an absolute position first in this program, or move "
                           "relatively")
                 return

@@ -200,7 +200,7 @@ class EvaluatorBase:
 
     def fail(self, code: str, span: Span, message: str, hint: str = "") -> None:
         self.sink.add(code, span, message, hint=hint)
-        if code in ("E642", "E643", "E646", "E647", "E648"):
+        if code in ("E642", "E643", "E647", "E648"):
             self.lost_move = True
 
     def frame(self, program: LoweredProgram) -> Frame:

@@ -118,6 +118,12 @@ class Profile:
     def semantics(self, key: str) -> str:
         return str(self.raw["semantics"][key])
 
+    def zero_runs_on(self, coord: str) -> bool:
+        """Whether a DRV/DRVC stroke of 0 with these coordinates is a continuous run rather
+        than a position: always for ADR, for ABS only with the literal reading of FB 955-957
+        (`semantics.abs_zero`)."""
+        return coord != "ABS" or self.semantics("abs_zero") == "continuous"
+
     @property
     def motor_ut_scaling(self) -> str:
         return str(self.raw["units"]["motor_ut_scaling"])

@@ -43,6 +43,9 @@ class FamilyRun(SampledRun):
     legs: list[Leg] = field(default_factory=list)
     steps: int = 0
     log: list[str] = field(default_factory=list)
+    wr_trace: list[tuple[float, int]] = field(default_factory=list)
+    """(time in s, WR+1) at the start and at every change of WR+1's status bits (FB 757-763):
+    B9 waiting for the transition, B10 continuous run, B12 pulsing, B13 error, B14 step done."""
     sample_period: float | None = SAMPLE_PERIOD  # None: leg starts, ends and boundaries only
 
     def to_json(self) -> dict[str, object]:
@@ -137,10 +140,7 @@ def run_build(build: FamilyBuild, call: str | None = None, max_time: float = 360
         finished = True
     except PlcError as exc:
         machine.set_word(machine.error_register(), exc.code)
-        if table.wr is not None:
-            flags = machine.word(table.wr.offset(1))
-            bit = int(profile.raw["registers"]["wr_error_bit"])
-            machine.set_word(table.wr.offset(1), flags | 1 << bit)
+        machine.set_flags(on=machine.wr_bit("wr_error_bit"))
         error = f"PLC error {exc.code} ({profile.error_text(exc.code)}): {exc.detail}"
         machine.note(error)
     except Stuck as exc:
@@ -153,4 +153,4 @@ def run_build(build: FamilyBuild, call: str | None = None, max_time: float = 360
         positions=tuple(round_half_up(p) for p in machine.rest),
         axis_names=profile.axis_names, registers=dict(machine.registers),
         relays=frozenset(machine.relays), legs=machine.legs, steps=machine.steps_run,
-        log=machine.log, sample_period=sample_period)
+        log=machine.log, sample_period=sample_period, wr_trace=machine.wr_trace)

@@ -463,7 +463,8 @@ _RULES = [
          "FB does not say where GOTO NEXT goes from the last step; the virtual controller wraps "
          "to step 1.", "Write GOTO 1 or MEND."),
     Rule("W603", "fbs-runs-for-ever", W, "A continuous run that nothing in the step can end.",
-         "A stroke of 0 runs without end (FB 955-957) and LINE runs until its exit condition "
+         "An ADR stroke of 0 runs without end (FB 955-957; ABS 0 is the position 0, FB 66, "
+         "75) and LINE runs until its exit condition "
          "(FB 2299); WAIT is only checked after the output completes, so only EXT or ACT end "
          "such a step.", "Give the step EXT contact or ACT TIME, or a stroke."),
     Rule("W604", "fbs-speed-above-maximum", W, "A constant SPD above the axis's maximum speed.",
@@ -493,11 +494,6 @@ _RULES = [
     Rule("E645", "fatek-table-size", E, "The program unrolls into too many steps.",
          "Loops are unrolled at compile time and a table holds at most 250 steps (FB 573).",
          "Use fewer iterations, or close the loop with LABEL/GOTO so it becomes a jump."),
-    Rule("E646", "fatek-absolute-zero", E,
-         "A move to absolute position 0 from an unknown position.",
-         "A stroke of 0 means a continuous run, ADR or ABS alike (FB 955-957), so DRV ABS "
-         "cannot go to 0; it becomes a relative move only where the position is known.",
-         "Move to an absolute position first, or move relatively."),
     Rule("E647", "fatek-range", E, "A speed, stroke or time outside the PLC's ranges.",
          "SPD is 1-921600 (FUN147 1-1840000), a stroke at most 99999999 (LIN 1999999) and a "
          "time 0-65535 x 0.01 s (FB 883, 958, 2191, 2261).",

@@ -120,3 +120,25 @@ def test_preload_names_the_first_refused_line_and_leaves_edit_mode() -> None:
     assert csim.mode == "command"
     refused = csim.preload(["JP $NOWHERE"])
     assert refused is not None and refused[0] == "" and refused[1].status.startswith("ERR 6")
+
+
+class CreepingClock(Clock):
+    """A wall clock that moves on a little at every reading, as a real one does."""
+
+    def __call__(self) -> float:
+        self.now += 0.0003
+        return self.now
+
+
+def test_cs_22_27_a_jog_ends_where_mpc_run_ends_it_whatever_the_clock_reads() -> None:
+    """JGF ... WT ... JG0: the program and its motions keep one clock from G on, so reading
+    the wall clock again while answering G cannot start the jog earlier than the program."""
+    clock = CreepingClock()
+    csim = VirtualCsim(clock=clock, time_scale=50.0)
+    statuses(csim, "DLP", "JGF", "WT 300", "JG0", "DN", "")
+    clock.now = 1.0
+    assert csim.handle("G").status == "OK"
+    clock.now = 5.0
+    assert csim.handle("?ST").data == ["IDLE"]
+    # VM = 1000, PR2 = 10000: 0.1 s ramp (50 units), 0.201 s at speed, 0.1 s brake (50)
+    assert csim.handle("?PE").data == ["301"]

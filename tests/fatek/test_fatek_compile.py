@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 
 from mplang.fatek import FamilyBuild, check_native, compile_mp, run_build
 from mplang.fatek.model import Condition, Drive, Line, ParamTable, PositioningTable, Register
+from mplang.fatek.profile import load
 from mplang.m8194h.compiler import Options, compile_paths, compile_source
 from mplang.m8194h.run import run_build as run_m8194h
 
@@ -56,7 +57,7 @@ def test_the_feeder_on_fun140_writes_the_documented_forms() -> None:
     table = table_of(build)
     assert table.steps[0].motion == Drive("DRV", "ABS", "", 1_000, "Ps")
     assert table.steps[1].condition == Condition("WAIT", time=25)  # TIMER 250 ms
-    assert table.steps[-1].motion == Drive("DRV", "ADR", "-", 21_500, "Ps")  # ABS 0, known
+    assert table.steps[-1].motion == Drive("DRV", "ABS", "", 0, "Ps")  # FB 66, 75
     (params,) = [t for t in build.programs if isinstance(t, ParamTable)]
     assert params.values == {5: 500, 8: 2_300}  # SET_SV; 460000 / SET_A 200000 = 2.3 s
 
@@ -124,18 +125,32 @@ def test_known_values_fold_and_host_variables_become_registers(tmp_path: Path) -
     assert steps[3].motion == Drive("DRV", "ADR", "+", 7, "Ps")  # VAR5 counted down to 0
 
 
-def test_absolute_zero_is_a_relative_move_only_where_the_position_is_known(
-        tmp_path: Path) -> None:
+def test_absolute_zero_is_written_as_drv_abs_0_as_fb_66_and_75_do(tmp_path: Path) -> None:
+    """11.2 (FB 66, 75): `DRV ABS, ,0,Ut` goes to 0 mm, from a known position or not."""
+    build = build_text("MP 1 a\n    SET_V X, 1000\n    ABS_FIXED_MOVE X, 700\n"
+                       "    FIXED_MOVE X, 50\n    ABS_FIXED_MOVE X, 0\nEND MP\n",
+                       "fbs-fun140", tmp_path)
+    assert table_of(build).steps[-1].motion == Drive("DRV", "ABS", "", 0, "Ps")
+    unknown = build_text("MP 1 a\n    SET_V X, 1000\n    FIXED_MOVE X, 50\n"
+                         "    ABS_FIXED_MOVE X, 0\nEND MP\n", "fbs-fun140", tmp_path)
+    assert unknown.ok and table_of(unknown).steps[-1].motion == Drive("DRV", "ABS", "", 0, "Ps")
+    on_lines = build_text("MP 1 a\n    SET_V X, 1000\n    FIXED_MOVE X, 50\n"
+                          "    ABS_FIXED_MOVE X, 0\nEND MP\n", "fbs-fun147", tmp_path)
+    assert on_lines.ok  # LIN ABS,0 is a position (FB 2253-2259)
+
+
+def test_the_literal_reading_of_fb_955_writes_absolute_zero_relatively(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """With semantics.abs_zero = 'continuous' (FB 955-957 read literally) a move to absolute
+    0 becomes a relative move where the position is known, and E647 where it is not."""
+    monkeypatch.setitem(load().raw["semantics"], "abs_zero", "continuous")
     build = build_text("MP 1 a\n    SET_V X, 1000\n    ABS_FIXED_MOVE X, 700\n"
                        "    FIXED_MOVE X, 50\n    ABS_FIXED_MOVE X, 0\nEND MP\n",
                        "fbs-fun140", tmp_path)
     assert table_of(build).steps[-1].motion == Drive("DRV", "ADR", "-", 750, "Ps")
     unknown = build_text("MP 1 a\n    SET_V X, 1000\n    FIXED_MOVE X, 50\n"
                          "    ABS_FIXED_MOVE X, 0\nEND MP\n", "fbs-fun140", tmp_path)
-    assert [d.code for d in unknown.diagnostics] == ["E646"]
-    on_lines = build_text("MP 1 a\n    SET_V X, 1000\n    FIXED_MOVE X, 50\n"
-                          "    ABS_FIXED_MOVE X, 0\nEND MP\n", "fbs-fun147", tmp_path)
-    assert on_lines.ok  # LIN ABS,0 is a position (FB 2253-2259)
+    assert [d.code for d in unknown.diagnostics] == ["E647"]
 
 
 def test_called_programs_are_inlined_and_not_tables(tmp_path: Path) -> None:
