@@ -18,13 +18,15 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from mplang.ir import catalogue as catalogue_module
-from mplang.ir.catalogue import Catalogue, Command
+from mplang.ir.catalogue import Catalogue
 from mplang.ir.lower import apply_operator, wrap32
 from mplang.ir.macro import BVarRef, Operand, VarRef
 from mplang.m8194h.encode import Encoder
 from mplang.m8194h.sim import axis_commands, initial_table, interpolation_commands
 from mplang.m8194h.sim.initial_table import AxisColumn, InitialTable
 from mplang.m8194h.sim.motion import MotionModel
+from mplang.m8194h.sim.queues import DeviceBusy as DeviceBusy
+from mplang.m8194h.sim.queues import QueuedCommand, QueueFull, Retry, requeue
 from mplang.m8194h.sim.tables import DownloadError, MacroTable, StoredLine, decode_frame, validate
 from mplang.m8194h.sim.triggers import Triggers
 
@@ -70,19 +72,6 @@ class Frame:
 
 
 @dataclass
-class QueuedCommand:
-    """A real-time command in the DPRAM FIFO, executed at `due` on the simulated clock."""
-
-    command: Command
-    operands: tuple[Operand, ...]
-    due: float
-
-
-class DeviceBusy(Exception):
-    """The real-time command FIFO is full: the device answers exception 0x06."""
-
-
-@dataclass
 class RunResult:
     finished: bool
     time_s: float
@@ -113,7 +102,7 @@ class VirtualController:
         self.bvars = [0] * self.profile.var("byte_count")
         self.frnet = [0] * 16  # groups 0-7 DO, 8-15 DI (16 bits each)
         self.tables: dict[tuple[str, int], MacroTable] = {}
-        self.motion = MotionModel()
+        self.motion = MotionModel(self.profile.limit("motion_queue"))
         self.clock = 0.0
         self.state = "ready"  # "ready" | "mp" | "isr" (input register 100: 0/1/2)
         self.chip_state = 3  # input register 101 (appendix table 12); power on makes it 5
@@ -344,6 +333,8 @@ class VirtualController:
                     continue
                 if end > self.clock:
                     self.clock = end
+                if isinstance(frame.wait, Retry):
+                    frame.pc -= 1
                 frame.wait = None
                 self.motion.settle(self.clock)
                 continue
@@ -365,6 +356,9 @@ class VirtualController:
                     continue  # a setting the model does not simulate: accepted, no effect
                 try:
                     wait = handler(frame, operands)
+                except QueueFull as full:  # the motion queue is full: wait, run the line again
+                    frame.wait = Retry(self, full)
+                    break
                 except (ExecutionError, ValueError) as err:
                     line = frame.table.lines[pc]
                     code = err.code if isinstance(err, ExecutionError) else NOT_EXECUTABLE
@@ -448,6 +442,9 @@ class VirtualController:
                 handler = self.handlers.get(name)
                 if handler is not None:
                     handler(Frame(MacroTable("rtc", 0)), queued.operands)
+        except QueueFull as full:
+            requeue(self, queued, full)
+            return
         except (ValueError, ExecutionError) as err:
             self.log.append(f"{self.clock:.4f} s: {queued.command.name} ignored: {err}")
             return
@@ -474,7 +471,7 @@ class VirtualController:
         self.fifo.clear()
         self.isr_queue.clear()
         self.triggers.waiting.clear()
-        self.motion = MotionModel()
+        self.motion = MotionModel(self.profile.limit("motion_queue"))
         self.handlers = self._handlers()
         self.programs.clear()
         self.unmodelled = [self.initial_table.config.factory] * 4
