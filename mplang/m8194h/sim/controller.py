@@ -22,7 +22,7 @@ from mplang.ir.catalogue import Catalogue
 from mplang.ir.lower import apply_operator, wrap32
 from mplang.ir.macro import BVarRef, Operand, VarRef
 from mplang.m8194h.encode import Encoder
-from mplang.m8194h.sim import axis_commands, initial_table, interpolation_commands
+from mplang.m8194h.sim import axis_commands, initial_table, interpolation_commands, unmodelled
 from mplang.m8194h.sim.initial_table import AxisColumn, InitialTable
 from mplang.m8194h.sim.motion import MotionModel
 from mplang.m8194h.sim.queues import DeviceBusy as DeviceBusy
@@ -117,6 +117,7 @@ class VirtualController:
         self.return_value = 0
         self.error: str | None = None  # why the last program stopped, if it failed
         self.log: deque[str] = deque(maxlen=200)  # what the device did, for `mpc sim -v`
+        self.notices: dict[unmodelled.Notice, None] = {}  # unmodelled commands that ran
         self.handlers = self._handlers()
         self.programs: dict[tuple[str, int], tuple[MacroTable, Program]] = {}
         self.memory_version = 0  # counts non-volatile changes: tells `mpc sim` to save FRAM
@@ -606,6 +607,7 @@ class VirtualController:
             **axis_commands.handlers(self),
         }
         initial_table.wrap_handlers(self, handlers)
+        unmodelled.fill(self, handlers)  # the rest warn when they run
         return handlers
 
     def _set_var(self, _f: Frame, ops: tuple[Operand, ...]) -> None:

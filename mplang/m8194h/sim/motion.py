@@ -41,7 +41,8 @@ Conventions and simplifications
 * The commands waiting so (queued behind busy axes or held) and the segments a
   continuous interpolation has not reached yet are bounded by ``queue_capacity`` (the
   device profile's ``limits.motion_queue``): a new command that would have to wait
-  beyond it raises `QueueFull` and changes nothing; the caller retries at `room_at`.
+  beyond it raises `QueueFull` and changes nothing; the caller retries at
+  `queues.room_at`.
 * STOP_SLOWLY / VSTOP_SLOWLY ramp from the present speed down to the start speed
   with the deceleration of the motion (D or L; VD or VL) and stop there; the stop
   position is rounded to the nearest pulse.  If the motion is already in its final
@@ -86,7 +87,6 @@ from __future__ import annotations
 
 import copy
 import math
-from bisect import bisect_right
 from dataclasses import dataclass
 
 from mplang.m8194h.sim.axes import AXES, _axis_index, _mask_axes, _round
@@ -108,7 +108,6 @@ from mplang.m8194h.sim.chains import (
     _chain_builder,
     _chain_profile,
     _lay,
-    _reach_time,
     _Seg,
 )
 from mplang.m8194h.sim.io_state import AxisReport
@@ -456,31 +455,6 @@ class MotionModel:
         waiting = self.waiting_commands()
         if waits and waiting and waiting + waits > self.queue_capacity:
             raise QueueFull(needed=waits)  # (an empty queue takes any one command)
-
-    def room_at(self, now: float, chain: bool = False, needed: int = 1) -> float:
-        """When a command refused with `QueueFull` (`chain`: a continuous segment; `needed`
-        entries) should be tried again: `now` if there is room, else the next moment a
-        waiting command can start or the open chain passes a segment end (inf: nothing
-        will free it)."""
-        self.settle(now)
-        capacity = self.queue_capacity
-        if capacity is None:
-            return now
-        if chain:
-            open_chain = self._open
-            if open_chain is None or not self._chain_open(open_chain) or \
-                    _chain_backlog(open_chain, now) < capacity:
-                return now
-            m = open_chain.motion
-            if not open_chain.started or m is None:
-                return _INF if self._next_end == _INF else self._next_end
-            s = m.prof.state(now - m.t0)[0]
-            offsets = open_chain.path.offsets
-            return min(_reach_time(m, offsets[bisect_right(offsets, s)]), self._next_end)
-        waiting = self.waiting_commands()
-        if not waiting or waiting + needed <= capacity:
-            return now
-        return self._next_end
 
     def _issue(self, cmd: _Cmd, now: float) -> None:
         self.settle(now)

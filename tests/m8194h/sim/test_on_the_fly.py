@@ -5,14 +5,21 @@ Modbus TCP as the manual's examples send them, and as macro lines."""
 from __future__ import annotations
 
 import asyncio
+import re
+import signal
+import subprocess
+import sys
+from pathlib import Path
 
 import pytest
 from pymodbus.client import AsyncModbusTcpClient
+from simproc import start_sim
 
 from mplang.ir import catalogue
 from mplang.m8194h.compiler import compile_source
 from mplang.m8194h.modbus import DeviceFace, SimClock, serve_tcp, stop
 from mplang.m8194h.run import run_build
+from mplang.m8194h.sim import unmodelled
 from mplang.m8194h.sim.controller import VirtualController
 from mplang.m8194h.sim.preload import preload
 
@@ -173,3 +180,51 @@ def test_9_13_change_vel_on_fly_on_a_fixed_move_still_ends_on_its_target() -> No
     assert faster is not None and faster < plain - 3.0
     vc.advance(faster)
     assert vc.motion.lp(X, vc.clock) == 100000
+
+
+# ------------------------------------------------- what is still not modelled warns
+DOCS = Path(__file__).resolve().parents[3] / "docs" / "simulator.md"
+
+
+def test_7_3_9_an_unmodelled_macro_line_warns_at_its_source_line_once(tmp_path: Path) -> None:
+    source = tmp_path / "out.mp"
+    source.write_text("MP 1\n  VAR1 = 1\n  FOR 3\n    SET_OUT X, 1, 3\n  NEXT\nEND MP\n")
+    result = subprocess.run([sys.executable, "-m", "mplang", "run", str(source)],
+                            capture_output=True, text=True, timeout=60)
+    assert result.returncode == 0, result.stderr
+    assert result.stderr.count("warning: SET_OUT is not modelled") == 1  # once, not 3 times
+    assert f"{source}:4: warning: SET_OUT is not modelled by the virtual controller: it ran " \
+           "with no effect (MP1 line 2)" in result.stderr
+
+
+def test_7_4_13_an_unmodelled_real_time_command_is_logged_by_mpc_sim_v() -> None:
+    proc, port = start_sim("-v")
+
+    async def send() -> None:
+        client = AsyncModbusTcpClient("127.0.0.1", port=port)
+        assert await client.connect()
+        try:
+            line_scan = [0x0A91, X, 0, 0, 1000]  # axis, Type 0, Position 1000 (7.4.13)
+            assert not (await client.write_registers(8000, line_scan)).isError()
+            for _ in range(5):  # each request runs the device up to the present
+                await client.read_input_registers(71, count=1)
+                await asyncio.sleep(0.01)
+        finally:
+            client.close()
+
+    try:
+        asyncio.run(send())
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        out, _err = proc.communicate(timeout=30)
+    assert proc.returncode == 0
+    assert "warning: LINE_SCAN_START is not modelled by the virtual controller: accepted " \
+           "with no effect (real-time command)" in out
+
+
+def test_simulator_docs_list_exactly_the_commands_that_warn() -> None:
+    text = DOCS.read_text(encoding="utf-8")
+    match = re.search(r"<!-- unmodelled -->(.*?)<!-- /unmodelled -->", text, re.S)
+    assert match is not None
+    listed = sorted(re.findall(r"`([A-Z_0-9]+)`", match.group(1)))
+    assert listed == unmodelled.warned(VirtualController())
