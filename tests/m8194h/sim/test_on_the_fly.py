@@ -1,10 +1,12 @@
 """Changes to a running drive on the virtual M8194H: 7.1.10 SET_PULSE (change the target
 position on the fly, RS 5469-5537) and 9.13 CHANGE_VEL_ON_FLY (RS 11005-11049), over real
-Modbus TCP as the manual's examples send them, and as macro lines."""
+Modbus TCP as the manual's examples send them, and as macro lines; and the commands still not
+modelled, which warn when they run (`mpc run`, `mpc sim -v`) and docs/simulator.md lists."""
 
 from __future__ import annotations
 
 import asyncio
+import math
 import re
 import signal
 import subprocess
@@ -12,6 +14,8 @@ import sys
 from pathlib import Path
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from pymodbus.client import AsyncModbusTcpClient
 from simproc import start_sim
 
@@ -22,6 +26,7 @@ from mplang.m8194h.run import run_build
 from mplang.m8194h.sim import unmodelled
 from mplang.m8194h.sim.controller import VirtualController
 from mplang.m8194h.sim.preload import preload
+from mplang.m8194h.sim.profiles import _Plan, _retarget
 
 CAT = catalogue.load()
 XYZU, X = 0xF, 0x1
@@ -228,3 +233,32 @@ def test_simulator_docs_list_exactly_the_commands_that_warn() -> None:
     assert match is not None
     listed = sorted(re.findall(r"`([A-Z_0-9]+)`", match.group(1)))
     assert listed == unmodelled.warned(VirtualController())
+
+
+@settings(max_examples=300, deadline=None)
+@given(sv=st.integers(100, 5000), extra=st.integers(0, 50000), frac=st.floats(0.0, 1.0),
+       s0=st.integers(0, 100000), rest=st.integers(1, 200000), offset=st.integers(0, 20),
+       s_curve=st.booleans(), rates=st.tuples(st.integers(1000, 10**6), st.integers(1000, 10**6)))
+def test_7_1_10_a_replanned_drive_ends_exactly_on_its_total_without_speeding(
+        sv: int, extra: int, frac: float, s0: int, rest: int, offset: int, s_curve: bool,
+        rates: tuple[int, int]) -> None:
+    """From any present speed between SV and V: the path length rises to the new total and
+    stops there, the speed stays between 0 and the larger of the present and the new V."""
+    v = sv + extra
+    v0 = sv + frac * (v - sv)
+    plan = _Plan(float(sv), float(v), float(rates[0]), float(rates[1]), s_curve,
+                 offset=float(offset))
+    prof = _retarget(float(s0), v0, float(s0 + rest), plan)
+    assert prof.duration < math.inf
+    assert prof.state(prof.duration)[0] == s0 + rest
+    last = float(s0)
+    for k in range(1, 41):
+        s, speed, _a = prof.state(prof.duration * k / 40)
+        assert s >= last - 1e-6 and -1e-6 <= speed <= max(v0, v) * (1 + 1e-9) + 1e-6
+        last = s
+    pieces_end = prof.segs[-1] if prof.segs else None
+    if pieces_end is not None:  # the pieces themselves reach the total: no jump at the end
+        p, speed, acc, jerk = pieces_end
+        dt = prof.duration - prof.starts[-1]
+        reached = p + speed * dt + acc * dt * dt / 2 + jerk * dt ** 3 / 6
+        assert reached == pytest.approx(s0 + rest, abs=1e-3 * max(1.0, rest))
