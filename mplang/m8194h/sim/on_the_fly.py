@@ -7,8 +7,8 @@ as "RS N"); where the manual is silent the choice is stated here and in the devi
 
 * SET_PULSE sets the total pulses of the running fixed move (FIXED_MOVE or ABS_FIXED_MOVE,
   one axis) counted from where that move started, in its own direction: "Change the total
-  pulses to 9000 pulses during fixed pulse moving" (RS 5503), "does not support change of
-  the direction during driving" (RS 5477), data 0 ~ 2,000,000,000 (RS 5490). The rest of
+  pulses to 9000 pulses during fixed pulse moving" (RS 5505), "does not support change of
+  the direction during driving" (RS 5477), data 0 ~ 2,000,000,000 (RS 5489). The rest of
   the move is replanned from the present position and speed (`profiles._retarget`) with
   the move's own speeds, so it still decelerates to SV and runs its offset pulses. A total
   the axis has already reached or passed ends the drive where it is now (the chip stops
@@ -16,7 +16,7 @@ as "RS N"); where the manual is silent the choice is stated here and in the devi
   interpolation or a home search is left alone (logged): there is no fixed move to change.
 * CHANGE_VEL_ON_FLY sets the drive speed of the running single-axis drive (fixed or
   continuous) to the new speed, quantised to MAX_V/8000; "the drive will accelerate to the
-  specified velocity" (RS 11013): it ramps there with the move's acceleration (down with
+  specified velocity" (RS 11011): it ramps there with the move's acceleration (down with
   its deceleration), and a fixed move still ends on its target, decelerating in time. The
   axis's SET_V setting is not changed: later moves run at the program's own speed. Idle
   axes, interpolations and home searches are left alone (logged).
