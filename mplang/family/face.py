@@ -227,6 +227,11 @@ class FamilyRun(Protocol):
     @property
     def trace(self) -> Trace | None: ...
 
+    @property
+    def warnings(self) -> Sequence[str]:
+        """What the run did not simulate (`file:line: warning: ...`): `mpc run` prints them."""
+        ...
+
     def headline_detail(self, controller: str) -> str:
         """The end of `mpc run`'s headline after the simulated time (", 12 lines", " on
         the virtual CSIM"); `controller` names the family and target in words."""

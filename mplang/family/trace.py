@@ -161,6 +161,11 @@ class SampledRun:
             return None
         return trace_from_samples(self.samples, self.sample_period, self.POSITION_UNIT)
 
+    @property
+    def warnings(self) -> Sequence[str]:
+        """These runs report what they do not simulate when the program is checked."""
+        return ()
+
     def headline_detail(self, controller: str) -> str:
         return f" on the virtual {controller}"
 

@@ -10,6 +10,7 @@ from mplang.family.trace import Trace
 from mplang.m8194h.image import BuildResult, ProgramImage
 from mplang.m8194h.sim.controller import RunResult, VirtualController
 from mplang.m8194h.sim.preload import ServiceError, preload
+from mplang.m8194h.sim.unmodelled import Notice
 from mplang.m8194h.trace import run_traced
 
 __all__ = ["NoSuchProgram", "RunReport", "RunSetupError", "pick_program", "run_build",
@@ -23,6 +24,23 @@ class RunReport:
     called: str
     trace: Trace | None = None
     title: str = ""  # the called program in words: `MP131 home (samples/home.mp)`
+    build: BuildResult | None = None  # for the source lines of `warnings`
+
+    @property
+    def warnings(self) -> list[str]:
+        """Every command the run met that the virtual controller does not simulate, at
+        its source line (`file:line: warning: ...`), once per program line."""
+        return [self._warning(notice) for notice in self.controller.notices]
+
+    def _warning(self, notice: Notice) -> str:
+        where = ""
+        for image in self.build.programs if self.build is not None else ():
+            if (image.program.kind, image.placement.slot) == (notice.kind, notice.slot):
+                for line in image.lines:
+                    if line.first_slot_line == notice.line:
+                        where = f"{line.line.span.file}:{line.line.span.line}: "
+        return (f"{where}warning: {notice.command} is not modelled by the virtual controller:"
+                f" it ran with no effect ({notice.where()})")
 
     @property
     def finished(self) -> bool:
@@ -94,9 +112,10 @@ def run_build(build: BuildResult, call: str | None = None, first_file: str | Non
     slot = pick_program(build, call, first_file)
     controller.call(slot)
     if trace_period is None:
-        return RunReport(controller, controller.run(max_time=max_time), f"MP{slot}")
+        return RunReport(controller, controller.run(max_time=max_time), f"MP{slot}",
+                         build=build)
     result, trace = run_traced(controller, trace_period, max_time=max_time)
-    return RunReport(controller, result, f"MP{slot}", trace)
+    return RunReport(controller, result, f"MP{slot}", trace, build=build)
 
 
 def run_family(build: BuildResult, call: str | None, max_time: float, *,

@@ -81,6 +81,8 @@ def command(ctx: click.Context, files: tuple[str, ...], call: str | None, as_jso
     headline = (f"{run.called}: {'finished' if run.finished else 'FAILED'} after "
                 f"{summary['time_ms']} ms simulated{run.headline_detail(selection.describe)}")
     _summarise(summary, as_json, headline, trace, trace_file, run.error)
+    for warning in run.warnings:  # commands the virtual controller does not simulate
+        click.echo(warning, err=True)
     if not run.finished:
         sys.exit(EXIT_RUN_FAILED)
 

@@ -13,6 +13,7 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from mplang.ir.macro import Operand
+from mplang.m8194h.sim import on_the_fly
 from mplang.m8194h.sim.axes import _axis_index
 
 if TYPE_CHECKING:
@@ -79,11 +80,22 @@ def handlers(vc: VirtualController) -> dict[str, Handler]:
         io.sync_action(v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7],
                        (v[8], v[9], v[10], v[11]), vc.clock)
 
+    def on_fly(name: str, change: Callable[..., list[str]]) -> Handler:
+        """SET_PULSE / CHANGE_VEL_ON_FLY (`on_the_fly`): axes it cannot change are logged."""
+        def run(_f: Frame, ops: tuple[Operand, ...]) -> None:
+            mask, value = values(ops)
+            for note in change(motion, mask, value, vc.clock):
+                vc.log.append(f"{vc.clock:.4f} s: {name} {value}: no effect, {note}")
+        return run
+
     def set_encoder(_f: Frame, ops: tuple[Operand, ...]) -> None:
         mask, _mode, _division, z_edge = values(ops)
         io.set_z_edge(mask, z_edge, vc.clock)
 
     return {
+        # changes to a running drive (7.1.10, 9.13)
+        "SET_PULSE": on_fly("SET_PULSE", on_the_fly.set_pulse),
+        "CHANGE_VEL_ON_FLY": on_fly("CHANGE_VEL_ON_FLY", on_the_fly.change_velocity),
         "DRV_HOLD": axis_call("hold"), "DRV_START": axis_call("start"),
         "STOP_SLOWLY": axis_call("slow"), "STOP_SUDDENLY": axis_call("sudden"),
         "VSTOP_SLOWLY": vector_stop(False), "VSTOP_SUDDENLY": vector_stop(True),

@@ -86,6 +86,18 @@ class _Cmd:
     build: Callable[[MotionModel, float], _Motion | None]
 
 
+class QueueFull(Exception):
+    """The motion queue holds `queue_capacity` waiting commands: the new one is not taken
+    (the interpreter waits and runs the line again, `room_at` says when to look again).
+    `chain`: it was a segment for the open continuous interpolation's backlog; `needed`:
+    the queue entries the command needs (one per axis of a FIXED_MOVE)."""
+
+    def __init__(self, chain: bool = False, needed: int = 1) -> None:
+        super().__init__("the motion queue is full")
+        self.chain = chain
+        self.needed = needed
+
+
 # ------------------------------------------------------------------ command builders
 
 

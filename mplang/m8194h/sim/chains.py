@@ -20,13 +20,14 @@ Conventions and simplifications
   l.8192, and is silent for the other commands).  Constant-speed chains stop without
   decelerating (l.8761).  Corners are not smoothed: the direction changes at a
   junction at full speed (no look-ahead is described).
-* Segments are buffered without limit (no depth is given for continuous
-  interpolation); a segment that arrives while its chain runs replans the profile from
-  the present position and speed.  A chain that runs out of segments before its last
-  one stops at the end of those it has, at the speed it had: the device cannot brake
-  for a segment it has not been sent.  The 3-axis examples end that way, their
-  closing calls having nType 0 (l.8601, l.8680).  A last segment that comes too late
-  to brake fully brakes at once (VA) and loses the remaining speed on the end point.
+* The segments not reached yet count against the motion queue's bound (the model's
+  ``queue_capacity``; no depth is given for continuous interpolation); a segment that
+  arrives while its chain runs replans the profile from the present position and speed.
+  A chain that runs out of segments before its last one stops at the end of those it
+  has, at the speed it had: the device cannot brake for a segment it has not been sent.
+  The 3-axis examples end that way, their closing calls having nType 0 (l.8601, l.8680).
+  A last segment that comes too late to brake fully brakes at once (VA) and loses the
+  remaining speed on the end point.
 * MIX_2D_CONTINUE nType 1-5 (l.8762) are LINE_2D, ARC_CW/CCW and CIRCLE_CW/CCW with the
   arc conventions of `paths`; relative centres and end points count from the segment's
   start, ABS_ ones are absolute (l.8820).
@@ -35,6 +36,7 @@ Conventions and simplifications
 from __future__ import annotations
 
 import math
+from bisect import bisect_right
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
@@ -141,6 +143,41 @@ def _chain_profile(s: float, v: float, total: float, plan: _Plan, closed: bool) 
             _ramp(prof, peak, sv, dec, False)
     prof.length = total
     return prof
+
+
+def _chain_backlog(chain: _Chain, now: float) -> int:
+    """Segments of a continuous interpolation that its motion has not reached yet."""
+    if not chain.started:
+        return len(chain.specs)
+    m = chain.motion
+    if m is None:
+        return 0
+    s = m.prof.state(now - m.t0)[0]
+    return len(chain.path.offsets) - bisect_right(chain.path.offsets, s)
+
+
+def _reach_time(m: _Motion, s: float) -> float:
+    """When motion `m` reaches path length `s` (its path length never decreases)."""
+    lo, hi = 0.0, m.end - m.t0
+    if hi == math.inf:
+        hi = 1.0
+        while m.prof.state(hi)[0] < s:
+            hi *= 2.0
+    for _ in range(60):
+        mid = (lo + hi) / 2.0
+        if m.prof.state(mid)[0] >= s:
+            hi = mid
+        else:
+            lo = mid
+    return m.t0 + hi
+
+_VECTOR_KIND = {
+    0: "const", 7: "const",
+    1: "symT", 5: "symT", 8: "symT",
+    2: "symS", 9: "symS",
+    3: "asymT", 6: "asymT", 10: "asymT",
+    4: "asymS", 11: "asymS",
+}
 
 
 def _chain_builder(cid: int) -> Callable[[MotionModel, float], _Motion | None]:

@@ -9,28 +9,34 @@ to the moment they end, and motion is computed analytically by `mplang.m8194h.si
 from __future__ import annotations
 
 import dataclasses
-import json
 import math
-import re
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from mplang.ir import catalogue as catalogue_module
-from mplang.ir.catalogue import Catalogue, Command
+from mplang.ir.catalogue import Catalogue
 from mplang.ir.lower import apply_operator, wrap32
 from mplang.ir.macro import BVarRef, Operand, VarRef
 from mplang.m8194h.encode import Encoder
-from mplang.m8194h.sim import axis_commands, initial_table, interpolation_commands, machine_data
+from mplang.m8194h.sim import (
+    axis_commands,
+    initial_table,
+    interpolation_commands,
+    memory,
+    unmodelled,
+)
 from mplang.m8194h.sim.initial_table import AxisColumn, InitialTable
+from mplang.m8194h.sim.machine_data import MachineData
 from mplang.m8194h.sim.motion import MotionModel
+from mplang.m8194h.sim.queues import DeviceBusy as DeviceBusy
+from mplang.m8194h.sim.queues import QueuedCommand, QueueFull, Retry, requeue
 from mplang.m8194h.sim.tables import DownloadError, MacroTable, StoredLine, decode_frame, validate
 from mplang.m8194h.sim.triggers import Triggers
 
 AXIS_NAMES = ("X", "Y", "Z", "U")
 MAX_STEPS_DEFAULT = 50_000_000
-MEMORY_FORMAT = "mpc-fram/1"
 NOT_EXECUTABLE = 0x04  # execution error type: the line's values make no sense to the device
 
 
@@ -70,19 +76,6 @@ class Frame:
 
 
 @dataclass
-class QueuedCommand:
-    """A real-time command in the DPRAM FIFO, executed at `due` on the simulated clock."""
-
-    command: Command
-    operands: tuple[Operand, ...]
-    due: float
-
-
-class DeviceBusy(Exception):
-    """The real-time command FIFO is full: the device answers exception 0x06."""
-
-
-@dataclass
 class RunResult:
     finished: bool
     time_s: float
@@ -113,7 +106,7 @@ class VirtualController:
         self.bvars = [0] * self.profile.var("byte_count")
         self.frnet = [0] * 16  # groups 0-7 DO, 8-15 DI (16 bits each)
         self.tables: dict[tuple[str, int], MacroTable] = {}
-        self.motion = MotionModel()
+        self.motion = MotionModel(self.profile.limit("motion_queue"))
         self.clock = 0.0
         self.state = "ready"  # "ready" | "mp" | "isr" (input register 100: 0/1/2)
         self.chip_state = 3  # input register 101 (appendix table 12); power on makes it 5
@@ -128,6 +121,7 @@ class VirtualController:
         self.return_value = 0
         self.error: str | None = None  # why the last program stopped, if it failed
         self.log: deque[str] = deque(maxlen=200)  # what the device did, for `mpc sim -v`
+        self.notices: dict[unmodelled.Notice, None] = {}  # unmodelled commands that ran
         self.handlers = self._handlers()
         self.programs: dict[tuple[str, int], tuple[MacroTable, Program]] = {}
         self.memory_version = 0  # counts non-volatile changes: tells `mpc sim` to save FRAM
@@ -139,8 +133,8 @@ class VirtualController:
         self.unmodelled: list[AxisColumn] = [self.initial_table.config.factory] * 4
         self.loading_until: float | None = None  # register 101 shows 4 until then
         self.triggers = Triggers(self)  # chapter 10: the FRnet DI trigger table
-        self.md = machine_data.MachineData(self)  # MD0..MD2047 (3.19), non-volatile
-        self._load_initial_now()  # "directly after power on" (RS 9738)
+        self.md = MachineData(self)  # MD0..MD2047 (3.19), non-volatile
+        self.load_initial_now()  # "directly after power on" (RS 9738)
 
     @property
     def word_order(self) -> int:
@@ -345,6 +339,8 @@ class VirtualController:
                     continue
                 if end > self.clock:
                     self.clock = end
+                if isinstance(frame.wait, Retry):
+                    frame.pc -= 1
                 frame.wait = None
                 self.motion.settle(self.clock)
                 continue
@@ -366,6 +362,9 @@ class VirtualController:
                     continue  # a setting the model does not simulate: accepted, no effect
                 try:
                     wait = handler(frame, operands)
+                except QueueFull as full:  # the motion queue is full: wait, run the line again
+                    frame.wait = Retry(self, full)
+                    break
                 except (ExecutionError, ValueError) as err:
                     line = frame.table.lines[pc]
                     code = err.code if isinstance(err, ExecutionError) else NOT_EXECUTABLE
@@ -449,6 +448,9 @@ class VirtualController:
                 handler = self.handlers.get(name)
                 if handler is not None:
                     handler(Frame(MacroTable("rtc", 0)), queued.operands)
+        except QueueFull as full:
+            requeue(self, queued, full)
+            return
         except (ValueError, ExecutionError) as err:
             self.log.append(f"{self.clock:.4f} s: {queued.command.name} ignored: {err}")
             return
@@ -475,7 +477,7 @@ class VirtualController:
         self.fifo.clear()
         self.isr_queue.clear()
         self.triggers.waiting.clear()
-        self.motion = MotionModel()
+        self.motion = MotionModel(self.profile.limit("motion_queue"))
         self.handlers = self._handlers()
         self.programs.clear()
         self.unmodelled = [self.initial_table.config.factory] * 4
@@ -494,12 +496,12 @@ class VirtualController:
 
     def _finish_loading(self) -> None:
         self.loading_until = None
-        self._load_initial_now()
+        self.load_initial_now()
         if self.stack:
             self.chip_state = 10 if self._isr_running() else 8
         self.log.append(f"{self.clock:.4f} s: initial table loaded")
 
-    def _load_initial_now(self) -> None:
+    def load_initial_now(self) -> None:
         """Apply the initial table to the live settings through the plain-axis handlers."""
         frame = Frame(MacroTable("rtc", 0))
         for name, operands in initial_table.load_commands(self.initial_table.columns):
@@ -610,6 +612,7 @@ class VirtualController:
             **axis_commands.handlers(self),
         }
         initial_table.wrap_handlers(self, handlers)
+        unmodelled.fill(self, handlers)  # the rest warn when they run
         return handlers
 
     def _set_var(self, _f: Frame, ops: tuple[Operand, ...]) -> None:
@@ -744,57 +747,10 @@ class VirtualController:
                 "axes": axes, "time_ms": round(self.clock * 1000, 3)}
 
     def save(self, path: Path) -> None:
-        """Persist macro memory (the device's non-volatile FRAM): every stored table as the
-        frames that downloaded it, with the word order they were written in, the initial
-        parameter table, the FRnet DI trigger table and the machine data."""
-        programs = {f"{kind}{slot}": [list(line.frame) for line in table.lines]
-                    for (kind, slot), table in sorted(self.tables.items())}
-        data = {"format": MEMORY_FORMAT, "word_order": self.word_order, "programs": programs,
-                "initial_table": self.initial_table.to_json(),
-                "triggers": self.triggers.to_json(), machine_data.JSON_KEY: self.md.to_json()}
-        tmp = path.with_name(path.name + ".tmp")
-        tmp.write_text(json.dumps(data, indent=1))
-        tmp.replace(path)  # never leave a half-written memory file behind
+        """Persist macro memory (the device's non-volatile FRAM): `memory.save`."""
+        memory.save(self, path)
 
     def restore(self, path: Path) -> None:
-        """Load macro memory saved by `save`, validating every table like a download, and
-        power on with it: a saved initial table is loaded into the live settings, a saved
-        trigger table (and its enable flag) is in force, the machine data are the file's (0
-        where it has none); files without the first two keys keep the controller's. Raises
-        ValueError with the reason if the file is not such a memory image."""
-        try:
-            data = json.loads(path.read_text(encoding="utf-8"))
-        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-            raise ValueError(f"not JSON: {exc}") from None
-        if not isinstance(data, dict) or data.get("format") != MEMORY_FORMAT:
-            raise ValueError(f"no \"format\": \"{MEMORY_FORMAT}\" key")
-        programs = data.get("programs")
-        word_order = data.get("word_order")
-        if not isinstance(programs, dict) or word_order not in (0, 1):
-            raise ValueError("\"programs\" must be an object and \"word_order\" 0 or 1")
-        current = self.word_order
-        self.word_order = word_order
-        try:
-            for name, frames in programs.items():
-                match = re.fullmatch(r"(mp|isr)(\d+)", str(name))
-                if match is None or not isinstance(frames, list) or not all(
-                        isinstance(f, list) and all(isinstance(w, int) for w in f)
-                        for f in frames):
-                    raise ValueError(f"{name!r}: expected mpN/isrN with a list of frames")
-                kind, slot = match.group(1), int(match.group(2))
-                if self.profile.budget(kind, slot) is None:
-                    raise ValueError(f"{name}: no such slot")
-                create = self.encoder.create_frame(kind, slot)
-                error = self.load_frames(kind, slot,
-                                         [create, *frames, self.encoder.close_frame(kind)])
-                if error is not None:
-                    raise ValueError(f"{name}: download error {error.code:#04x} at line "
-                                     f"{error.line}")
-        finally:
-            self.word_order = current
-        if "initial_table" in data:
-            self.initial_table.from_json(data["initial_table"])
-            self._load_initial_now()
-        if "triggers" in data:
-            self.triggers.from_json(data["triggers"])
-        self.md.from_json(data.get(machine_data.JSON_KEY, {}))
+        """Power on with macro memory saved by `save` (`memory.restore`: ValueError with the
+        reason if the file is not such a memory image)."""
+        memory.restore(self, path)

@@ -92,6 +92,7 @@ class _HomeSearch(_SyncActions):
     def home_start(self, axis: int, now: float) -> None:
         """HOME_START: queued like a move; the search occupies the axis until it ends."""
         i = _one_axis(axis)
+        self.model._admit([(i,)], now)  # QueueFull if the motion queue is full
 
         def build(model: MotionModel, t: float) -> _Motion | None:
             model.io._home_begin(i, t)  # `model`, not self: idle_at runs copies

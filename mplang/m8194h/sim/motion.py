@@ -38,6 +38,11 @@ Conventions and simplifications
   that move is stopped).  A command for an axis under DRV_HOLD (l.9128) is kept
   pending until DRV_START (l.9211) releases every axis it uses; a pending command
   makes its axes busy, a hold alone does not.
+* The commands waiting so (queued behind busy axes or held) and the segments a
+  continuous interpolation has not reached yet are bounded by ``queue_capacity`` (the
+  device profile's ``limits.motion_queue``): a new command that would have to wait
+  beyond it raises `QueueFull` and changes nothing; the caller retries at
+  `queues.room_at`.
 * STOP_SLOWLY / VSTOP_SLOWLY ramp from the present speed down to the start speed
   with the deceleration of the motion (D or L; VD or VL) and stop there; the stop
   position is rounded to the nearest pulse.  If the motion is already in its final
@@ -87,6 +92,7 @@ from dataclasses import dataclass
 from mplang.m8194h.sim.axes import AXES, _axis_index, _mask_axes, _round
 from mplang.m8194h.sim.axis_io import AxisIO
 from mplang.m8194h.sim.builders import (
+    QueueFull,
     _arc_builder,
     _Cmd,
     _continuous_builder,
@@ -96,7 +102,14 @@ from mplang.m8194h.sim.builders import (
     _rectangle_builder,
     _single_cmd,
 )
-from mplang.m8194h.sim.chains import _Chain, _chain_builder, _chain_profile, _lay, _Seg
+from mplang.m8194h.sim.chains import (
+    _Chain,
+    _chain_backlog,
+    _chain_builder,
+    _chain_profile,
+    _lay,
+    _Seg,
+)
 from mplang.m8194h.sim.io_state import AxisReport
 from mplang.m8194h.sim.profiles import (
     _AxisSettings,
@@ -109,6 +122,8 @@ from mplang.m8194h.sim.profiles import (
 )
 
 _INF = math.inf
+
+__all__ = ["MotionModel", "QueueFull"]
 
 _VECTOR_KIND = {
     0: "const", 7: "const",
@@ -148,7 +163,8 @@ class MotionModel:
     time ``now`` and first finishes motions that ended at or before it.
     """
 
-    def __init__(self) -> None:
+    def __init__(self, queue_capacity: int | None = None) -> None:
+        self.queue_capacity = queue_capacity  # None: unbounded (a bare model in tests)
         self.settings = [_AxisSettings() for _ in AXES]
         self.vector = _VectorSettings()
         self.assigned: tuple[int, ...] = (0, 1)  # axis indices of axis1..axis3
@@ -273,11 +289,13 @@ class MotionModel:
     # ------------------------------------------------------------------ motion
     def fixed_move(self, axis_mask: int, pulses: int, now: float) -> None:
         """FIXED_MOVE: every axis of the mask moves `pulses` relative to where it starts."""
+        self._admit([(i,) for i in _mask_axes(axis_mask)], now)
         for i in _mask_axes(axis_mask):
             self._issue(_single_cmd(i, int(pulses), False, _single_plan(self.settings[i])), now)
 
     def abs_move(self, axis_mask: int, position: int, now: float) -> None:
         """ABS_FIXED_MOVE: every axis of the mask moves to LP = `position`."""
+        self._admit([(i,) for i in _mask_axes(axis_mask)], now)
         for i in _mask_axes(axis_mask):
             self._issue(_single_cmd(i, int(position), True, _single_plan(self.settings[i])),
                         now)
@@ -285,22 +303,27 @@ class MotionModel:
     def continue_move(self, axis_mask: int, speed: int, now: float) -> None:
         """CONTINUE_MOVE: run at |speed| in the direction of its sign until stopped."""
         self.settle(now)
+        direction = 1 if speed > 0 else -1
+        runs: list[tuple[int, _Plan, bool]] = []  # axis, plan, change the running speed
         for i in _mask_axes(axis_mask):
             st = self.settings[i]
             base = _single_plan(st)
-            direction = 1 if speed > 0 else -1
             v = _quantise(abs(speed), st.max_v)
+            if v <= 0:
+                continue
             plan = _Plan(min(base.sv, v), v, base.acc, base.dec, base.s_curve)
             ax = self._ax[i]
             m = ax.motion
-            if (v > 0 and m is not None and m.continuous and not m.vector
-                    and m.direction == direction and not ax.held
-                    and not any(i in c.axes for c in self._queue)):
+            runs.append((i, plan, m is not None and m.continuous and not m.vector
+                         and m.direction == direction and not ax.held
+                         and not any(i in c.axes for c in self._queue)))
+        self._admit([(i,) for i, _plan, change in runs if not change], now)
+        for i, plan, change in runs:
+            m = self._ax[i].motion
+            if change and m is not None:
                 self._change_speed(i, m, plan, now)
-                continue
-            if v <= 0:
-                continue
-            self._issue(_Cmd((i,), False, _continuous_builder(i, direction, plan)), now)
+            else:
+                self._issue(_Cmd((i,), False, _continuous_builder(i, direction, plan)), now)
         self._recompute()
 
     def _change_speed(self, i: int, m: _Motion, plan: _Plan, now: float) -> None:
@@ -317,6 +340,7 @@ class MotionModel:
         if n not in (2, 3) or n > len(self.assigned):
             raise ValueError(f"{n}-axis line needs {n} assigned axes")
         axes = self.assigned[:n]
+        self._admit([axes], now)
         self._issue(_Cmd(axes, True, _line_builder(axes, tuple(int(d) for d in distances),
                                                    absolute, self._vector_plan())), now)
 
@@ -324,6 +348,7 @@ class MotionModel:
             now: float, absolute: bool = False) -> None:
         """ARC_CW / ARC_CCW (and ABS_ variants) in the plane of axis 1 / axis 2."""
         axes = self.assigned[:2]
+        self._admit([axes], now)
         self._issue(_Cmd(axes, True, _arc_builder(axes, (int(center[0]), int(center[1])),
                                                   (int(finish[0]), int(finish[1])),
                                                   clockwise, absolute, False,
@@ -332,6 +357,7 @@ class MotionModel:
     def circle(self, center: tuple[int, int], clockwise: bool, now: float) -> None:
         """CIRCLE_CW / CIRCLE_CCW: a full circle around a centre relative to the start."""
         axes = self.assigned[:2]
+        self._admit([axes], now)
         self._issue(_Cmd(axes, True, _arc_builder(axes, (int(center[0]), int(center[1])),
                                                   (0, 0), clockwise, False, True,
                                                   self._vector_plan())), now)
@@ -411,6 +437,24 @@ class MotionModel:
             if ax.motion is not None and ax.motion.end < end:
                 end = ax.motion.end
         self._next_end = min(end, self.io.reschedule())  # limits, sensors, compare
+
+    def waiting_commands(self) -> int:
+        """Motion commands that wait for their axes (queued behind busy axes or held)."""
+        return len(self._queue) + len(self._pending)
+
+    def _admit(self, groups: list[tuple[int, ...]], now: float) -> None:
+        """Raise `QueueFull` (before anything changes) if the commands for these groups of
+        axes would wait beyond `queue_capacity`."""
+        if self.queue_capacity is None:
+            return
+        self.settle(now)
+        queued = [set(c.axes) for c in self._queue]
+        waits = sum(1 for axes in groups if any(
+            self._ax[i].held or self._ax[i].motion is not None for i in axes)
+            or any(q & set(axes) for q in queued))
+        waiting = self.waiting_commands()
+        if waits and waiting and waiting + waits > self.queue_capacity:
+            raise QueueFull(needed=waits)  # (an empty queue takes any one command)
 
     def _issue(self, cmd: _Cmd, now: float) -> None:
         self.settle(now)
@@ -643,6 +687,7 @@ class MotionModel:
                 _Plan(_quantise(sv, max_v), top, float(max(acc, 1)), float(max(dec, 1)),
                       False))
         r = min(rp, lp // 2, wp // 2)
+        self._admit([(i, j)], now)
         self._issue(_Cmd((i, j), True, _rectangle_builder((i, j), start_point, clockwise,
                                                           lp, wp, r, plan)), now)
 
@@ -655,6 +700,7 @@ class MotionModel:
             raise ValueError("the helix axes must be distinct")
         v = _quantise(vv, self.settings[idx[0]].max_v)
         plan = _Plan(v, v, 1.0, 1.0, False, constant=True)
+        self._admit([idx], now)
         self._issue(_Cmd(idx, True, _helix_builder(idx, (int(center[0]), int(center[1])),
                                                    clockwise, int(cycle), int(pitch),
                                                    plan)), now)
@@ -694,8 +740,12 @@ class MotionModel:
         axes = self.assigned[:n]
         chain = self._open
         if chain is not None and chain.axes == axes and self._chain_open(chain):
+            if self.queue_capacity is not None and \
+                    _chain_backlog(chain, now) >= self.queue_capacity:
+                raise QueueFull(chain=True)
             self._grow(chain, seg, last, now)
         else:
+            self._admit([axes], now)
             self._chains = {k: c for k, c in self._chains.items() if self._chain_alive(c)}
             self._chain_seq += 1
             chain = _Chain(axes, self._continuous_plan(), [seg], last)

@@ -44,6 +44,7 @@ from __future__ import annotations
 
 import math
 from bisect import bisect_right
+from collections.abc import Callable
 from dataclasses import dataclass
 
 _INF = math.inf
@@ -210,3 +211,65 @@ def _single_plan(st: _AxisSettings) -> _Plan:
                      True, offset=float(st.ao))
     return _Plan(sv, v, float(max(st.a, 1)), float(max(st.d if mode == 2 else st.a, 1)), False,
                  offset=float(st.ao))
+
+
+def _bisect(lo: float, hi: float, ok: Callable[[float], bool]) -> float:
+    """The largest x in [lo, hi] with ok(x), for ok true at lo and monotone (true, then false)."""
+    for _ in range(60):
+        mid = (lo + hi) / 2.0
+        if ok(mid):
+            lo = mid
+        else:
+            hi = mid
+    return lo
+
+
+def _retarget(s0: float, v0: float, length: float, plan: _Plan) -> _Profile:
+    """A running fixed move replanned from path length `s0` at speed `v0` to end at
+    `length` (SET_PULSE's new total, or CHANGE_VEL_ON_FLY's new speed in `plan`): ramp to
+    the plan's speed (up at its acceleration, down at its deceleration), cruise, decelerate
+    to SV and run the offset pulses, as `_point_to_point` plans a move from rest. When the
+    rest is too short for a full deceleration the drive brakes at once and ends on the
+    target with the speed it has left: the chip stops when its pulse count is reached.
+    S-curve ramps start from zero acceleration (the simplification STOP_SLOWLY makes)."""
+    prof = _Profile(s0, v0)
+    dist = length - s0
+    top = max(plan.v, 1.0)
+    sv = min(plan.sv, top)
+    if dist <= 0.0:
+        prof.length = s0
+        return prof
+    if plan.constant or sv >= top:
+        prof.add(dist / top, 0.0, 0.0)
+        prof.length = length
+        return prof
+    acc, dec, sc = plan.acc, plan.dec, plan.s_curve
+    creep = min(plan.offset, dist) if plan.offset > 0.0 and sv > 0.0 else 0.0
+    brake = _ramp_dist(v0, sv, dec, sc) if v0 > sv else 0.0
+    if brake >= dist:  # cannot reach SV: brake from now, end with the speed left
+        end = _bisect(sv, v0, lambda ve: _ramp_dist(v0, ve, dec, sc) >= dist)
+        _ramp(prof, v0, end, dec, sc)
+    elif brake >= dist - creep:  # brake now, then the rest of the offset at SV
+        _ramp(prof, v0, sv, dec, sc)
+        prof.add((dist - brake) / sv, 0.0, 0.0)
+    else:
+        room = dist - creep
+
+        def need(peak: float) -> float:
+            first = _ramp_dist(v0, peak, acc if peak >= v0 else dec, sc)
+            return first + _ramp_dist(peak, sv, dec, sc)
+
+        if need(top) <= room:
+            peak = top
+        elif top > v0:
+            low = max(v0, sv)
+            peak = _bisect(low, top, lambda p: need(p) <= room) if need(low) <= room else low
+        else:
+            peak = v0  # above the new speed with no room to slow down first: brake later
+        _ramp(prof, v0, peak, acc if peak >= v0 else dec, sc)
+        prof.add(max(room - need(peak), 0.0) / peak, 0.0, 0.0)
+        _ramp(prof, peak, sv, dec, sc)
+        if creep:
+            prof.add(creep / sv, 0.0, 0.0)
+    prof.length = length
+    return prof

@@ -107,6 +107,9 @@ async def serve(options: SimOptions, controller: VirtualController,
             if deadline is not None and loop.time() >= deadline:
                 break
     finally:
+        if options.verbose:  # what the device did since the last tick, before it stops
+            while controller.log:
+                announce(controller.log.popleft())
         for server in servers:
             await stop(server)
         if link is not None:
