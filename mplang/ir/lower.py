@@ -150,7 +150,7 @@ class ProgramLowerer(OperandLowerer):
             self.lower_block(node.body)
             return
         depth = sum(1 for b in self.blocks if b.kind == "for") + 1
-        if depth > self.profile.limit("for_depth"):
+        if depth == self.profile.limit("for_depth") + 1:  # once, where the nesting passes it
             self.sink.add("E311", node.span, f"FOR nested {depth} deep; the device allows "
                           f"{self.profile.limit('for_depth')} (one outer and "
                           f"{self.profile.limit('for_depth') - 1} inner)")
@@ -176,7 +176,7 @@ class ProgramLowerer(OperandLowerer):
                  loop_label: int | None = None) -> None:
         """IF ... [ELSE ...] END_IF; for a WHILE (`loop_label`), `body` then GOTO back."""
         depth = sum(1 for b in self.blocks if b.kind in ("if", "while")) + 1
-        if depth > self.profile.limit("if_depth"):
+        if depth == self.profile.limit("if_depth") + 1:  # once, where the nesting passes it
             self.sink.add("E310", node.span, f"IF nested {depth} deep; the device allows "
                           f"{self.profile.limit('if_depth')} (one outer and "
                           f"{self.profile.limit('if_depth') - 1} inner)")

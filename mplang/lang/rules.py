@@ -46,8 +46,14 @@ _RULES = [
     Rule("E105", "unreadable-source", E, "A source file cannot be read as UTF-8 text.",
          "The compiler reads .mp sources as UTF-8.", "Save the file as UTF-8 text."),
     Rule("E107", "expression-too-deep", E, "An expression too deeply nested to compile.",
-         "Thousands of operators in one expression exceed what the compiler follows; no "
-         "program needs that.", "Split it into several assignments or CONSTs."),
+         "The compiler follows expressions up to 100 levels deep (a 100-term sum; CONSTs "
+         "defined through each other count too); deeper ones are generated text, never a "
+         "program.", "Split it into several assignments or CONSTs."),
+    Rule("E108", "number-too-long", E, "A number literal longer than any value it could be.",
+         "Device values are 32-bit (at most 10 decimal digits); the compiler reads numbers of "
+         "up to 20 significant digits, or 16 after 0x, so that constant arithmetic can "
+         "still report a value out of range. Longer literals are refused where they stand.",
+         "Write the value the device should hold."),
     Rule("E106", "include-inside-program", E, "INCLUDE inside an MP or ISR block.",
          "INCLUDE joins a whole file (its CONSTs, ALIASes and programs) to the build; it is "
          "not a macro that pastes lines into a program.",

@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 
 from mplang.lang import ast
 from mplang.lang.diagnostics import DiagnosticSink, Span
+from mplang.lang.limits import MAX_BLOCK_DEPTH
 from mplang.lang.sources import SourceSet
 
 BLOCK_WORD = {"mp": "END MP", "isr": "END ISR", "for": "NEXT", "if": "END IF",
@@ -32,6 +33,7 @@ class _Open:
     body: list[ast.Node] = field(default_factory=list)
     otherwise: list[ast.Node] | None = None
     else_span: Span | None = None
+    dropped: bool = False  # nested beyond MAX_BLOCK_DEPTH: reported, left out of the tree
 
     @property
     def target(self) -> list[ast.Node]:
@@ -98,6 +100,8 @@ def _build_file(statements: list[ast.Statement], file: str, unit: ast.Unit,
 
     def close_inner(block: _Open, end_span: Span) -> None:
         node: ast.Node
+        if block.dropped:
+            return
         if block.kind == "for":
             assert isinstance(block.head, ast.ForStmt)
             node = ast.ForBlock(block.head.count, block.body, block.head.span, end_span)
@@ -116,6 +120,22 @@ def _build_file(statements: list[ast.Statement], file: str, unit: ast.Unit,
 
     def in_program() -> bool:
         return bool(stack)
+
+    def open_block(kind: str, statement: ast.Statement) -> None:
+        """Push a FOR/IF/WHILE/REPEAT. Beyond MAX_BLOCK_DEPTH the block is matched with its
+        closer as usual but left out of the program (reported once, at its outermost
+        level), so no later pass walks a tree deeper than that."""
+        block = _Open(kind, statement)
+        if stack[-1].dropped:
+            block.dropped = True
+        elif len(stack) > MAX_BLOCK_DEPTH:
+            block.dropped = True
+            code = "E310" if kind in ("if", "while") else "E311"
+            sink.add(code, statement.span, f"{kind.upper()} nested {len(stack)} blocks deep: "
+                     f"the compiler follows {MAX_BLOCK_DEPTH} (the device allows 7 IF and 7 "
+                     "FOR levels); the lines inside are not compiled",
+                     hint="flatten the conditions, or move the inner part into a called MP")
+        stack.append(block)
 
     def close_config(end_span: Span) -> None:
         block = stack.pop()
@@ -249,18 +269,18 @@ def _build_file(statements: list[ast.Statement], file: str, unit: ast.Unit,
                 if not in_program():
                     sink.add("E301", statement.span, "FOR outside an MP block")
                     continue
-                stack.append(_Open("for", statement))
+                open_block("for", statement)
             case ast.IfStmt():
                 if not in_program():
                     sink.add("E301", statement.span, "IF outside an MP/ISR block")
                     continue
-                stack.append(_Open("if", statement))
+                open_block("if", statement)
             case ast.WhileStmt() | ast.RepeatStmt():
                 kind = "while" if isinstance(statement, ast.WhileStmt) else "repeat"
                 if not in_program():
                     sink.add("E301", statement.span, f"{kind.upper()} outside an MP block")
                     continue
-                stack.append(_Open(kind, statement))
+                open_block(kind, statement)
             case ast.End(what="while" | "repeat"):
                 close_block(statement.what, statement.span)
             case ast.Next() | ast.End(what="for"):
