@@ -13,7 +13,7 @@ import re
 from dataclasses import dataclass, field
 
 from mplang.ir.catalogue import Catalogue
-from mplang.ir.fold import apply_operator, walk_expr
+from mplang.ir.fold import apply_operator, walk_expr, wrap32
 from mplang.lang import ast
 from mplang.lang.diagnostics import DiagnosticSink, Span
 
@@ -65,6 +65,7 @@ class Scope:
     variables: list[Variable] = field(default_factory=list)
     declared_indices: set[int] = field(default_factory=set)
     _evaluating: set[str] = field(default_factory=set)
+    _wrapped: set[tuple[str, int, int]] = field(default_factory=set)  # W110 said here
 
     @classmethod
     def declared(cls, unit: ast.Unit, catalogue: Catalogue, sink: DiagnosticSink,
@@ -249,7 +250,7 @@ class Scope:
                 return None
             case ast.Neg(operand=operand):
                 inner = self.fold(operand)
-                return None if inner is None else -inner
+                return None if inner is None else self._wrapping(expr, -inner, f"-({inner})")
             case ast.Group(items=[single]):
                 return self.fold(single)
             case ast.BinOp(op=op, left=left, right=right):
@@ -257,11 +258,26 @@ class Scope:
                 if a is None or b is None:
                     return None
                 try:
-                    return apply_operator(op, a, b, wrap=False)
+                    exact = apply_operator(op, a, b, wrap=False)
                 except ZeroDivisionError:
                     raise ConstError(right.span, "division by zero in a constant "
                                      "expression") from None
+                return self._wrapping(expr, exact, f"{a} {op} {b}")
         return None
+
+    def _wrapping(self, expr: ast.Expr, exact: int, shown: str) -> int:
+        """`exact` as the device's 32-bit VAR_CALCULATE leaves it, with W110 (once per place)
+        when that differs: folding computes exactly what the controller would."""
+        wrapped = wrap32(exact)
+        if wrapped != exact:
+            key = (expr.span.file, expr.span.line, expr.span.col)
+            if key not in self._wrapped:
+                self._wrapped.add(key)
+                self.sink.add("W110", expr.span, f"{shown} = {exact} does not fit in 32 bits; "
+                              f"the device wraps it to {wrapped}, and so does the compiler",
+                              hint="if the wrap is meant, write the wrapped value; otherwise "
+                              "scale the numbers down")
+        return wrapped
 
     def variable(self, name: str) -> int | None:
         """Index of VARn or of an alias, None if the name is not a variable."""

@@ -289,6 +289,11 @@ _RULES = [
          "FRNET_OUT sends a variable as its holding-register address 300 + 2n, so an output "
          "pattern 300..1322 (even) looks exactly like VARn on the wire.",
          "Put the pattern in a variable first: VARn = pattern, then FRNET_OUT group, VARn."),
+    Rule("W110", "constant-wraps", W, "A constant expression overflows 32 bits and wraps.",
+         "VAR_CALCULATE computes in 32 bits and wraps around (2000000000 + 2000000000 is "
+         "-294967296 on the device); the compiler folds constant expressions the same way, "
+         "so the program does what the device would do, but an overflow is rarely meant.",
+         "Write the wrapped value if the wrap is intended; otherwise scale the numbers down."),
     Rule("W109", "unused-slot-pin", W, "A slot pin in mpc.toml names no program of the build.",
          "The pin has no effect; perhaps the program was renamed or its file left out.",
          "Remove the pin or fix the name."),

@@ -61,8 +61,8 @@ def normalise(statement: ast.Statement) -> ast.Statement:
         return ast.Next(span)
     if name == "FOR" and len(args) == 1:
         return ast.ForStmt(args[0], span)
-    if name == "IF" and len(args) == 3 and isinstance(args[1], ast.Str):
-        return ast.IfStmt(args[0], args[1].value, args[2], span)
+    if name == "IF" and len(args) == 3:  # the operator as a string, a code or LE/EQ/...
+        return ast.IfStmt(args[0], _operator_text(args[1]), args[2], span)
     if len(args) == 1 and isinstance(args[0], ast.Name | ast.Num):
         target = args[0].name if isinstance(args[0], ast.Name) else str(args[0].value)
         if name == "MP_CALL":
@@ -70,6 +70,18 @@ def normalise(statement: ast.Statement) -> ast.Statement:
         if name in ("GOTO", "LABEL"):
             return ast.Goto(target, span) if name == "GOTO" else ast.LabelStmt(target, span)
     return statement
+
+
+def _operator_text(expr: ast.Expr) -> str:
+    """A raw IF's operator as written ("<=", 15676, LE), for the lowering to resolve: any
+    three-argument IF opens a block, so a refused operator is one error, not also an
+    unmatched END IF."""
+    match expr:
+        case ast.Str(value=value) | ast.Name(name=value):
+            return value
+        case ast.Num(value=number):
+            return hex(number)  # operator codes are written in hex (0x3D3D)
+    return "?"
 
 
 def build_unit(sources: SourceSet, sink: DiagnosticSink) -> ast.Unit:
