@@ -192,8 +192,7 @@ class ProgramLowerer(OperandLowerer):
         # ELSE and END_IF only with their IF: a refused IF is one error, and no back end
         # meets an END_IF without its IF.
         emitted = left is not None and right is not None and op is not None
-        if emitted:
-            assert op is not None
+        if left is not None and right is not None and op is not None:
             self.emit("IF", (left, self.profile.cmp_ops[op], right), node.span)
         for used in (left, right):
             if isinstance(used, VarRef):
