@@ -5,12 +5,15 @@ compilers) walks expressions and blocks recursively. Rather than make each of th
 the front end refuses what no program needs and what those walks could not follow: numbers
 longer than any device value (E108), expressions nested more than MAX_EXPRESSION_DEPTH levels
 (E107) and blocks nested more than MAX_BLOCK_DEPTH levels (E310/E311, far beyond the device's
-7). The checks here are iterative, so the bound holds whatever the input.
+7). The checks here are iterative, so the bound holds whatever the input. JSON the tools read
+(images, memory files) is bounded the same way before it is decoded (`load_json`).
 """
 
 from __future__ import annotations
 
+import json
 import re
+from typing import Any
 
 from mplang.lang import ast
 
@@ -102,3 +105,22 @@ def too_deep(statement: ast.Statement) -> ast.Expr | None:
     """The first expression of `statement` nested beyond MAX_EXPRESSION_DEPTH, if any."""
     return next((e for e in statement_expressions(statement)
                  if expression_depth(e) > MAX_EXPRESSION_DEPTH), None)
+
+
+# Arrays and objects inside each other in JSON the tools read; images nest 4 deep.
+MAX_JSON_DEPTH = 32
+_JSON_STRING = re.compile(r'"(?:[^"\\\n]|\\.)*"')
+_JSON_BRACKET = re.compile(r"[\[\]{}]")
+
+
+def load_json(text: str, max_depth: int = MAX_JSON_DEPTH) -> Any:
+    """`json.loads(text)` for files a user hands over: ValueError (json.JSONDecodeError for
+    bad syntax) also when arrays and objects nest more than `max_depth` deep, checked before
+    decoding, so the decoder and every walk of the result stay shallow."""
+    depth = deepest = 0
+    for bracket in _JSON_BRACKET.finditer(_JSON_STRING.sub("", text)):
+        depth += 1 if bracket.group() in "[{" else -1
+        deepest = max(deepest, depth)
+        if deepest > max_depth:
+            raise ValueError(f"arrays and objects nested more than {max_depth} deep")
+    return json.loads(text)
