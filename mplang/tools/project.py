@@ -163,6 +163,11 @@ def _read(path: Path) -> tuple[dict[str, Any], _Locator]:
         line = f":{match.group(1)}" if match else \
             f":{max(1, len(text.splitlines()))}" if "end of document" in str(exc) else ""
         raise ProjectError(f"{path}{line}: not valid TOML: {exc}") from None
+    except ValueError:  # tomllib converts numbers with int(): at most 4,300 digits
+        longest = max(re.finditer(r"[0-9_]+", text), key=lambda m: len(m.group()))
+        number = text.count("\n", 0, longest.start()) + 1
+        raise ProjectError(f"{path}:{number}: a number of {len(longest.group())} digits: "
+                           "no setting takes one") from None
     return data, _Locator(path, text)
 
 
