@@ -252,3 +252,19 @@ def test_raw_if_takes_any_spelling_of_a_comparison(tmp_path: Path, operator: str
         assert build.ok, [d.render() for d in build.diagnostics]
         frames.append([line.frame for line in build.programs[0].lines])
     assert frames[0] == frames[1]
+
+
+def test_const_chain_out_of_order_is_bounded(tmp_path: Path) -> None:
+    """3,000 CONSTs each defined through the next one down: folded recursively, they were a
+    RecursionError per CONST (thousands of E107, quadratic time); now an E107 wherever the
+    chain passes the bound, and in order they are fine at any length."""
+    backwards = "\n".join(f"CONST C{i} = C{i - 1} + 1" for i in range(2999, 0, -1))
+    source = write(tmp_path, "chain.mp", f"{backwards}\nCONST C0 = 1\nMP 1 a\n"
+                   "    VAR1 = C2999\nEND MP\n")
+    code, _, err = mpc("build", source)
+    found = codes(err)
+    assert code == 1 and found and {c for c, _ in found} == {"E107"} and len(found) < 50
+    forwards = "\n".join(f"CONST C{i} = C{i - 1} + 1" for i in range(1, 3000))
+    source = write(tmp_path, "chain.mp", f"CONST C0 = 1\n{forwards}\nMP 1 a\n"
+                   "    VAR1 = C2999\nEND MP\n")
+    assert mpc("build", source)[0] == 0

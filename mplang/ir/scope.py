@@ -16,6 +16,7 @@ from mplang.ir.catalogue import Catalogue
 from mplang.ir.fold import apply_operator, walk_expr, wrap32
 from mplang.lang import ast
 from mplang.lang.diagnostics import DiagnosticSink, Span
+from mplang.lang.limits import MAX_EXPRESSION_DEPTH, expression_depth
 
 VAR_RE = re.compile(r"VAR(\d+)", re.IGNORECASE)
 BVAR_RE = re.compile(r"BVAR(\d+)", re.IGNORECASE)
@@ -37,6 +38,10 @@ class ConstError(Exception):
 
 
 DEFAULT_VAR_POOL = range(400, 500)
+# Expression levels of CONSTs evaluated inside one another (each counts its own depth and
+# one for the CONST): folding follows them recursively, so they are bounded like one
+# expression, with some room for chains of simple CONSTs written out of order.
+MAX_CONST_NESTING = 4 * MAX_EXPRESSION_DEPTH
 
 
 @dataclass(frozen=True)
@@ -65,6 +70,7 @@ class Scope:
     variables: list[Variable] = field(default_factory=list)
     declared_indices: set[int] = field(default_factory=set)
     _evaluating: set[str] = field(default_factory=set)
+    _nesting: int = 0  # expression levels of the CONSTs being evaluated, one inside another
     _wrapped: set[tuple[str, int, int]] = field(default_factory=set)  # W110 said here
 
     @classmethod
@@ -201,6 +207,18 @@ class Scope:
         decl = self.const_exprs[key]
         if key in self._evaluating:
             raise ConstError(decl.name_span, f"CONST {decl.name} is defined in terms of itself")
+        levels = expression_depth(decl.value) + 1
+        if self._nesting + levels > MAX_CONST_NESTING:
+            # CONSTs defined through each other, each evaluated inside the next: bounded like
+            # one expression, reported once (the CONSTs above it take no value, silently)
+            self.sink.add("E107", decl.name_span, f"CONST {decl.name} is reached through "
+                          f"CONSTs nested more than {MAX_CONST_NESTING} expression levels "
+                          "deep, more than the compiler follows",
+                          hint="define the CONSTs in the order they build on each other, or "
+                          "write fewer levels")
+            self.const_values[key] = None
+            return None
+        self._nesting += levels
         self._evaluating.add(key)
         try:
             value: int | None = self.fold(decl.value)
@@ -212,6 +230,7 @@ class Scope:
             value = None
         finally:
             self._evaluating.discard(key)
+            self._nesting -= levels
         self.const_values[key] = value
         return value
 
