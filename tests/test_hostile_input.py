@@ -268,3 +268,14 @@ def test_const_chain_out_of_order_is_bounded(tmp_path: Path) -> None:
     source = write(tmp_path, "chain.mp", f"CONST C0 = 1\n{forwards}\nMP 1 a\n"
                    "    VAR1 = C2999\nEND MP\n")
     assert mpc("build", source)[0] == 0
+
+
+def test_fmt_of_a_thousand_signs(tmp_path: Path) -> None:
+    """`- - - ... 5` folds to one number for the compiler, but nests a tree level per sign
+    for the formatter, which now follows the run without recursion."""
+    source = write(tmp_path, "signs.mp", "MP 1 a\n    VAR1 = " + "- " * 1000 + "5\n"
+                   "    VAR2 = " + "+" * 1000 + "VAR1\nEND MP\n")
+    assert mpc("build", source)[0] == 0
+    code, _, err = mpc("fmt", source)
+    assert code == 0, err
+    assert "VAR1 = " + "-" * 1000 + "5\n" in source.read_text()
