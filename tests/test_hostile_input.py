@@ -279,3 +279,19 @@ def test_fmt_of_a_thousand_signs(tmp_path: Path) -> None:
     code, _, err = mpc("fmt", source)
     assert code == 0, err
     assert "VAR1 = " + "-" * 1000 + "5\n" in source.read_text()
+
+
+def test_deeply_nested_flash_record_starts_afresh(tmp_path: Path) -> None:
+    """The flash record (docs/flash.md): one that cannot be read is replaced, with a note;
+    nested a thousand deep it was a RecursionError."""
+    from mplang.m8194h.flash.record import FlashRecord
+
+    path = write(tmp_path, "record.json", '{"a":' * 5000 + "1" + "}" * 5000)
+    record = FlashRecord(path)
+    assert record.devices == {} and record.problem is not None
+    assert "nested more than 32 deep" in record.problem
+    write(tmp_path, "a.mp", "MP 1 a\n    VAR1 = 1\nEND MP\n")
+    code, _, err = mpc("flash", "--dry-run", "--project",
+                       write(tmp_path, "mpc.toml", '[project]\nsources = ["a.mp"]\n'
+                             '[flash]\nrecord = "record.json"\n'))
+    assert code == 0, err

@@ -17,6 +17,8 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
+from mplang.lang.limits import load_json
+
 RECORD_FORMAT = "mpc-flash-record/1"
 
 
@@ -38,10 +40,10 @@ class FlashRecord:
         self.devices: dict[str, dict[str, Any]] = {}
         self.problem: str | None = None
         try:
-            data = json.loads(path.read_text(encoding="utf-8"))
+            data = load_json(path.read_text(encoding="utf-8"))
         except FileNotFoundError:
             return
-        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        except (OSError, ValueError) as exc:  # undecodable, not JSON, nested too deep
             self.problem = f"the flash record {path} cannot be read ({exc}): starting afresh"
             return
         devices = data.get("devices") if isinstance(data, dict) else None
