@@ -295,3 +295,14 @@ def test_deeply_nested_flash_record_starts_afresh(tmp_path: Path) -> None:
                        write(tmp_path, "mpc.toml", '[project]\nsources = ["a.mp"]\n'
                              '[flash]\nrecord = "record.json"\n'))
     assert code == 0, err
+
+
+def test_deeply_nested_sim_memory_file_is_refused(tmp_path: Path) -> None:
+    """`mpc sim --memory FILE` (docs/simulator.md): a file that is not a memory file is
+    refused with exit 3; nested a thousand deep it was a RecursionError."""
+    from mplang.m8194h.sim.controller import VirtualController
+    from mplang.m8194h.sim.service import ServiceError, load_memory
+
+    path = write(tmp_path, "memory.json", "[" * 5000 + "]" * 5000)
+    with pytest.raises(ServiceError, match="nested more than 32 deep"):
+        load_memory(VirtualController(), path)
