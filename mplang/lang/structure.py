@@ -73,7 +73,7 @@ def normalise(statement: ast.Statement) -> ast.Statement:
 
 
 def _operator_text(expr: ast.Expr) -> str:
-    """A raw IF's operator as written ("<=", 15676, LE), for the lowering to resolve: any
+    """A raw IF's operator as written ("<=", 0x3D3C, LE), for the lowering to resolve: any
     three-argument IF opens a block, so a refused operator is one error, not also an
     unmatched END IF."""
     match expr:
@@ -144,8 +144,8 @@ def _build_file(statements: list[ast.Statement], file: str, unit: ast.Unit,
             block.dropped = True
             code = "E310" if kind in ("if", "while") else "E311"
             sink.add(code, statement.span, f"{kind.upper()} nested {len(stack)} blocks deep: "
-                     f"the compiler follows {MAX_BLOCK_DEPTH} (the device allows 7 IF and 7 "
-                     "FOR levels); the lines inside are not compiled",
+                     f"the compiler follows {MAX_BLOCK_DEPTH} levels of blocks (the device "
+                     "far fewer); the lines inside are not compiled",
                      hint="flatten the conditions, or move the inner part into a called MP")
         stack.append(block)
 
