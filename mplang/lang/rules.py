@@ -120,11 +120,15 @@ _RULES = [
          "Every IF must be closed by END IF inside the same program.", "Add END IF.",
          "download error 0x05"),
     Rule("E310", "if-too-deep", E, "IF blocks nested deeper than the device allows.",
-         "The M8194H allows one outer IF and six inner ones (7 levels).",
+         "The M8194H allows one outer IF and six inner ones (7 levels); it is reported where "
+         "the nesting first passes that. Beyond 64 levels of blocks the compiler stops "
+         "following: that block is reported too and its lines are not compiled.",
          "Flatten the conditions, or move the inner part into a called MP.",
          "download error 0x02"),
     Rule("E311", "for-too-deep", E, "FOR loops nested deeper than the device allows.",
-         "The M8194H allows one outer loop and six inner ones (7 levels).",
+         "The M8194H allows one outer loop and six inner ones (7 levels); it is reported where "
+         "the nesting first passes that. Beyond 64 levels of blocks the compiler stops "
+         "following: that loop is reported too and its lines are not compiled.",
          "Flatten the loops, or move the inner part into a called MP.",
          "download error 0x07"),
     Rule("E312", "nested-program", E, "An MP or ISR header inside another program.",
