@@ -4,6 +4,7 @@ expansion, and the compiler and serial-line options."""
 
 from __future__ import annotations
 
+import errno
 import glob
 import os
 import sys
@@ -80,6 +81,11 @@ def expand_inputs(patterns: tuple[str, ...]) -> list[Path]:
     paths: list[Path] = []
     for pattern in patterns:
         path = Path(pattern)
+        try:  # a name the system refuses (too long, a loop of links) is the user's input
+            path.stat()
+        except OSError as exc:
+            if exc.errno not in (errno.ENOENT, errno.ENOTDIR):
+                raise InputError(f"{_shown(pattern)}: {exc.strerror or exc}") from None
         if path.is_dir():
             found = sorted(p for p in path.rglob("*.mp") if p.is_file())  # no FIFOs
             if not found:
@@ -101,6 +107,11 @@ def expand_inputs(patterns: tuple[str, ...]) -> list[Path]:
             seen.add(p.resolve())
             unique.append(p)
     return unique
+
+
+def _shown(name: str) -> str:
+    """A file name as messages show it: at most 80 characters."""
+    return name if len(name) <= 80 else f"{name[:40]}...{name[-20:]}"
 
 
 def parse_temps(_ctx: click.Context, _param: click.Parameter, value: str | None) -> range:

@@ -394,13 +394,19 @@ class Translator:
         state.blocks.append(block)
 
     def ctl_next(self, line: MacroLine, state: _ProgramState) -> None:
+        if not state.blocks or state.blocks[-1].kind != "for":
+            raise Unsupported("E722", "NEXT without its FOR in the macro lines",
+                              hint="fix the FOR this NEXT closes")
         block = state.blocks.pop()
         self.emit(f"{block.counter}={block.counter}-1", line.span)
         self.emit(f"JG 0,{block.counter},{block.top}", line.span)
         self.emit(block.end, line.span)
 
     def ctl_exit_for(self, line: MacroLine, state: _ProgramState) -> None:
-        block = next(b for b in reversed(state.blocks) if b.kind == "for")
+        block = next((b for b in reversed(state.blocks) if b.kind == "for"), None)
+        if block is None:
+            raise Unsupported("E722", "EXIT_FOR outside a FOR in the macro lines",
+                              hint="put it inside the FOR it leaves")
         self.emit(f"JP {block.end}", line.span)
 
     def ctl_if(self, line: MacroLine, state: _ProgramState) -> None:
@@ -413,12 +419,18 @@ class Translator:
         self.condition_jump(left, NEGATE[symbol], right, block.other, line.span)
 
     def ctl_else(self, line: MacroLine, state: _ProgramState) -> None:
+        if not state.blocks or state.blocks[-1].kind != "if":
+            raise Unsupported("E722", "ELSE without its IF in the macro lines",
+                              hint="fix the IF this ELSE belongs to")
         block = state.blocks[-1]
         block.has_else = True
         self.emit(f"JP {block.end}", line.span)
         self.emit(block.other, line.span)
 
     def ctl_end_if(self, line: MacroLine, state: _ProgramState) -> None:
+        if not state.blocks or state.blocks[-1].kind != "if":
+            raise Unsupported("E722", "END_IF without its IF in the macro lines",
+                              hint="fix the IF this END_IF closes")
         block = state.blocks.pop()
         if not block.has_else:
             self.emit(block.other, line.span)

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from mplang.lang.diagnostics import DiagnosticSink, Span
+from mplang.lang.limits import long_number
 
 COMMENT = "#"
 LABEL_LINE = re.compile(r"\$([A-Za-z_][A-Za-z0-9_]*)")
@@ -147,6 +148,11 @@ def parse_line(text: str, file: str, line: int, sink: DiagnosticSink) -> Stateme
     if not stripped:
         return None
     offset = len(body) - len(stripped)
+    too_long = long_number(body)
+    if too_long is not None:  # before any int(): Python converts 4,300 digits at most
+        sink.add("E108", Span(file, line, too_long[0] + 1), too_long[1],
+                 hint="write the value the CSIM should hold")
+        return None
     try:
         return _statement(stripped, file, line, offset)
     except LineError as err:

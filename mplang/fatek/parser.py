@@ -33,6 +33,7 @@ from mplang.fatek.model import (
     split32,
 )
 from mplang.lang.diagnostics import DiagnosticSink, Span
+from mplang.lang.limits import long_number
 
 _FULLWIDTH_FIRST, _FULLWIDTH_LAST, _FULLWIDTH_SHIFT = 0xFF01, 0xFF5E, 0xFEE0
 _EXTRA = {"\u2212": "-", "\u2013": "-", "\u3000": " ", "\u00a0": " "}
@@ -149,6 +150,11 @@ class Parser:
         for number, raw in enumerate(self.result.lines, start=1):
             text = strip_comment(normalise(raw))
             if not text.strip():
+                continue
+            too_long = long_number(text)
+            if too_long is not None:  # before any int(): Python converts 4,300 digits at most
+                self.sink.add("E108", self.span(number, too_long[0] + 1), too_long[1],
+                              hint="write the value the PLC should hold (32-bit)")
                 continue
             try:
                 self.line(number, text)

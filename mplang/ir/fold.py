@@ -21,8 +21,8 @@ def wrap32(value: int) -> int:
 def apply_operator(op: str, left: int, right: int, wrap: bool = True) -> int:
     """VAR_CALCULATE semantics (device profile [arithmetic]): C division, 32-bit wrap.
 
-    Constant folding passes wrap=False: a constant that overflows is the author's mistake,
-    reported by the range check, not silently wrapped."""
+    Constant folding passes wrap=False and wraps itself, to warn (W110) where a constant
+    expression overflows: it then holds what the device would compute."""
     if op == "+":
         result = left + right
     elif op == "-":

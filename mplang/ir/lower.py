@@ -58,6 +58,7 @@ CONTROL_COMMANDS = {"SET_VAR", "VAR_CALCULATE"}
 @dataclass
 class _Block:
     kind: str  # "for" | "if" | "while" (lowered to an IF)
+    emitted: bool = True  # its opening line was emitted (False after a reported error)
 
 
 class ProgramLowerer(OperandLowerer):
@@ -118,10 +119,11 @@ class ProgramLowerer(OperandLowerer):
             case ast.CallStmt():
                 self.lower_call(node)
             case ast.ExitFor():
-                if not any(b.kind == "for" for b in self.blocks):
+                loop = next((b for b in reversed(self.blocks) if b.kind == "for"), None)
+                if loop is None:
                     self.sink.add("E306", node.span, "EXIT FOR outside a FOR loop",
                                   hint="EXIT leaves the whole program")
-                else:
+                elif loop.emitted:  # a refused FOR (reported) leaves nothing to exit
                     self.emit("EXIT_FOR", (), node.span)
                 return True
             case ast.Exit():
@@ -150,7 +152,7 @@ class ProgramLowerer(OperandLowerer):
             self.lower_block(node.body)
             return
         depth = sum(1 for b in self.blocks if b.kind == "for") + 1
-        if depth > self.profile.limit("for_depth"):
+        if depth == self.profile.limit("for_depth") + 1:  # once, where the nesting passes it
             self.sink.add("E311", node.span, f"FOR nested {depth} deep; the device allows "
                           f"{self.profile.limit('for_depth')} (one outer and "
                           f"{self.profile.limit('for_depth') - 1} inner)")
@@ -165,10 +167,11 @@ class ProgramLowerer(OperandLowerer):
             self.note_write(count)  # the device counts the variable down to zero
         if count is not None:
             self.emit("FOR", (count,), node.span)
-        self.blocks.append(_Block("for"))
+        self.blocks.append(_Block("for", emitted=count is not None))
         self.lower_block(node.body)
         self.blocks.pop()
-        self.emit("NEXT", (), node.end_span)
+        if count is not None:  # NEXT only with its FOR (see lower_if)
+            self.emit("NEXT", (), node.end_span)
         if isinstance(count, VarRef):
             self.give_temp(count)
 
@@ -176,17 +179,21 @@ class ProgramLowerer(OperandLowerer):
                  loop_label: int | None = None) -> None:
         """IF ... [ELSE ...] END_IF; for a WHILE (`loop_label`), `body` then GOTO back."""
         depth = sum(1 for b in self.blocks if b.kind in ("if", "while")) + 1
-        if depth > self.profile.limit("if_depth"):
+        if depth == self.profile.limit("if_depth") + 1:  # once, where the nesting passes it
             self.sink.add("E310", node.span, f"IF nested {depth} deep; the device allows "
                           f"{self.profile.limit('if_depth')} (one outer and "
                           f"{self.profile.limit('if_depth') - 1} inner)")
-        if node.op not in self.profile.cmp_ops:
+        op = self.comparison(node.op)
+        if op is None:
             self.sink.add("E424", node.span, f"{node.op!r} is not an IF comparison",
                           hint="comparisons: " + " ".join(self.profile.cmp_ops))
         left = self.value_operand(node.left)
         right = self.value_operand(node.right)
-        if left is not None and right is not None and node.op in self.profile.cmp_ops:
-            self.emit("IF", (left, self.profile.cmp_ops[node.op], right), node.span)
+        # ELSE and END_IF only with their IF: a refused IF is one error, and no back end
+        # meets an END_IF without its IF.
+        emitted = left is not None and right is not None and op is not None
+        if left is not None and right is not None and op is not None:
+            self.emit("IF", (left, self.profile.cmp_ops[op], right), node.span)
         for used in (left, right):
             if isinstance(used, VarRef):
                 self.give_temp(used)
@@ -195,16 +202,35 @@ class ProgramLowerer(OperandLowerer):
             self.lower_block(body or [])
             self.blocks.pop()
             self.emit("GOTO", (loop_label,), node.end_span)
-            self.emit("END_IF", (), node.end_span)
+            if emitted:
+                self.emit("END_IF", (), node.end_span)
             return
         self.blocks.append(_Block("if"))
         self.lower_block(node.then)
         if node.otherwise is not None:
             assert node.else_span is not None
-            self.emit("ELSE", (), node.else_span)
+            if emitted:
+                self.emit("ELSE", (), node.else_span)
             self.lower_block(node.otherwise)
         self.blocks.pop()
-        self.emit("END_IF", (), node.end_span)
+        if emitted:
+            self.emit("END_IF", (), node.end_span)
+
+    def comparison(self, text: str) -> str | None:
+        """The comparison a (raw) IF names: a symbol ("<="), a comparison constant (LE), or
+        an operator code, given as a number or a CONST; None if it names none."""
+        ops = self.profile.cmp_ops
+        if text in ops:
+            return text
+        key = text.upper()
+        if key in self.profile.cmp_symbols:
+            return self.profile.cmp_symbols[key]
+        code: int | None = None
+        if key in self.scope.const_exprs:
+            code = self.scope.const(key)
+        elif text.lstrip("-")[:2] == "0x":
+            code = int(text, 16)
+        return next((symbol for symbol, value in ops.items() if value == code), None)
 
     def lower_while(self, node: ast.WhileBlock) -> None:
         """LABEL top / IF cond / body / GOTO top / END_IF: the condition is computed after

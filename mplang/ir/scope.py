@@ -13,9 +13,10 @@ import re
 from dataclasses import dataclass, field
 
 from mplang.ir.catalogue import Catalogue
-from mplang.ir.fold import apply_operator, walk_expr
+from mplang.ir.fold import apply_operator, walk_expr, wrap32
 from mplang.lang import ast
 from mplang.lang.diagnostics import DiagnosticSink, Span
+from mplang.lang.limits import MAX_EXPRESSION_DEPTH, expression_depth
 
 VAR_RE = re.compile(r"VAR(\d+)", re.IGNORECASE)
 BVAR_RE = re.compile(r"BVAR(\d+)", re.IGNORECASE)
@@ -37,6 +38,10 @@ class ConstError(Exception):
 
 
 DEFAULT_VAR_POOL = range(400, 500)
+# Expression levels of CONSTs evaluated inside one another (each counts its own depth and
+# one for the CONST): folding follows them recursively, so they are bounded like one
+# expression, with some room for chains of simple CONSTs written out of order.
+MAX_CONST_NESTING = 4 * MAX_EXPRESSION_DEPTH
 
 
 @dataclass(frozen=True)
@@ -65,6 +70,8 @@ class Scope:
     variables: list[Variable] = field(default_factory=list)
     declared_indices: set[int] = field(default_factory=set)
     _evaluating: set[str] = field(default_factory=set)
+    _nesting: int = 0  # expression levels of the CONSTs being evaluated, one inside another
+    _wrapped: set[tuple[str, int, int]] = field(default_factory=set)  # W110 said here
 
     @classmethod
     def declared(cls, unit: ast.Unit, catalogue: Catalogue, sink: DiagnosticSink,
@@ -200,6 +207,18 @@ class Scope:
         decl = self.const_exprs[key]
         if key in self._evaluating:
             raise ConstError(decl.name_span, f"CONST {decl.name} is defined in terms of itself")
+        levels = expression_depth(decl.value) + 1
+        if self._nesting + levels > MAX_CONST_NESTING:
+            # CONSTs defined through each other, each evaluated inside the next: bounded like
+            # one expression, reported once (the CONSTs above it take no value, silently)
+            self.sink.add("E107", decl.name_span, f"CONST {decl.name} is reached through "
+                          f"CONSTs nested more than {MAX_CONST_NESTING} expression levels "
+                          "deep, more than the compiler follows",
+                          hint="define the CONSTs in the order they build on each other, or "
+                          "write fewer levels")
+            self.const_values[key] = None
+            return None
+        self._nesting += levels
         self._evaluating.add(key)
         try:
             value: int | None = self.fold(decl.value)
@@ -211,6 +230,7 @@ class Scope:
             value = None
         finally:
             self._evaluating.discard(key)
+            self._nesting -= levels
         self.const_values[key] = value
         return value
 
@@ -249,7 +269,7 @@ class Scope:
                 return None
             case ast.Neg(operand=operand):
                 inner = self.fold(operand)
-                return None if inner is None else -inner
+                return None if inner is None else self._wrapping(expr, -inner, f"-({inner})")
             case ast.Group(items=[single]):
                 return self.fold(single)
             case ast.BinOp(op=op, left=left, right=right):
@@ -257,11 +277,26 @@ class Scope:
                 if a is None or b is None:
                     return None
                 try:
-                    return apply_operator(op, a, b, wrap=False)
+                    exact = apply_operator(op, a, b, wrap=False)
                 except ZeroDivisionError:
                     raise ConstError(right.span, "division by zero in a constant "
                                      "expression") from None
+                return self._wrapping(expr, exact, f"{a} {op} {b}")
         return None
+
+    def _wrapping(self, expr: ast.Expr, exact: int, shown: str) -> int:
+        """`exact` as the device's 32-bit VAR_CALCULATE leaves it, with W110 (once per place)
+        when that differs: folding computes exactly what the controller would."""
+        wrapped = wrap32(exact)
+        if wrapped != exact:
+            key = (expr.span.file, expr.span.line, expr.span.col)
+            if key not in self._wrapped:
+                self._wrapped.add(key)
+                self.sink.add("W110", expr.span, f"{shown} = {exact} does not fit in 32 bits; "
+                              f"the device wraps it to {wrapped}, and so does the compiler",
+                              hint="if the wrap is meant, write the wrapped value; otherwise "
+                              "scale the numbers down")
+        return wrapped
 
     def variable(self, name: str) -> int | None:
         """Index of VARn or of an alias, None if the name is not a variable."""

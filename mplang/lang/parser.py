@@ -8,6 +8,7 @@ the first; the good lines still reach the later passes.
 from __future__ import annotations
 
 import re
+from dataclasses import replace
 from functools import cache
 from importlib import resources
 from typing import Any
@@ -17,6 +18,12 @@ from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedTok
 
 from mplang.lang import ast
 from mplang.lang.diagnostics import DiagnosticSink, Span
+from mplang.lang.limits import (
+    MAX_EXPRESSION_DEPTH,
+    expression_depth,
+    number_too_long,
+    too_deep,
+)
 
 # What the user sees instead of lark's terminal names.
 TOKEN_WORDS = {
@@ -31,15 +38,23 @@ TOKEN_WORDS = {
 class _SyntaxProblem(Exception):
     """Raised inside the transformer for lexically valid but malformed constructs."""
 
-    def __init__(self, token: Token, message: str) -> None:
+    def __init__(self, token: Token, message: str, code: str = "E101",
+                 hint: str = "write NAME(a, b) or NAME a, b") -> None:
         super().__init__(message)
         self.token = token
         self.message = message
+        self.code = code
+        self.hint = hint
 
 
 def _int(token: Token) -> int:
-    """INT is hex (0x1F) or decimal; leading zeros are decimal (int(.., 0) refuses them)."""
+    """INT is hex (0x1F) or decimal; leading zeros are decimal (int(.., 0) refuses them).
+    A literal longer than any device value is refused (E108) before it is converted."""
     text = str(token)
+    problem = number_too_long(text)
+    if problem is not None:
+        raise _SyntaxProblem(token, problem, code="E108",
+                             hint="write the value the device should hold (32-bit)")
     return int(text, 16) if text[:2].lower() == "0x" else int(text, 10)
 
 
@@ -291,13 +306,55 @@ def _placeholder(text: str, span: Span) -> list[ast.Statement]:
     return [made[first]] if first in made else []
 
 
+def _shallow(statement: ast.Statement, sink: DiagnosticSink) -> list[ast.Statement]:
+    """`statement`, or after E107 a stand-in whose expressions are plain numbers: nothing
+    nested beyond MAX_EXPRESSION_DEPTH reaches a later pass. Block openers and CONSTs stay
+    (no cascade of unbalanced blocks or unknown names); assignments and commands go."""
+    deep = too_deep(statement)
+    if deep is None:
+        return [statement]
+    sink.add("E107", statement.span, f"the expression is nested more than "
+             f"{MAX_EXPRESSION_DEPTH} levels deep, more than the compiler follows",
+             hint="split it into several assignments or CONSTs")
+    zero, one = ast.Num(0, deep.span), ast.Num(1, deep.span)
+    match statement:
+        case ast.Const():
+            return [replace(statement, value=zero)]
+        case ast.IfStmt() | ast.WhileStmt():
+            return [replace(statement, left=zero, right=zero)]
+        case ast.ForStmt() | ast.RepeatStmt():
+            return [replace(statement, count=one)]
+        case ast.Command() if statement.name.upper().removeprefix("RSM_MACRO_") \
+                .removeprefix("ETM_MACRO_") in ("IF", "FOR"):
+            return [replace(statement, args=[zero if expression_depth(a) > MAX_EXPRESSION_DEPTH
+                                             else a for a in statement.args])]
+    return []
+
+
+def _bounded(statements: list[ast.Statement], text: str,
+             sink: DiagnosticSink) -> list[ast.Statement]:
+    """The statements with E107 stand-ins for too-deep expressions. Only lines longer than
+    the depth bound can hold one (every level takes a character), so only they are walked."""
+    long_lines = {number for number, line in enumerate(text.split("\n"), start=1)
+                  if len(line) > MAX_EXPRESSION_DEPTH}
+    if not long_lines:
+        return statements
+    kept: list[ast.Statement] = []
+    for statement in statements:
+        if statement.span.line in long_lines:
+            kept.extend(_shallow(statement, sink))
+        else:
+            kept.append(statement)
+    return kept
+
+
 def parse_text(text: str, file: str, sink: DiagnosticSink) -> list[ast.Statement]:
     """Parse a whole source text; syntax errors go to `sink`, good lines are returned."""
     parser, builder = _parser()
     builder.file, builder.line_offset = file, 0
     try:
         result: list[ast.Statement] = parser.parse(text, start="start")  # type: ignore[assignment]
-        return result
+        return _bounded(result, text, sink)
     except (UnexpectedInput, VisitError, _SyntaxProblem):
         pass
     statements: list[ast.Statement] = []
@@ -315,6 +372,8 @@ def parse_text(text: str, file: str, sink: DiagnosticSink) -> list[ast.Statement
             problem = err.orig_exc if isinstance(err, VisitError) else err
             if not isinstance(problem, _SyntaxProblem):
                 raise
-            sink.add("E101", Span(file, index + 1, problem.token.column or 1), problem.message,
-                     hint="write NAME(a, b) or NAME a, b")
-    return statements
+            sink.add(problem.code, Span(file, index + 1, problem.token.column or 1,
+                                        (problem.token.column or 1) + len(str(problem.token))),
+                     problem.message, hint=problem.hint)
+            statements.extend(_placeholder(line_text, Span(file, index + 1)))
+    return _bounded(statements, text, sink)

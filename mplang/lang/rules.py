@@ -48,8 +48,14 @@ _RULES = [
     Rule("E105", "unreadable-source", E, "A source file cannot be read as UTF-8 text.",
          "The compiler reads .mp sources as UTF-8.", "Save the file as UTF-8 text."),
     Rule("E107", "expression-too-deep", E, "An expression too deeply nested to compile.",
-         "Thousands of operators in one expression exceed what the compiler follows; no "
-         "program needs that.", "Split it into several assignments or CONSTs."),
+         "The compiler follows expressions up to 100 levels deep (a 100-term sum; CONSTs "
+         "defined through each other count too); deeper ones are generated text, never a "
+         "program.", "Split it into several assignments or CONSTs."),
+    Rule("E108", "number-too-long", E, "A number literal longer than any value it could be.",
+         "Device values are 32-bit (at most 10 decimal digits); the compiler reads numbers of "
+         "up to 20 significant digits, or 16 after 0x, so that constant arithmetic can "
+         "still report a value out of range. Longer literals are refused where they stand.",
+         "Write the value the device should hold."),
     Rule("E106", "include-inside-program", E, "INCLUDE inside an MP or ISR block.",
          "INCLUDE joins a whole file (its CONSTs, ALIASes and programs) to the build; it is "
          "not a macro that pastes lines into a program.",
@@ -116,11 +122,15 @@ _RULES = [
          "Every IF must be closed by END IF inside the same program.", "Add END IF.",
          "download error 0x05"),
     Rule("E310", "if-too-deep", E, "IF blocks nested deeper than the device allows.",
-         "The M8194H allows one outer IF and six inner ones (7 levels).",
+         "The M8194H allows one outer IF and six inner ones (7 levels); it is reported where "
+         "the nesting first passes that. Beyond 64 levels of blocks the compiler stops "
+         "following: that block is reported too and its lines are not compiled.",
          "Flatten the conditions, or move the inner part into a called MP.",
          "download error 0x02"),
     Rule("E311", "for-too-deep", E, "FOR loops nested deeper than the device allows.",
-         "The M8194H allows one outer loop and six inner ones (7 levels).",
+         "The M8194H allows one outer loop and six inner ones (7 levels); it is reported where "
+         "the nesting first passes that. Beyond 64 levels of blocks the compiler stops "
+         "following: that loop is reported too and its lines are not compiled.",
          "Flatten the loops, or move the inner part into a called MP.",
          "download error 0x07"),
     Rule("E312", "nested-program", E, "An MP or ISR header inside another program.",
@@ -285,6 +295,11 @@ _RULES = [
          "FRNET_OUT sends a variable as its holding-register address 300 + 2n, so an output "
          "pattern 300..1322 (even) looks exactly like VARn on the wire.",
          "Put the pattern in a variable first: VARn = pattern, then FRNET_OUT group, VARn."),
+    Rule("W110", "constant-wraps", W, "A constant expression overflows 32 bits and wraps.",
+         "VAR_CALCULATE computes in 32 bits and wraps around (2000000000 + 2000000000 is "
+         "-294967296 on the device); the compiler folds constant expressions the same way, "
+         "so the program does what the device would do, but an overflow is rarely meant.",
+         "Write the wrapped value if the wrap is intended; otherwise scale the numbers down."),
     Rule("W109", "unused-slot-pin", W, "A slot pin in mpc.toml names no program of the build.",
          "The pin has no effect; perhaps the program was renamed or its file left out.",
          "Remove the pin or fix the name."),

@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 
 from mplang.lang import ast
 from mplang.lang.diagnostics import DiagnosticSink, Span
+from mplang.lang.limits import MAX_BLOCK_DEPTH
 from mplang.lang.sources import SourceSet
 
 BLOCK_WORD = {"mp": "END MP", "isr": "END ISR", "for": "NEXT", "if": "END IF",
@@ -32,6 +33,7 @@ class _Open:
     body: list[ast.Node] = field(default_factory=list)
     otherwise: list[ast.Node] | None = None
     else_span: Span | None = None
+    dropped: bool = False  # nested beyond MAX_BLOCK_DEPTH: reported, left out of the tree
 
     @property
     def target(self) -> list[ast.Node]:
@@ -59,8 +61,8 @@ def normalise(statement: ast.Statement) -> ast.Statement:
         return ast.Next(span)
     if name == "FOR" and len(args) == 1:
         return ast.ForStmt(args[0], span)
-    if name == "IF" and len(args) == 3 and isinstance(args[1], ast.Str):
-        return ast.IfStmt(args[0], args[1].value, args[2], span)
+    if name == "IF" and len(args) == 3:  # the operator as a string, a code or LE/EQ/...
+        return ast.IfStmt(args[0], _operator_text(args[1]), args[2], span)
     if len(args) == 1 and isinstance(args[0], ast.Name | ast.Num):
         target = args[0].name if isinstance(args[0], ast.Name) else str(args[0].value)
         if name == "MP_CALL":
@@ -68,6 +70,18 @@ def normalise(statement: ast.Statement) -> ast.Statement:
         if name in ("GOTO", "LABEL"):
             return ast.Goto(target, span) if name == "GOTO" else ast.LabelStmt(target, span)
     return statement
+
+
+def _operator_text(expr: ast.Expr) -> str:
+    """A raw IF's operator as written ("<=", 0x3D3C, LE), for the lowering to resolve: any
+    three-argument IF opens a block, so a refused operator is one error, not also an
+    unmatched END IF."""
+    match expr:
+        case ast.Str(value=value) | ast.Name(name=value):
+            return value
+        case ast.Num(value=number):
+            return hex(number)  # operator codes are written in hex (0x3D3D)
+    return "?"
 
 
 def build_unit(sources: SourceSet, sink: DiagnosticSink) -> ast.Unit:
@@ -98,6 +112,8 @@ def _build_file(statements: list[ast.Statement], file: str, unit: ast.Unit,
 
     def close_inner(block: _Open, end_span: Span) -> None:
         node: ast.Node
+        if block.dropped:
+            return
         if block.kind == "for":
             assert isinstance(block.head, ast.ForStmt)
             node = ast.ForBlock(block.head.count, block.body, block.head.span, end_span)
@@ -116,6 +132,22 @@ def _build_file(statements: list[ast.Statement], file: str, unit: ast.Unit,
 
     def in_program() -> bool:
         return bool(stack)
+
+    def open_block(kind: str, statement: ast.Statement) -> None:
+        """Push a FOR/IF/WHILE/REPEAT. Beyond MAX_BLOCK_DEPTH the block is matched with its
+        closer as usual but left out of the program (reported once, at its outermost
+        level), so no later pass walks a tree deeper than that."""
+        block = _Open(kind, statement)
+        if stack[-1].dropped:
+            block.dropped = True
+        elif len(stack) > MAX_BLOCK_DEPTH:
+            block.dropped = True
+            code = "E310" if kind in ("if", "while") else "E311"
+            sink.add(code, statement.span, f"{kind.upper()} nested {len(stack)} blocks deep: "
+                     f"the compiler follows {MAX_BLOCK_DEPTH} levels of blocks (the device "
+                     "far fewer); the lines inside are not compiled",
+                     hint="flatten the conditions, or move the inner part into a called MP")
+        stack.append(block)
 
     def close_config(end_span: Span) -> None:
         block = stack.pop()
@@ -249,18 +281,18 @@ def _build_file(statements: list[ast.Statement], file: str, unit: ast.Unit,
                 if not in_program():
                     sink.add("E301", statement.span, "FOR outside an MP block")
                     continue
-                stack.append(_Open("for", statement))
+                open_block("for", statement)
             case ast.IfStmt():
                 if not in_program():
                     sink.add("E301", statement.span, "IF outside an MP/ISR block")
                     continue
-                stack.append(_Open("if", statement))
+                open_block("if", statement)
             case ast.WhileStmt() | ast.RepeatStmt():
                 kind = "while" if isinstance(statement, ast.WhileStmt) else "repeat"
                 if not in_program():
                     sink.add("E301", statement.span, f"{kind.upper()} outside an MP block")
                     continue
-                stack.append(_Open(kind, statement))
+                open_block(kind, statement)
             case ast.End(what="while" | "repeat"):
                 close_block(statement.what, statement.span)
             case ast.Next() | ast.End(what="for"):

@@ -136,7 +136,7 @@ def _signature(line: _Line, catalogue: catalogue_module.Catalogue) -> Signature:
     compared without case, every other token and the comment exactly."""
     tokens: list[tuple[str, str]] = []
     if line.statement is not None:
-        for token in line.statement.scan_values(lambda value: isinstance(value, Token)):
+        for token in _tokens(line.statement):
             text = str(token)
             cased = token.type in KEYWORDS or (token.type == "NAME"
                                                and catalogue.lookup(text) is not None)
@@ -144,6 +144,20 @@ def _signature(line: _Line, catalogue: catalogue_module.Catalogue) -> Signature:
     if line.comment is not None:
         tokens.append(("COMMENT", line.comment))
     return tuple(tokens)
+
+
+def _tokens(tree: Tree[Token]) -> list[Token]:
+    """The tokens of a statement tree in source order, without recursion: a run of signs
+    (`- - - 5`) nests a tree level per sign, though the compiler folds it to one number."""
+    found: list[Token] = []
+    pending: list[Tree[Token] | Token | None] = [tree]
+    while pending:
+        node = pending.pop()
+        if isinstance(node, Token):
+            found.append(node)
+        elif isinstance(node, Tree):
+            pending.extend(reversed(node.children))
+    return found
 
 
 # ---------------------------------------------------------------- block structure
@@ -234,9 +248,13 @@ class _Renderer:
                 left, op, right = children
                 return f"{self.expr(cast(Tree[Token], left))} {op} " \
                        f"{self.expr(cast(Tree[Token], right))}"
-            case "neg" | "pos":
-                op, operand = children
-                return f"{op}{self.expr(cast(Tree[Token], operand))}"
+            case "neg" | "pos":  # a run of signs, followed without recursion
+                signs = ""
+                while tree.data in ("neg", "pos"):
+                    op, operand = [c for c in tree.children if c is not None]
+                    signs += str(op)
+                    tree = cast(Tree[Token], operand)
+                return signs + self.expr(tree)
             case "name":
                 return self.command_name(cast(Token, children[0]))
             case "number" | "string":

@@ -11,6 +11,7 @@ line; for values, the line is found by reading the file's table and key lines).
 
 from __future__ import annotations
 
+import errno
 import os
 import re
 import tomllib
@@ -215,6 +216,11 @@ def _read(path: Path) -> tuple[dict[str, Any], _Locator]:
         line = f":{match.group(1)}" if match else \
             f":{max(1, len(text.splitlines()))}" if "end of document" in str(exc) else ""
         raise ProjectError(f"{path}{line}: not valid TOML: {exc}") from None
+    except ValueError:  # tomllib converts numbers with int(): at most 4,300 digits
+        longest = max(re.finditer(r"[0-9_]+", text), key=lambda m: len(m.group()))
+        number = text.count("\n", 0, longest.start()) + 1
+        raise ProjectError(f"{path}:{number}: a number of {len(longest.group())} digits: "
+                           "no setting takes one") from None
     return data, _Locator(path, text)
 
 
@@ -237,24 +243,51 @@ def _string_list(value: object, table: str, key: str, where: _Locator) -> list[s
 
 def _expand(patterns: list[str], root: Path, table: str, key: str,
             where: _Locator) -> tuple[Path, ...]:
-    """Files, directories (every .mp below) and globs, relative to the project file."""
+    """Files, directories (every .mp below) and globs, relative to the project file (an
+    absolute name or glob stands for itself). A name or pattern the system or pathlib
+    refuses (too long, a NUL, `**` inside a component) is an error at the key's line."""
     found: list[Path] = []
     for pattern in patterns:
-        path = root / pattern
-        if path.is_dir():
-            matches = sorted(p for p in path.rglob("*.mp") if p.is_file())  # no FIFOs
-            if not matches:
-                raise where.error(table, key, f"no .mp files in directory {pattern}")
-        elif path.is_file():
-            matches = [path]
-        elif any(ch in pattern for ch in "*?["):
-            matches = sorted(p for p in root.glob(pattern) if p.is_file())
-            if not matches:
-                raise where.error(table, key, f"no files match {pattern}")
-        else:
-            raise where.error(table, key, f"{pattern}: no such file")
+        shown = pattern if len(pattern) <= 80 else f"{pattern[:40]}...{pattern[-20:]}"
+        try:
+            matches = _matches(pattern, root)
+        except (OSError, ValueError) as exc:
+            why = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+            raise where.error(table, key, f"{shown!r} cannot be used: {why}") from None
+        if matches is None:
+            raise where.error(table, key, f"{shown}: no such file")
+        if not matches:
+            raise where.error(table, key, f"no .mp files in directory {shown}"
+                              if (root / pattern).is_dir() else f"no files match {shown}")
         found += [m for m in matches if m not in found]
     return tuple(found)
+
+
+def _matches(pattern: str, root: Path) -> list[Path] | None:
+    """What one sources entry names: None if it names nothing and is no glob."""
+    if "\0" in pattern:
+        raise ValueError("a file name cannot hold a NUL character")
+    path = root / pattern
+    try:
+        path.stat()
+    except OSError as exc:
+        if exc.errno not in (errno.ENOENT, errno.ENOTDIR):
+            raise
+    if path.is_dir():
+        return sorted(p for p in path.rglob("*.mp") if p.is_file())  # no FIFOs
+    if path.is_file():
+        return [path]
+    if not any(ch in pattern for ch in "*?["):
+        return None
+    written = Path(pattern)
+    if written.is_absolute():  # pathlib globs only relative patterns: start at the anchor
+        base, relative = Path(written.anchor), str(written.relative_to(written.anchor))
+    else:
+        base, relative = root, pattern
+    try:
+        return sorted(p for p in base.glob(relative) if p.is_file())
+    except NotImplementedError as exc:
+        raise ValueError(str(exc) or "pattern not supported") from None
 
 
 def _int(value: object, low: int, high: int, table: str, key: str, where: _Locator) -> int:

@@ -29,6 +29,7 @@ class ServedCsim:
     """`mpc sim --target csim --serial pty --speed 50`, and a host on the other pty end."""
 
     def __init__(self) -> None:
+        self.unsolicited: list[str] = []  # lines sent by a running program, not answers
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "mplang", "sim", "--target", "csim", "--serial", "pty",
              "--speed", "50"], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
@@ -51,8 +52,11 @@ class ServedCsim:
         while not answer or not (answer[-1] == "OK" or answer[-1].startswith("ERR")):
             raw = self.port.read_until(b"\r\n")
             assert raw.endswith(b"\r\n"), f"no answer to {text!r} after {answer}"
-            answer.append(raw[:-2].decode("ascii"))
-        assert answer[0] == text, answer  # the echo
+            line = raw[:-2].decode("ascii")
+            if not answer and line != text:  # what a running program sends (OUT) meanwhile
+                self.unsolicited.append(line)
+                continue
+            answer.append(line)
         return answer[1:]
 
     def status(self, text: str) -> str:

@@ -18,6 +18,8 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
+from mplang.lang.limits import load_json
+
 RECORD_FORMAT = "mpc-flash-record/1"
 
 
@@ -101,11 +103,11 @@ def _existing(path: Path) -> dict[str, Any] | str | None:
     if info.st_size == 0:
         return None
     try:
-        data = json.loads(path.read_bytes().decode("utf-8"))
+        data = load_json(path.read_bytes().decode("utf-8"))
     except OSError as exc:
         return f"cannot be read ({exc.strerror or exc})"
-    except (UnicodeDecodeError, ValueError, RecursionError):
-        return "is not an mpc flash record (not JSON)"
+    except (UnicodeDecodeError, ValueError) as exc:  # not JSON, or nested too deep
+        return f"is not an mpc flash record (not JSON: {exc})"
     if not isinstance(data, dict) or data.get("format") != RECORD_FORMAT or \
             not isinstance(data.get("devices"), dict):
         return f"is not an mpc flash record (no \"format\": \"{RECORD_FORMAT}\")"
