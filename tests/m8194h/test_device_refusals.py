@@ -13,6 +13,7 @@ from collections.abc import AsyncIterator, Awaitable, Callable
 
 import pytest
 from pymodbus.client import AsyncModbusSerialClient, AsyncModbusTcpClient
+from simproc import start_sim
 
 from mplang.family.ptylink import PtyLink
 from mplang.ir import catalogue
@@ -350,3 +351,61 @@ def test_12_1_14_execution_faults_land_in_115_to_119() -> None:
         assert await device.inputs(115, 5) == [21, 0, 0x0C48, 1, 0x04]
         assert (await device.inputs(101))[0] == 9  # execution ended, the device is ready
     on("tcp", scenario)
+
+
+def test_12_1_14_a_fault_while_catching_up_stops_the_programs_not_the_server(
+        caplog: pytest.LogCaptureFixture) -> None:
+    """A fault in the device's own time keeping (here injected into the motion model while
+    MP21 waits in a TIMER) stops the programs with an execution error in 115-119 and is
+    logged; the device answers on, ready for the next call."""
+    async def scenario(device: Device) -> None:
+        vc = device.vc
+        assert await device.write([CREATE, 21]) == 0
+        assert await device.write(macro("TIMER", 10_000)) == 0
+        assert await device.write([CLOSE]) == 0
+        assert not (await device.client.write_register(8, 21, device_id=1)).isError()
+        original = vc.motion.next_interrupt
+
+        def broken(_now: float) -> float | None:
+            vc.motion.next_interrupt = original  # type: ignore[method-assign]
+            raise ZeroDivisionError("injected")
+        vc.motion.next_interrupt = broken  # type: ignore[method-assign]
+        await asyncio.sleep(0.02)
+        assert await device.inputs(115, 5) == [21, 0, 0x0CDA, 0, 0x04]
+        assert (await device.inputs(101))[0] == 9 and not vc.running
+        assert any("injected" in r.getMessage() for r in caplog.records)
+        assert not (await device.client.write_register(8, 21, device_id=1)).isError()
+    on("tcp", scenario)
+
+
+def test_3_18_mpc_sim_survives_write_var_var600_and_bad_tables() -> None:
+    """The issue's crash, against the `mpc sim` process: a real-time WRITE_VAR naming VAR600
+    (RS 2394, 10144) and a table with a VAR512 target are refused (cause 2), and the process
+    answers on and still ends cleanly on SIGTERM."""
+    proc, port = start_sim("--speed", "20")
+
+    async def scenario() -> list[int]:
+        client = AsyncModbusTcpClient("127.0.0.1", port=port, timeout=2, retries=0)
+        assert await client.connect()
+        try:
+            write = await client.write_registers(8000, rtc("WRITE_VAR", VarRef(600), 5),
+                                                 device_id=1)
+            assert write.isError() and write.exception_code == ILLEGAL_FUNCTION
+            for frame in ([CREATE, 21], macro("SET_VAR", VarRef(512), 1), [CLOSE]):
+                await client.write_registers(8000, frame, device_id=1)
+            await client.write_register(8, 21, device_id=1)  # MP21 is empty: refused
+            await asyncio.sleep(0.1)
+            reply = await client.read_input_registers(100, count=20, device_id=1)
+            assert not reply.isError()
+            return list(reply.registers)
+        finally:
+            client.close()
+
+    try:
+        registers = asyncio.run(scenario())
+        assert registers[0] == 0 and registers[10:15] == [21, 0, 0x0CD2, 0, 0x0F]
+        assert registers[15:20] == [0, 0, 0, 0, 0]
+        assert proc.poll() is None  # still running
+    finally:
+        proc.terminate()
+        assert proc.wait(10) == 0
