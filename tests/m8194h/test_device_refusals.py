@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import dataclasses
 from collections.abc import AsyncIterator, Awaitable, Callable
 
 import pytest
@@ -409,3 +410,46 @@ def test_3_18_mpc_sim_survives_write_var_var600_and_bad_tables() -> None:
     finally:
         proc.terminate()
         assert proc.wait(10) == 0
+
+
+def variant(**download: str) -> VirtualController:
+    """A controller whose profile makes the other [download] choice."""
+    profile = CAT.profile
+    raw = {**profile.raw, "download": {**profile.raw["download"], **download}}
+    return VirtualController(dataclasses.replace(CAT, profile=dataclasses.replace(profile,
+                                                                                 raw=raw)))
+
+
+def test_9_12_the_other_download_choices_of_the_profile() -> None:
+    """refused_line = "ends": the refused line ends the download at once, later lines are
+    macro commands outside a download (cause 8) and the close is ignored (RS 9886);
+    close_failure = "refused": a table wrong at the close is answered with its cause."""
+    async def scenario(device: Device) -> None:
+        assert await device.write([CREATE, 41]) == 0
+        await device.refused(macro("SET_VAR", VarRef(512), 1), 0x02)
+        assert await device.inputs(100) == [0] and await device.status() == [41, 0, 0x0CD2, 0,
+                                                                               0x0F]
+        await device.refused(macro("SET_VAR", VarRef(1), 1), 0x08)
+        assert await device.write([CLOSE]) == 0
+        assert await device.write([CREATE, 41]) == 0
+        assert await device.write(FOR) == 0
+        await device.refused([CLOSE], 0xB8)
+        assert await device.inputs(100) == [0] and await device.status() == [41, 0, 0x0CD5, 0,
+                                                                               0x0A]
+        assert not device.vc.tables
+
+    async def main() -> None:
+        face = DeviceFace(variant(refused_line="ends", close_failure="refused"), SimClock(1.0))
+        server, port = await serve_tcp(face, "127.0.0.1", 0)
+        client = AsyncModbusTcpClient("127.0.0.1", port=port, timeout=2, retries=0)
+        try:
+            assert await client.connect()
+            await scenario(Device(client, face))
+        finally:
+            client.close()
+            await stop(server)
+    asyncio.run(main())
+    with pytest.raises(ValueError, match="refused_line = 'sometimes'"):
+        vc = variant(refused_line="sometimes")
+        vc.write_subfunction([CREATE, 1])
+        vc.write_subfunction([0x0CFF])

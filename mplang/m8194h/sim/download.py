@@ -7,9 +7,11 @@ its parameters (`frame_check`, cause 2), the slot's budget (cause 4) and the blo
 and fails the download: nothing more is stored, and the close reports the first failure in
 110-114 (command and 0-based line of the failing frame) and leaves the slot empty. Where the
 manual is silent the profile says what happens ([download] in stdlib/m8194h/device.toml):
-the download stays open after a refused line until its close, and a failure found only at
-the close (a block left open, a GOTO without its LABEL, no line left for the close) is
-reported in 110-114 and register 102 while the close itself is acknowledged.
+the download stays open after a refused line until its close (`refused_line = "fails"`;
+"ends" closes it at once), and a failure found only at the close (a block left open, a GOTO
+without its LABEL, no line left for the close) is reported in 110-114 and register 102 while
+the close itself is acknowledged (`close_failure = "acknowledged"`; "refused" answers it with
+the exception).
 """
 
 from __future__ import annotations
@@ -81,8 +83,7 @@ def line(vc: VirtualController, frame: list[int],
     kind = pending.table.kind
     close_name = "MP_CLOSE" if kind == "mp" else "MP_ISR_CLOSE"
     if decoded is not None and decoded[0].short_name == close_name:
-        close(vc)
-        return 0
+        return close(vc)
     cause, error, command = _refusal(vc, pending, frame, decoded)
     if cause:
         if pending.failure is None:
@@ -90,6 +91,8 @@ def line(vc: VirtualController, frame: list[int],
             vc.log.append(f"{vc.clock:.4f} s: {kind.upper()}{pending.table.slot} line "
                           f"{pending.line}: frame refused (cause {cause:#04x}): the download "
                           "fails")
+            if _setting(vc, "refused_line") == "ends":
+                _finish(vc, pending.failure)
         return cause
     assert decoded is not None
     if pending.failure is not None:
@@ -98,6 +101,8 @@ def line(vc: VirtualController, frame: list[int],
     broken = pending.structure.add(len(pending.table.lines), stored)
     if broken is not None:
         pending.failure = DownloadError(broken, pending.line, decoded[0].code or 0)
+        if _setting(vc, "refused_line") == "ends":
+            _finish(vc, pending.failure)
         return structure_cause(vc, broken)
     pending.table.lines.append(stored)
     pending.line += decoded[0].line_cost
@@ -137,19 +142,41 @@ def structure_cause(vc: VirtualController, error: int) -> int:
     return int(causes.get(f"{error:#04x}", OUT_OF_RANGE))
 
 
-def close(vc: VirtualController) -> None:
-    """The close: validate what was stored, store it or report why not (110-114)."""
+def _setting(vc: VirtualController, key: str) -> str:
+    """A [download] choice of the profile, checked against the values this module knows."""
+    value = str(vc.profile.raw["download"][key])
+    known = {"refused_line": ("fails", "ends"), "close_failure": ("acknowledged", "refused")}
+    if value not in known[key]:
+        raise ValueError(f"device profile [download] {key} = {value!r}: expected one of "
+                         f"{', '.join(known[key])}")
+    return value
+
+
+def close(vc: VirtualController) -> int:
+    """The close: validate what was stored, store it or report why not (110-114). Returns
+    the register-102 cause the close is answered with (0: acknowledged)."""
+    pending = vc.pending
+    assert pending is not None
+    failure = pending.failure
+    cause = 0
+    if failure is None:
+        table = pending.table
+        budget = vc.profile.budget(table.kind, table.slot) or 0
+        failure = validate(table, budget, vc.catalogue, vc.close_counts)
+        if failure is not None:  # found at the close: register 102 says why
+            cause = OVER_BUDGET if failure.code == 0x01 else structure_cause(vc, failure.code)
+    _finish(vc, failure)
+    if cause and _setting(vc, "close_failure") == "refused":
+        return cause
+    vc.illegal_cause = cause  # acknowledged: the cause is there to read all the same
+    return 0
+
+
+def _finish(vc: VirtualController, failure: DownloadError | None) -> None:
+    """End the open download: store its table, or report the failure and empty the slot."""
     pending = vc.pending
     assert pending is not None
     table = pending.table
-    failure = pending.failure
-    if failure is None:
-        budget = vc.profile.budget(table.kind, table.slot) or 0
-        failure = validate(table, budget, vc.catalogue, vc.close_counts)
-        if failure is not None:
-            # found at the close: register 102 says why, the close itself is acknowledged
-            vc.illegal_cause = (OVER_BUDGET if failure.code == 0x01
-                                else structure_cause(vc, failure.code))
     mp_no, isr_no = (table.slot, 0) if table.kind == "mp" else (0, table.slot)
     if failure is None:
         vc.tables[(table.kind, table.slot)] = table
