@@ -16,6 +16,7 @@ and its kinds, `DeviceException`) so that `mplang.m8194h.flash` never sees a pym
 from __future__ import annotations
 
 import asyncio
+import logging
 import time
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
@@ -53,6 +54,8 @@ request; a non-zero return refuses it with that Modbus exception code without ca
 out. Tests make a device busy with it."""
 
 MAX_LINES_PER_CATCH_UP = 200_000
+DEVICE_FAILURE = 0x04  # SLAVE DEVICE FAILURE: what a fault inside one request answers
+LOG = logging.getLogger("mplang.sim")
 READ_COILS, READ_DISCRETE, READ_HOLDING, READ_INPUT = 1, 2, 3, 4
 WRITE_COIL, WRITE_REGISTER, WRITE_COILS, WRITE_REGISTERS = 5, 6, 15, 16
 
@@ -94,7 +97,11 @@ class DeviceFace:
         client: its simulated clock falls behind and catches up on later calls."""
         now = self.clock.now()
         if now > self.controller.clock:
-            self.controller.advance(now, MAX_LINES_PER_CATCH_UP)
+            try:
+                self.controller.advance(now, MAX_LINES_PER_CATCH_UP)
+            except Exception as err:  # the device never falls over: see `fault`
+                self.controller.fault(err)
+                self.controller.clock = max(self.controller.clock, now)
 
     async def action(self, function_code: int, start_address: int, address: int, count: int,
                      current: list[int], values: list[int] | list[bool] | None) -> ExcCodes | None:
@@ -112,6 +119,13 @@ class DeviceFace:
         except Refusal as refusal:
             self.refusals.append(refusal)
             return ExcCodes(refusal.code)
+        except Exception as err:  # a fault inside one request: SLAVE DEVICE FAILURE
+            LOG.warning("internal fault serving FC%d at %d: %r", function_code, address, err,
+                        exc_info=err)
+            self.controller.log.append(f"{self.controller.clock:.4f} s: internal fault "
+                                       f"serving FC{function_code} at {address}: {err!r}")
+            self.refusals.append(Refusal(DEVICE_FAILURE, reason=f"internal fault: {err!r}"))
+            return ExcCodes(DEVICE_FAILURE)
         return None
 
     def refuse_function(self, function_code: int) -> None:

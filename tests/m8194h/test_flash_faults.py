@@ -531,7 +531,8 @@ def test_very_late_exception_answer_is_not_taken_for_a_read_over_rtu() -> None:
     """A refusal (exception 0x01 to an FC16) that arrives during a read is not the read's
     refusal; the next read gives register 102, the refused frame's cause."""
     face = device()
-    close = face.controller.encoder.close_frame("mp")  # refused outside a download
+    # refused outside a download (MP_CLOSE there is ignored, RS 9886; MP_ISR_CLOSE is not)
+    close = face.controller.encoder.close_frame("isr")
 
     async def scenario() -> tuple[list[int], DeviceLink]:
         async with faulty_link("rtu", face, at_frame(0, "late"), retries=0,

@@ -9,6 +9,7 @@ to the moment they end, and motion is computed analytically by `mplang.m8194h.si
 from __future__ import annotations
 
 import dataclasses
+import logging
 import math
 from collections import deque
 from collections.abc import Callable
@@ -22,6 +23,8 @@ from mplang.ir.macro import BVarRef, Operand, VarRef
 from mplang.m8194h.encode import Encoder
 from mplang.m8194h.sim import (
     axis_commands,
+    download,
+    frame_check,
     initial_table,
     interpolation_commands,
     memory,
@@ -32,12 +35,13 @@ from mplang.m8194h.sim.machine_data import MachineData
 from mplang.m8194h.sim.motion import MotionModel
 from mplang.m8194h.sim.queues import DeviceBusy as DeviceBusy
 from mplang.m8194h.sim.queues import QueuedCommand, QueueFull, Retry, requeue
-from mplang.m8194h.sim.tables import DownloadError, MacroTable, StoredLine, decode_frame, validate
+from mplang.m8194h.sim.tables import DownloadError, MacroTable, StoredLine, decode_frame
 from mplang.m8194h.sim.triggers import Triggers
 
 AXIS_NAMES = ("X", "Y", "Z", "U")
 MAX_STEPS_DEFAULT = 50_000_000
 NOT_EXECUTABLE = 0x04  # execution error type: the line's values make no sense to the device
+LOG = logging.getLogger("mplang.sim")
 
 
 Wait = Callable[[], float]
@@ -110,8 +114,7 @@ class VirtualController:
         self.clock = 0.0
         self.state = "ready"  # "ready" | "mp" | "isr" (input register 100: 0/1/2)
         self.chip_state = 3  # input register 101 (appendix table 12); power on makes it 5
-        self.pending: MacroTable | None = None
-        self.pending_line = 0
+        self.pending: download.Pending | None = None  # the open download, if any
         self.download_status = (0, 0, 0, 0, 0)  # registers 110-114
         self.execution_error = (0, 0, 0, 0, 0)  # registers 115-119
         self.illegal_cause = 0  # register 102
@@ -152,83 +155,48 @@ class VirtualController:
     def write_subfunction(self, frame: list[int]) -> int:
         """One FC16 write at register 8000. Returns 0, or the register-102 cause of the
         ILLEGAL FUNCTION exception the device answers with; raises `DeviceBusy` when a
-        real-time command finds the FIFO full."""
+        real-time command finds the FIFO full. A close that finds the table wrong is
+        acknowledged and leaves its cause in register 102 (`download.close`)."""
+        self.illegal_cause = 0
         cause = self.md.subfunction(frame) if self.md.owns(frame) else self._write(frame)
-        self.illegal_cause = cause
+        if cause:
+            self.illegal_cause = cause
         return cause
 
     def _write(self, frame: list[int]) -> int:
         decoded = decode_frame(self.encoder, frame)
+        if self.pending is not None:
+            return download.line(self, frame, decoded)
         if decoded is None:
             return 0x03 if frame and frame[0] not in self.catalogue.by_code else 0x02
         command, operands = decoded
         name = command.short_name
-        if self.state == "ready":
-            if name in ("MP_CREATE", "MP_ISR_CREATE"):
-                if self.stack:
-                    return 0xC3  # no download while a macro runs (device.toml choice)
-                kind = "mp" if name == "MP_CREATE" else "isr"
-                slot = int(operands[0])  # type: ignore[arg-type]
-                if self.profile.budget(kind, slot) is None:
-                    return 0x02
-                self.pending = MacroTable(kind, slot)
-                self.pending_line = 0
-                self.state = kind
-                self.chip_state = 6
-                return 0
-            if command.is_macro:
-                return 0x08
-            cause = self.initial_table.refusal(command, operands)
-            if cause:
-                return cause
-            if len(self.fifo) >= self.fifo_capacity:
-                raise DeviceBusy(f"{command.name}: the command FIFO is full")
-            start = max(self.clock, self.fifo[-1].due if self.fifo else self.clock)
-            self.fifo.append(QueuedCommand(command, operands, start + self.rtc_time))
-            return 0
-        assert self.pending is not None
-        kind = self.state
-        if not command.is_macro:
-            return 0x07
-        close = "MP_CLOSE" if kind == "mp" else "MP_ISR_CLOSE"
-        if name == close:
-            self._close()
-            return 0
-        if kind not in command.scope:
-            return 0x05 if kind == "isr" else 0x06
-        cause = self.initial_table.refusal(command, operands)  # "IT ... not inside MP" RS 990
+        if name in ("MP_CREATE", "MP_ISR_CREATE"):
+            return download.create(self, command, operands)
+        if name == "MP_CLOSE":
+            return download.stray_close(self)
+        if command.is_macro:
+            return 0x08
+        bad = frame_check.check(command, operands, self.profile)
+        if bad is not None:
+            self.log.append(f"{self.clock:.4f} s: refused: {bad.describe(command)}")
+            return frame_check.OUT_OF_RANGE
+        cause = self.initial_table.refusal(command, operands)
         if cause:
             return cause
-        budget = self.profile.budget(kind, self.pending.slot) or 0
-        if self.pending_line + command.line_cost > budget:
-            return 0x04
-        self.pending.lines.append(StoredLine(command, operands, tuple(frame), self.pending_line))
-        self.pending_line += command.line_cost
+        if len(self.fifo) >= self.fifo_capacity:
+            raise DeviceBusy(f"{command.name}: the command FIFO is full")
+        start = max(self.clock, self.fifo[-1].due if self.fifo else self.clock)
+        self.fifo.append(QueuedCommand(command, operands, start + self.rtc_time))
         return 0
 
-    def _close(self) -> None:
-        table = self.pending
-        assert table is not None
-        budget = self.profile.budget(table.kind, table.slot) or 0
-        error = validate(table, budget, self.catalogue, self.close_counts)
-        mp_no, isr_no = (table.slot, 0) if table.kind == "mp" else (0, table.slot)
-        if error is None:
-            self.tables[(table.kind, table.slot)] = table
-            self.download_status = (mp_no, isr_no, 0, 0, 0)
-            self.memory_version += 1
-        else:
-            self.tables.pop((table.kind, table.slot), None)
-            self.download_status = (mp_no, isr_no, error.command, error.line, error.code)
-        self.pending = None
-        self.state = "ready"
-        self.chip_state = 7
-
     def load_frames(self, kind: str, slot: int, frames: list[list[int]]) -> DownloadError | None:
-        """Download one program (create ... close) and return its download error, if any."""
+        """Download one program (create ... close) and return its download error, if any;
+        ValueError when a frame outside the download (the create) is refused."""
         for frame in frames:
+            in_download = self.pending is not None
             cause = self.write_subfunction(frame)
-            if cause:
-                self.state, self.pending = "ready", None
+            if cause and not in_download:  # refused lines fail the download: see its close
                 reason = self.profile.illegal_function_causes.get(cause, "unknown cause")
                 raise ValueError(f"{kind.upper()}{slot}: frame {frame} refused, cause "
                                  f"{cause:#04x} ({reason})")
@@ -365,12 +333,15 @@ class VirtualController:
                 except QueueFull as full:  # the motion queue is full: wait, run the line again
                     frame.wait = Retry(self, full)
                     break
-                except (ExecutionError, ValueError) as err:
+                except Exception as err:  # never out of the device: an execution error
                     line = frame.table.lines[pc]
                     code = err.code if isinstance(err, ExecutionError) else NOT_EXECUTABLE
                     self._record_error(frame, line, code)
                     self.error = (str(err) if isinstance(err, ExecutionError) else
                                   f"{line.command.short_name} at line {line.slot_line}: {err}")
+                    if not isinstance(err, (ExecutionError, ValueError)):
+                        LOG.warning("internal fault running %s: %r", self.error, err,
+                                    exc_info=err)
                     stack.clear()
                     break
                 if wait is not None:
@@ -451,10 +422,27 @@ class VirtualController:
         except QueueFull as full:
             requeue(self, queued, full)
             return
-        except (ValueError, ExecutionError) as err:
+        except Exception as err:  # a real-time command fails alone: logged, never raised
             self.log.append(f"{self.clock:.4f} s: {queued.command.name} ignored: {err}")
+            if not isinstance(err, (ValueError, ExecutionError)):
+                LOG.warning("internal fault in %s: %r", queued.command.name, err, exc_info=err)
             return
         self.log.append(f"{self.clock:.4f} s: {queued.command.name} {values}")
+
+    def fault(self, err: Exception) -> None:
+        """A fault inside the device outside any one line or command: log it, stop the
+        programs (recording an execution error at the running line, 115-119) and drop the
+        FIFO, so the device answers on in a consistent state."""
+        LOG.warning("internal fault at %.4f s: %r", self.clock, err, exc_info=err)
+        if self.stack:
+            frame = self.stack[-1]
+            line = frame.table.lines[max(0, min(frame.pc, len(frame.table.lines)) - 1)] \
+                if frame.table.lines else None
+            if line is not None:
+                self._record_error(frame, line, NOT_EXECUTABLE)
+            self.error = f"internal fault: {err!r}"
+        self.fifo.clear()
+        self.terminate_programs(f"internal fault: {err!r}: programs stopped, FIFO cleared")
 
     def touch(self) -> None:
         """Say the motion model was changed from outside (a register write, a simulated

@@ -61,7 +61,9 @@ def test_download_through_the_window_reports_status_in_110_to_114() -> None:
     # a table the device must refuse on its own: NEXT without FOR (download error 0x09)
     regs.write_holding(8000, [0x0AC9, 41])
     assert regs.read_input(100, 1) == [1]  # MP download state (appendix table 12)
-    regs.write_holding(8000, [0x0CD6])
+    # refused as it arrives with cause 0xB7 (RS 11368), the download fails (issue 13)
+    assert refusal(regs.write_holding, 8000, [0x0CD6]).cause == 0xB7
+    assert regs.read_input(102, 1) == [0xB7]
     regs.write_holding(8000, [0x0CCA])
     assert regs.read_input(110, 5) == [41, 0, 0x0CD6, 0, 0x09]
     assert ("mp", 41) not in vc.tables

@@ -225,14 +225,16 @@ def test_the_extension_registers_and_frnet_write_reach_the_trigger_table() -> No
     regs.write_holding(9008, [1])
     assert running(vc) == 23
     finish(vc)
-    # a program that writes a DI group (no compiler allows it: hand-made frames)
+    # a program cannot write a DI group: "Group number is between 0~7. Eight or above is
+    # not defined" (RS 4427), so the device refuses the hand-made line (issue 13)
     write = CAT.by_vendor["RSM_MACRO_FRNET_WRITE"]
     frames = [[0x0AC9, 25], ENC.frame(MacroLine(write, (8, 6, 1), Span("test", 1))),
               [0x0CCA]]
-    assert vc.load_frames("mp", 25, frames) is None
-    vc.call(25)
-    finish(vc)
-    assert vc.vars[10] == 31  # MP21 started by the program's own DI write
+    error = vc.load_frames("mp", 25, frames)
+    assert error is not None and (error.code, error.line) == (0x0F, 0)
+    assert ("mp", 25) not in vc.tables
+    regs.write_holding(9008, [0x40])  # the simulator's DI register reaches the table
+    assert running(vc) == 21
 
 
 @pytest.mark.parametrize("condition", CONDITIONS)
