@@ -298,6 +298,16 @@ def backoff(attempt: int, ceiling: float = 1.0, first: float = 0.05) -> float:
 Client = AsyncModbusTcpClient | AsyncModbusSerialClient
 
 
+def crc16(data: bytes) -> bytes:
+    """The Modbus RTU CRC of `data`, low byte first as on the line."""
+    crc = 0xFFFF
+    for byte in data:
+        crc ^= byte
+        for _bit in range(8):
+            crc = (crc >> 1) ^ 0xA001 if crc & 1 else crc >> 1
+    return crc.to_bytes(2, "little")
+
+
 class DeviceLink:
     """One connection to one device, one request at a time (the device answers the requests
     of one connection in the order they arrive). A request that gets no answer in time, or
@@ -310,11 +320,12 @@ class DeviceLink:
     connection and reports that only a quiet period, not a barrier, separates the old
     requests from the new ones (`fence` returns False).
 
-    Over TCP every answer is matched to its request by transaction id, also the answers
-    pymodbus would skip: an answer to a request that was answered already (a duplicated
-    request) counts in `anomalies`; over RTU an answer of another request's shape counts in
-    `foreign_answers`. Either tells the downloader that the device carried out something
-    the client did not send at that moment. Usable as `async with DeviceLink(endpoint)`."""
+    Every answer is counted, also those pymodbus would skip: over TCP by transaction id,
+    over RTU against the number of requests sent. An answer beyond them (a duplicated
+    request) counts in `anomalies`; over RTU an answer of another request's shape taken
+    for the one awaited counts in `foreign_answers`. Either tells the downloader that the
+    device carried out something the client did not send at that moment. Usable as
+    `async with DeviceLink(endpoint) as link:`."""
 
     def __init__(self, endpoint: Endpoint) -> None:
         self.endpoint = endpoint
@@ -324,6 +335,7 @@ class DeviceLink:
         self._unsettled = False  # a request may still reach the device: fence first
         self._abandoned_at: float | None = None  # monotonic time of the last abandonment
         self._outstanding: set[int] = set()  # TCP transaction ids sent, not answered
+        self._line_outstanding = 0  # RTU requests sent, not answered
         self._received = b""  # TCP bytes received, not yet a whole answer
         self._barriers = 0
         self.opened = False  # the first connection succeeded
@@ -351,13 +363,38 @@ class DeviceLink:
         return AsyncModbusSerialClient(ep.serial, framer=FramerType.RTU, baudrate=ep.baudrate,
                                        bytesize=8, parity=ep.parity, stopbits=ep.stopbits,
                                        timeout=ep.timeout, retries=0, reconnect_delay=0,
-                                       trace_connect=on_connection)
+                                       trace_connect=on_connection,
+                                       trace_packet=self._sending)
 
     def _sending(self, sending: bool, packet: bytes) -> bytes:
-        """pymodbus's packet hook (TCP): note the transaction id of every request sent."""
-        if sending and len(packet) >= 2:
+        """pymodbus's packet hook: note every request sent (TCP: its transaction id)."""
+        if sending and self.endpoint.host is None:
+            self._line_outstanding += 1
+        elif sending and len(packet) >= 2:
             self._outstanding.add(int.from_bytes(packet[:2], "big"))
         return packet
+
+    def _tee_rtu(self, data: bytes) -> None:
+        """Every byte the RTU port receives, before pymodbus sees it: pymodbus ignores an
+        answer that arrives while no request waits, so only here does an answer beyond the
+        requests sent (the device carried one out twice) become visible. Answers are cut
+        by their function code and length and count only with a good CRC."""
+        self._received += data
+        while len(self._received) >= 5:
+            buf = self._received
+            fc = buf[1]
+            size = 5 if fc & 0x80 else 8 if fc in (5, 6, 15, 16) else \
+                5 + buf[2] if fc in (1, 2, 3, 4) else 0
+            if size and len(buf) < size:
+                return
+            if not size or crc16(buf[:size - 2]) != buf[size - 2:size]:
+                self._received = buf[1:]  # not an answer's start: resynchronise
+                continue
+            self._received = buf[size:]
+            if self._line_outstanding:
+                self._line_outstanding -= 1
+            else:
+                self.anomalies += 1
 
     def _tee(self, data: bytes) -> None:
         """Every byte the TCP connection receives, before pymodbus sees it: pymodbus skips
@@ -380,7 +417,7 @@ class DeviceLink:
         self.close()
         lost = asyncio.Event()
         client = self._make_client(lost)
-        self._outstanding, self._received = set(), b""
+        self._outstanding, self._received, self._line_outstanding = set(), b"", 0
         try:
             connected = await client.connect()
         except (OSError, ModbusException, ValueError) as exc:
@@ -390,15 +427,15 @@ class DeviceLink:
         if not connected:
             client.close()
             raise LinkUnavailable(f"cannot connect to {self.endpoint.describe()}")
-        if self.endpoint.host is not None:
-            protocol = client.ctx
-            received = protocol.data_received
+        protocol = client.ctx
+        received = protocol.data_received
+        watch = self._tee if self.endpoint.host is not None else self._tee_rtu
 
-            def tee(data: bytes) -> None:
-                self._tee(data)
-                received(data)
+        def tee(data: bytes) -> None:
+            watch(data)
+            received(data)
 
-            protocol.data_received = tee  # type: ignore[method-assign]
+        protocol.data_received = tee  # type: ignore[method-assign]
         self._client, self._lost, self._stale = client, lost, False
         self.opened = True
 
@@ -502,6 +539,8 @@ class DeviceLink:
                 pass  # a refusal is still the barrier's answer
             self.fences += 1
             self._outstanding.clear()
+            self._line_outstanding = 0
+            self._received = b""  # what remains is no answer (a corrupted one's rest)
             return True
         self._unsettled = False
         self._stale = True
