@@ -21,6 +21,7 @@ import os
 from collections.abc import AsyncIterator, Callable
 from contextlib import asynccontextmanager, suppress
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -41,6 +42,7 @@ from test_flash_faults import (
 from mplang.family.ptylink import PtyLink
 from mplang.m8194h.compiler import compile_source
 from mplang.m8194h.flash import Flasher, FlashImage, FlashOptions, FlashReport, image_from_build
+from mplang.m8194h.flash import flasher as flasher_module
 from mplang.m8194h.flash.registers import state_name
 from mplang.m8194h.modbus import DeviceFace, DeviceLink, Endpoint, serve_rtu, serve_tcp, stop
 
@@ -555,6 +557,14 @@ def test_two_flashers_at_once_the_loser_names_the_other_client() -> None:
 
 
 def test_state_names_never_read_none() -> None:
-    """Register 100 outside the manual's 0/1/2 (4.16.2) is named by its value."""
+    """Register 100 outside the manual's 0/1/2 (4.16.2) is named by its value, and every
+    message of the flash package names a state through `state_name` (the issue's "the
+    device stays in None state" came from a dictionary lookup in an f-string)."""
     assert [state_name(v) for v in (0, 1, 2, 7)] == ["ready", "MP download", "ISR download",
                                                      "unknown state 7"]
+    package = Path(flasher_module.__file__).parent
+    for path in package.glob("*.py"):
+        if path.name == "registers.py":  # where state_name is defined
+            continue
+        source = path.read_text()
+        assert "STATES.get(" not in source and "STATES[" not in source, path.name

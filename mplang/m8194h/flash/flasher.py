@@ -146,7 +146,7 @@ class Flasher:
         self._opened: tuple[str, int] | None = None  # a download this flash may have open
         self._accepted = 0  # line frames of the current download the device accepted
         self._unanswered = 0  # 1 if the last frame sent got no answer
-        self._last_status: tuple[list[int], tuple[int, int]] | None = None
+        self._last_status: list[int] | None = None  # 110-114 at the last verification
 
     def _set_steps(self) -> None:
         image = self.image
@@ -425,7 +425,7 @@ class Flasher:
 
     def _other_client(self, state: int, span: list[int] | None) -> str:
         """What another client is doing, as precisely as registers 100-119 tell."""
-        kind = {1: "MP", 2: "ISR"}.get(state, "a")
+        kind = {1: "an MP", 2: "an ISR"}.get(state, "a")
         what = f"another client is downloading {kind} program"
         if span is not None and span[0] == 0:
             mp_no, isr_no = span[STATUS_FIRST - STATE_REGISTER:STATUS_FIRST - STATE_REGISTER
@@ -658,20 +658,21 @@ class Flasher:
             raise FlashFailure("rejected", f"{program.label}: the device refused the program: "
                                f"download error {error:#04x} ({reason}) at slot line {line} "
                                f"({name})", program.where(index))
-        self._last_status = (status, self._anomalies())
+        self._last_status = status
 
     async def _final_check(self) -> None:
         """After the last program: fence, and the device must still be ready with the
-        download status the last verification read and no answer nobody waited for, so a
-        late frame that reopened or changed a download after its verification shows."""
+        download status the last verification read, so a late create or close frame that
+        reached it after a verification shows (a late line frame meets a ready device,
+        which refuses it)."""
         if self._last_status is None:
             return
-        status, mark = self._last_status
+        status = self._last_status
         await self._settle()
         registers = await self.link.read_input(STATE_REGISTER, STATUS_FIRST + STATUS_COUNT
                                                - STATE_REGISTER)
         now = registers[STATUS_FIRST - STATE_REGISTER:]
-        if registers[0] != 0 or now != status or self._anomalies() != mark:
+        if registers[0] != 0 or now != status:
             raise FlashFailure("unverified", f"after the last verification the device changed "
                                f"(input register {STATE_REGISTER}: {state_name(registers[0])}; "
                                f"110-114: {now}, verified as {status}): a delayed request "
