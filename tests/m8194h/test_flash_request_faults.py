@@ -472,6 +472,11 @@ def test_tidy_up_that_cannot_finish_says_what_the_slot_holds() -> None:
     assert "Repair: run the flash again" in error
     assert face.controller.state == "mp"  # what the message warns of
     assert_truthful(face, image, outcome.report)
+    face.interpose = None  # the link is fine again: the next flash repairs everything
+    again = flash_relayed("tcp", face, lambda _r: None, image)
+    assert again.report.ok, again.report.error
+    assert_truthful(face, image, again.report)
+    assert_runs(face)
 
 
 def running_device() -> DeviceFace:
@@ -554,6 +559,41 @@ def test_two_flashers_at_once_the_loser_names_the_other_client() -> None:
     for report in (first, second):
         assert all("None" not in text for text in messages(report))
     assert_truthful(face, image, winner)
+
+
+def test_create_refused_during_another_clients_download_names_it() -> None:
+    """Another client opens a download of MP60 just before this flash's create frame
+    (which the device then refuses: an RTC command inside an MP download, 4.16.1) and
+    closes it a moment later. The flash waits for that close and names MP60; it neither
+    blames a source line nor touches the other client's program."""
+    image = job_image()
+    face = device()
+    vc = face.controller
+    other_line = image.programs[MP41].frames[1]  # SET_V: one line for MP60
+    first_create = image.programs[0].frames[0]
+    opened: list[bool] = []
+
+    def other_client_closes() -> None:
+        assert vc.write_subfunction(other_line) == 0
+        assert vc.write_subfunction(vc.encoder.close_frame("mp")) == 0
+
+    def interpose(function_code: int, _address: int, values: list[int] | None) -> int | None:
+        if values == first_create and not opened:
+            opened.append(True)
+            assert vc.write_subfunction(vc.encoder.create_frame("mp", 60)) == 0
+            asyncio.get_running_loop().call_later(2 * TIMEOUT, other_client_closes)
+        return None
+
+    face.interpose = interpose
+    outcome = flash_relayed("tcp", face, lambda _r: None, image)
+    error = str(outcome.report.error)
+    assert outcome.report.outcome == "interrupted" and outcome.report.where is None
+    assert error.startswith("MP22 pause: the device refused the create frame: another client "
+                            "is downloading MP60"), error
+    assert "cause" not in error
+    assert stored(face, "mp", 60) == [other_line]
+    assert stored(face, "mp", 22) is None
+    assert_truthful(face, image, outcome.report)
 
 
 def test_state_names_never_read_none() -> None:
