@@ -318,6 +318,7 @@ MODBUS_EXCEPTIONS = {
 MAX_WRITE_REGISTERS = 123  # the Modbus limit for FC16, which pymodbus does not check
 ANSWER_GRACE_S = 1.0  # beyond pymodbus's own timeout, before a request is abandoned here
 DEVICE_BUSY = 0x06  # the exception that says "not carried out, send it again later"
+FENCE_REGISTER = 100  # input: a fence reads 2-9 registers from here (ready state onwards)
 
 
 class LinkError(Exception):
@@ -387,28 +388,54 @@ def backoff(attempt: int, ceiling: float = 1.0, first: float = 0.05) -> float:
 Client = AsyncModbusTcpClient | AsyncModbusSerialClient
 
 
+def crc16(data: bytes) -> bytes:
+    """The Modbus RTU CRC of `data`, low byte first as on the line."""
+    crc = 0xFFFF
+    for byte in data:
+        crc ^= byte
+        for _bit in range(8):
+            crc = (crc >> 1) ^ 0xA001 if crc & 1 else crc >> 1
+    return crc.to_bytes(2, "little")
+
+
 class DeviceLink:
-    """One connection to one device, one request at a time (the device matches an answer to
-    the request before it). A request is abandoned after a timeout, a lost connection or an
-    answer that belongs to another request; the connection (or serial port) is closed at once
-    and the next request opens a new one, so a late answer to the abandoned request is never
-    taken for the next one's. Over TCP the new connection is enough. An RTU line has no
-    connections and its answers no transaction id: there the port stays closed for a quiet
-    time of one `timeout` after the abandonment and is opened with its input discarded, so
-    an answer up to twice the timeout late is dropped; a later one is refused unless it has
-    the very shape (function, address, register count) of the answer being waited for.
-    Usable as `async with DeviceLink(endpoint) as link:`."""
+    """One connection to one device, one request at a time (the device answers the requests
+    of one connection in the order they arrive). A request that gets no answer in time, or
+    meets an answer that belongs to another request, leaves the link *unsettled*: the
+    request may still reach the device later. Before the next request the link `fence`s:
+    it sends a barrier read on the same connection (over RTU: on the same line, in a
+    register count nothing else reads) and waits for its answer, which can only come after
+    every earlier request on that connection has been carried out or dropped. When no
+    barrier gets through (the connection is lost, or stays silent), the link opens a fresh
+    connection and reports that only a quiet period, not a barrier, separates the old
+    requests from the new ones (`fence` returns False).
+
+    Every answer is counted, also those pymodbus would skip: over TCP by transaction id,
+    over RTU against the number of requests sent. An answer beyond them (a duplicated
+    request) counts in `anomalies`; over RTU an answer of another request's shape taken
+    for the one awaited counts in `foreign_answers`. Either tells the downloader that the
+    device carried out something the client did not send at that moment. Usable as
+    `async with DeviceLink(endpoint) as link:`."""
 
     def __init__(self, endpoint: Endpoint) -> None:
         self.endpoint = endpoint
         self._client: Client | None = None
         self._lost = asyncio.Event()
-        self._stale = False
+        self._stale = False  # the connection is gone: the next request opens a new one
+        self._unsettled = False  # a request may still reach the device: fence first
         self._abandoned_at: float | None = None  # monotonic time of the last abandonment
+        self._outstanding: set[int] = set()  # TCP transaction ids sent, not answered
+        self._line_outstanding = 0  # RTU requests sent, not answered
+        self._received = b""  # TCP bytes received, not yet a whole answer
+        self._barriers = 0
         self.opened = False  # the first connection succeeded
         self.reconnects = 0
         self.repeats = 0  # idempotent requests sent again after a link failure
-        self.foreign_answers = 0  # answers refused because they belong to another request
+        self.foreign_answers = 0  # answers of another request's shape, outside a fence
+        self.absorbed = 0  # answers of earlier requests a fence met (RTU) before its own
+        self.anomalies = 0  # TCP answers to requests already answered (duplicated requests)
+        self.fences = 0  # barriers that settled the link
+        self.quiet_fences = 0  # fresh connections opened because no barrier got through
 
     # ------------------------------------------------------------------ connection
     def _make_client(self, lost: asyncio.Event) -> Client:
@@ -420,18 +447,67 @@ class DeviceLink:
 
         if ep.host is not None:
             return AsyncModbusTcpClient(ep.host, port=ep.port, timeout=ep.timeout, retries=0,
-                                        reconnect_delay=0, trace_connect=on_connection)
+                                        reconnect_delay=0, trace_connect=on_connection,
+                                        trace_packet=self._sending)
         assert ep.serial is not None
         return AsyncModbusSerialClient(ep.serial, framer=FramerType.RTU, baudrate=ep.baudrate,
                                        bytesize=8, parity=ep.parity, stopbits=ep.stopbits,
                                        timeout=ep.timeout, retries=0, reconnect_delay=0,
-                                       trace_connect=on_connection)
+                                       trace_connect=on_connection,
+                                       trace_packet=self._sending)
+
+    def _sending(self, sending: bool, packet: bytes) -> bytes:
+        """pymodbus's packet hook: note every request sent (TCP: its transaction id)."""
+        if sending and self.endpoint.host is None:
+            self._line_outstanding += 1
+        elif sending and len(packet) >= 2:
+            self._outstanding.add(int.from_bytes(packet[:2], "big"))
+        return packet
+
+    def _tee_rtu(self, data: bytes) -> None:
+        """Every byte the RTU port receives, before pymodbus sees it: pymodbus ignores an
+        answer that arrives while no request waits, so only here does an answer beyond the
+        requests sent (the device carried one out twice) become visible. Answers are cut
+        by their function code and length and count only with a good CRC."""
+        self._received += data
+        while len(self._received) >= 5:
+            buf = self._received
+            fc = buf[1]
+            size = 5 if fc & 0x80 else 8 if fc in (5, 6, 15, 16) else \
+                5 + buf[2] if fc in (1, 2, 3, 4) else 0
+            if size and len(buf) < size:
+                return
+            if not size or crc16(buf[:size - 2]) != buf[size - 2:size]:
+                self._received = buf[1:]  # not an answer's start: resynchronise
+                continue
+            self._received = buf[size:]
+            if self._line_outstanding:
+                self._line_outstanding -= 1
+            else:
+                self.anomalies += 1
+
+    def _tee(self, data: bytes) -> None:
+        """Every byte the TCP connection receives, before pymodbus sees it: pymodbus skips
+        an answer whose transaction id it is not waiting for, so only here does an answer
+        to a request answered already (the device carried it out twice) become visible."""
+        self._received += data
+        while len(self._received) >= 6:
+            size = 6 + int.from_bytes(self._received[4:6], "big")
+            if len(self._received) < size:
+                return
+            tid = int.from_bytes(self._received[:2], "big")
+            self._received = self._received[size:]
+            if tid in self._outstanding:
+                self._outstanding.discard(tid)
+            else:
+                self.anomalies += 1
 
     async def open(self) -> None:
         """Connect (TCP) or open the port (RTU); raise LinkUnavailable if that fails."""
         self.close()
         lost = asyncio.Event()
         client = self._make_client(lost)
+        self._outstanding, self._received, self._line_outstanding = set(), b"", 0
         try:
             connected = await client.connect()
         except (OSError, ModbusException, ValueError) as exc:
@@ -441,6 +517,15 @@ class DeviceLink:
         if not connected:
             client.close()
             raise LinkUnavailable(f"cannot connect to {self.endpoint.describe()}")
+        protocol = client.ctx
+        received = protocol.data_received
+        watch = self._tee if self.endpoint.host is not None else self._tee_rtu
+
+        def tee(data: bytes) -> None:
+            watch(data)
+            received(data)
+
+        protocol.data_received = tee  # type: ignore[method-assign]
         self._client, self._lost, self._stale = client, lost, False
         self.opened = True
 
@@ -456,13 +541,17 @@ class DeviceLink:
     async def __aexit__(self, *_exc: object) -> None:
         self.close()
 
+    def _usable(self) -> bool:
+        client = self._client
+        return client is not None and client.connected and not self._stale \
+            and not self._lost.is_set()
+
     async def _ready(self) -> Client:
         """The live client; reconnects first (with growing pauses, up to `retries` times)
-        after a lost connection or an abandoned request."""
-        client = self._client
-        if client is not None and client.connected and not self._stale \
-                and not self._lost.is_set():
-            return client
+        after a lost connection."""
+        if self._usable():
+            assert self._client is not None
+            return self._client
         await self._quiet()
         if not self.opened:
             await self.open()
@@ -481,13 +570,14 @@ class DeviceLink:
         assert self._client is not None
         return self._client
 
-    def _abandon(self) -> None:
-        """Give up on the request outstanding: close the link now (a late answer then reaches
-        a closed connection, or waits in a serial port's input buffer that is discarded when
-        the port opens) and make the next request open it again."""
-        self._stale = True
+    def _unsettle(self, lost: bool = False) -> None:
+        """A request went unanswered (or its connection broke): it may still reach the
+        device, so the next request fences first. A lost connection is closed at once."""
+        self._unsettled = True
         self._abandoned_at = time.monotonic()
-        self.close()
+        if lost:
+            self._stale = True
+            self.close()
 
     async def _quiet(self) -> None:
         """Over RTU, keep the port closed until one `timeout` has passed since the last
@@ -499,11 +589,65 @@ class DeviceLink:
         if remaining > 0:
             await asyncio.sleep(remaining)
 
+    @property
+    def settled(self) -> bool:
+        """No request sent on this link can still reach the device unseen."""
+        return not self._unsettled
+
+    async def fence(self) -> bool:
+        """Make sure nothing sent earlier can still reach the device after this returns.
+        True: a barrier read on the same connection was answered, so every earlier request
+        was carried out (or dropped) before it. False: no barrier got through, a fresh
+        connection is open and only time separates the old requests from the new ones;
+        the caller verifies a quiet period before it relies on the device's state."""
+        if not self._unsettled:
+            return True
+        foreign = self.foreign_answers
+        try:
+            return await self._fence()
+        finally:  # late answers a fence meets are the abandoned requests' own: expected
+            self.absorbed += self.foreign_answers - foreign
+            self.foreign_answers = foreign
+
+    async def _fence(self) -> bool:
+        for _attempt in range(self.endpoint.retries + 2):
+            if not self._usable():
+                break
+            self._unsettled = False
+            self._barriers += 1
+            count = 2 + self._barriers % 8  # a shape no other request of the flash has
+
+            def barrier(reply: ModbusPDU, count: int = count) -> bool:
+                return len(reply.registers) == count
+
+            try:
+                await self._exchange(self._read_request(READ_INPUT, FENCE_REGISTER, count),
+                                     READ_INPUT, FENCE_REGISTER, barrier, fence=False)
+            except (LinkTimeout, LinkLost):
+                continue
+            except DeviceException:
+                pass  # a refusal is still the barrier's answer
+            self.fences += 1
+            self._outstanding.clear()
+            self._line_outstanding = 0
+            self._received = b""  # what remains is no answer (a corrupted one's rest)
+            return True
+        self._unsettled = False
+        self._stale = True
+        self.close()
+        await self._ready()
+        self.quiet_fences += 1
+        return False
+
     # -------------------------------------------------------------------- requests
     async def _exchange(self, request: Callable[[Client], Awaitable[ModbusPDU]],
                         function_code: int, address: int,
-                        matches: Callable[[ModbusPDU], bool]) -> ModbusPDU:
-        """One request and its answer, or one of mplang's exceptions."""
+                        matches: Callable[[ModbusPDU], bool], fence: bool = True
+                        ) -> ModbusPDU:
+        """One request and its answer, or one of mplang's exceptions. An unsettled link
+        fences first."""
+        if fence and self._unsettled:
+            await self.fence()
         client = await self._ready()
         lost = self._lost
         describe = self.endpoint.describe()
@@ -518,29 +662,31 @@ class DeviceLink:
                 task.cancel()
             await asyncio.gather(*pending, return_exceptions=True)
         if call not in done:
-            self._abandon()
             if watch in done:
+                self._unsettle(lost=True)
                 raise LinkLost(f"{describe}: connection lost")
+            self._unsettle()
             raise LinkTimeout(f"{describe}: no answer within {self.endpoint.timeout:g} s")
         try:
             reply = call.result()
         except ConnectionException as exc:
-            self._abandon()
+            self._unsettle(lost=True)
             raise LinkLost(f"{describe}: connection lost ({exc})") from None
         except ModbusIOException:
-            self._abandon()
             if lost.is_set():
+                self._unsettle(lost=True)
                 raise LinkLost(f"{describe}: connection lost") from None
+            self._unsettle()
             raise LinkTimeout(f"{describe}: no answer within {self.endpoint.timeout:g} s"
                               ) from None
         except (ModbusException, OSError) as exc:
-            self._abandon()
+            self._unsettle(lost=True)
             raise LinkLost(f"{describe}: {exc}") from None
         # an exception answer carries the function code (plus 0x80) but no address: a late
         # refusal of another function is told apart by that code alone
         if reply.function_code & 0x7F != function_code or \
                 (not reply.isError() and not matches(reply)):
-            self._abandon()
+            self._unsettle()
             self.foreign_answers += 1
             raise LinkTimeout(f"{describe}: the answer belongs to another request")
         if reply.isError():
@@ -593,7 +739,8 @@ class DeviceLink:
         """FC3: `count` holding registers from `address` (repeated after link failures)."""
         return await self._read(READ_HOLDING, address, count)
 
-    async def _read(self, function_code: int, address: int, count: int) -> list[int]:
+    def _read_request(self, function_code: int, address: int, count: int
+                      ) -> Callable[[Client], Awaitable[ModbusPDU]]:
         unit = self.endpoint.unit
 
         def request(c: Client) -> Awaitable[ModbusPDU]:
@@ -601,7 +748,11 @@ class DeviceLink:
                 c.read_holding_registers
             return read(address, count=count, device_id=unit)
 
-        reply = await self._repeating(request, function_code, address,
+        return request
+
+    async def _read(self, function_code: int, address: int, count: int) -> list[int]:
+        reply = await self._repeating(self._read_request(function_code, address, count),
+                                      function_code, address,
                                       lambda r: len(r.registers) == count)
         return [int(v) for v in reply.registers[:count]]
 

@@ -20,8 +20,19 @@ Failures, and what is done about them:
 - a download error in 110-114 after the close: reported in words at the source line that
   holds the device's 0-based slot line;
 - no answer, or a lost connection, during a frame: whether the device stored the frame is
-  unknown, so the program is downloaded again from its create frame (step 1 closes the
-  half-open download first), up to `retries` times. Reads are simply repeated (DeviceLink).
+  unknown, and it may still reach the device later. The link is fenced first (a barrier
+  read on the same connection, or a fresh connection and a quiet period in which the
+  device's registers 100-119 must not change), then the program is downloaded again from
+  its create frame (step 1 closes the half-open download first), up to `retries` times.
+  Reads are simply repeated (DeviceLink);
+- an answer no request of the download was waiting for (a duplicated or delayed request,
+  seen by the link): the device may hold a line twice, so the program is downloaded again;
+- a refused create frame while the device is in a download this flash did not open, or a
+  refused line after someone closed the download: another client is downloading. It is
+  named, and nothing is tidied up (that would destroy the other client's program);
+- giving up on a program: the tidy-up closes the download and empties the slot, retried
+  with growing pauses; if it cannot, the failure says what the slot may hold and how to
+  repair it (`tidy`).
 
 `FlashOptions` holds the choices of a run: word order, incremental record, busy timeout.
 """
@@ -41,6 +52,7 @@ from mplang.m8194h.encode import Encoder
 from mplang.m8194h.flash.image import FlashImage, FlashInit, FlashProgram, FlashTriggers
 from mplang.m8194h.flash.record import FlashRecord
 from mplang.m8194h.flash.registers import (
+    CALL_REGISTER,
     CAUSE_REGISTER,
     CHIP_INITIALIZED,
     CHIP_STATE_REGISTER,
@@ -49,12 +61,14 @@ from mplang.m8194h.flash.registers import (
     IDENTITY_COUNT,
     IDENTITY_FIRST,
     ILLEGAL_FUNCTION,
+    MACRO_RUNNING,
     STATE_REGISTER,
-    STATES,
+    STATE_SPAN,
     STATUS_COUNT,
     STATUS_FIRST,
     TRIGGER_REGISTER,
     WORD_ORDER_REGISTER,
+    state_name,
 )
 from mplang.m8194h.flash.report import (
     FlashFailure,
@@ -76,6 +90,10 @@ from mplang.m8194h.modbus import (
 INIT_TIMEOUT_S = 2.0  # how long LOAD_INITIAL may take before the table counts unverified
 INIT_POLL_S = 0.01
 BUSY_PAUSE_FIRST_S, BUSY_PAUSE_MAX_S = 0.01, 0.5  # the FIFO drains in milliseconds
+TIDY_ATTEMPTS = 8  # tidy-up rounds after giving up on a program (growing pauses, ~5 s)
+TIDY_PAUSE_FIRST_S, TIDY_PAUSE_MAX_S = 0.05, 1.0
+QUIET_TIMEOUTS = 3  # a quiet period lasts this many answer timeouts
+QUIET_ROUNDS = 3  # quiet periods tried before the device counts as busy with another client
 
 
 @dataclass(frozen=True)
@@ -94,6 +112,9 @@ class FlashOptions:
     """The device's key in the record [default: the endpoint's description]."""
     force: bool = False
     """Write every program even if the record says the device holds it (and record them)."""
+    stop_running: bool = False
+    """Stop a running macro program (RTC MP_TERMINATE) before writing. Default: refuse
+    before anything is written and name the program that runs (holding register 8)."""
 
 
 def _results(image: FlashImage) -> list[ProgramResult]:
@@ -122,6 +143,10 @@ class Flasher:
         self._current: ProgramResult | StepResult | None = None
         self.address = options.address or link.endpoint.describe()
         self._entry: dict[str, Any] | None = None  # this device's record, once trusted
+        self._opened: tuple[str, int] | None = None  # a download this flash may have open
+        self._accepted = 0  # line frames of the current download the device accepted
+        self._unanswered = 0  # 1 if the last frame sent got no answer
+        self._last_status: list[int] | None = None  # 110-114 at the last verification
 
     def _set_steps(self) -> None:
         image = self.image
@@ -153,6 +178,8 @@ class Flasher:
                           if p.slot_label in unchanged]
                 self.progress(f"{len(labels)} program(s) unchanged since the recorded flash, "
                               f"not written: {', '.join(labels)}")
+            if self.report.frames_planned:
+                await self._check_running()
             for program, result in zip(self.image.programs, self.report.programs,
                                        strict=True):
                 if program.slot_label in unchanged:
@@ -161,6 +188,8 @@ class Flasher:
                 self._current = result
                 await self._program(program, result)
                 self._current = None
+            if any(p.status == "verified" for p in self.report.programs):
+                await self._final_check()
             if self.image.init is not None and self.report.init is not None:
                 self._current = self.report.init
                 await self._init(self.image.init, self.report.init)
@@ -298,19 +327,23 @@ class Flasher:
         failures = 0
         self._forget(program.slot_label)
         while True:
+            self._accepted, self._unanswered = 0, 0
             try:
+                if failures:
+                    await self._settle()
+                mark = self._anomalies()
                 await self._make_ready(program)
                 result.downloads += 1
                 for index in range(len(program.frames)):
                     await self._send(program, result, index)
-                await self._verify(program, result)
+                await self._verify(program, result, mark)
                 break
             except (LinkTimeout, LinkLost) as exc:
                 failures += 1
                 if failures > self.link.endpoint.retries:
-                    await self._abandon(program)  # never leave a half download behind
+                    left = await self._tidy(program)  # never leave a half download behind
                     raise FlashFailure("interrupted", f"{program.label}: {exc}; gave up after "
-                                       f"{failures} downloads") from None
+                                       f"{failures} downloads{left}") from None
                 self._note(f"{program.label}: {exc}: downloading it again from its create "
                            "frame")
                 await asyncio.sleep(backoff(failures, self.link.endpoint.timeout))
@@ -324,36 +357,117 @@ class Flasher:
                       f"({result.seconds * 1000:.0f} ms{', ' if extra else ''}"
                       f"{', '.join(extra)})")
 
+    def _anomalies(self) -> tuple[int, int]:
+        """The link's counts of answers nobody waited for: a change during a download means
+        the device carried out a request the flasher did not send at that moment."""
+        return self.link.anomalies, self.link.foreign_answers
+
+    async def _span(self) -> list[int]:
+        """Input registers 100-119: everything the device reports about its state."""
+        return await self.link.read_input(STATE_REGISTER, STATE_SPAN)
+
+    async def _settle(self) -> None:
+        """Before a program is downloaded again: nothing sent earlier may still reach the
+        device. A barrier on the same connection proves it; after a fresh connection the
+        device's registers 100-119 must stay unchanged for a quiet period (a late create
+        frame would show in register 100, a late close in 110-114)."""
+        if await self.link.fence():
+            return
+        quiet = QUIET_TIMEOUTS * self.link.endpoint.timeout
+        before = await self._span()
+        for _round in range(QUIET_ROUNDS):
+            await asyncio.sleep(quiet)
+            after = await self._span()
+            if after == before:
+                return
+            before = after
+        raise LinkTimeout(f"{self.link.endpoint.describe()}: the device's state kept changing "
+                          f"after a new connection (input registers 100-119 differ across "
+                          f"{QUIET_ROUNDS} quiet periods of {quiet:g} s)")
+
     async def _make_ready(self, program: FlashProgram) -> None:
         """Bring a device left in a download state back to ready (step 1 of the module
-        docstring)."""
+        docstring). A download this flash did not open may be another client's, still
+        going: the device must stay unchanged for a quiet period before it is closed."""
         (state,) = await self.link.read_input(STATE_REGISTER, 1)
         if state == 0:
+            self._opened = None
             return
         if state not in (1, 2):
             raise FlashFailure("rejected", f"input register {STATE_REGISTER} reads {state}, "
                                "not a state of the M8194H (0 ready, 1/2 MP/ISR download)")
+        if self._opened is None:
+            await self._stray_download()
         kind = "mp" if state == 1 else "isr"
         await self._write(self._encoder().close_frame(kind), None)
+        self._opened = None
         registers = await self.link.read_input(STATE_REGISTER, STATUS_FIRST + STATUS_COUNT
                                                - STATE_REGISTER)
         if registers[0] != 0:
-            raise FlashFailure("rejected", f"the device stays in {STATES.get(registers[0])} "
+            raise FlashFailure("rejected", f"the device stays in {state_name(registers[0])} "
                                "state after a close frame")
         mp_no, isr_no, _command, _line, error = registers[STATUS_FIRST - STATE_REGISTER:]
         slot = mp_no if kind == "mp" else isr_no
-        self._note(f"the device was in {STATES[state]} state (a download cut short): closed "
-                   f"it{f' ({kind.upper()}{slot})' if slot else ''}")
+        self._note(f"the device was in {state_name(state)} state (a download cut short): "
+                   f"closed it{f' ({kind.upper()}{slot})' if slot else ''}")
         if slot and error == 0 and (kind, slot) != (program.kind, program.slot):
             await self._empty(kind, slot)
 
+    async def _stray_download(self) -> None:
+        """The device is in a download this flash did not open: cut short long ago, or
+        another client's that is still going. Registers 100-119 that change within a quiet
+        period mean the latter."""
+        before = await self._span()
+        await asyncio.sleep(QUIET_TIMEOUTS * self.link.endpoint.timeout)
+        after = await self._span()
+        if after != before:
+            raise FlashFailure("interrupted", self._other_client(before[0], after))
+
+    def _other_client(self, state: int, span: list[int] | None) -> str:
+        """What another client is doing, as precisely as registers 100-119 tell."""
+        kind = {1: "an MP", 2: "an ISR"}.get(state, "a")
+        what = f"another client is downloading {kind} program"
+        if span is not None and span[0] == 0:
+            mp_no, isr_no = span[STATUS_FIRST - STATE_REGISTER:STATUS_FIRST - STATE_REGISTER
+                                  + 2]
+            slot = f"MP{mp_no}" if mp_no else f"ISR{isr_no}" if isr_no else None
+            if slot is not None:
+                what = f"another client is downloading {slot}"
+                what += " (input registers 110/111 name it after its close)"
+        elif span is not None:
+            what += f" (input register {STATE_REGISTER}: {state_name(span[0])})"
+        return (f"{what}: this flash stopped without touching its download; flash again "
+                "when the other client is done")
+
+    async def _await_other_client(self, state: int) -> str:
+        """Our create was refused while the device is in a download we did not open: wait a
+        while for the other client's close, whose status names its program."""
+        span: list[int] | None = None
+        for _round in range(QUIET_ROUNDS):
+            await asyncio.sleep(QUIET_TIMEOUTS * self.link.endpoint.timeout)
+            span = await self._span()
+            if span[0] == 0:
+                break
+        return self._other_client(state, span)
+
     async def _empty(self, kind: str, slot: int) -> None:
         """Download an empty program into a slot a cut-short download left a truncated
-        program in: an empty program returns at once when called, a truncated one may not."""
+        program in: an empty program returns at once when called, a truncated one may not.
+        Verified like any program: ready, 110/111 name the slot, no download error."""
         encoder = self._encoder()
         self._forget(f"{kind.upper()}{slot}")
+        self._opened = (kind, slot)
         await self._write(encoder.create_frame(kind, slot), None)
         await self._write(encoder.close_frame(kind), None)
+        self._opened = None
+        registers = await self.link.read_input(STATE_REGISTER, STATUS_FIRST + STATUS_COUNT
+                                               - STATE_REGISTER)
+        expected = (slot, 0) if kind == "mp" else (0, slot)
+        status = registers[STATUS_FIRST - STATE_REGISTER:]
+        if registers[0] != 0 or tuple(status[:2]) != expected or status[4] != 0:
+            raise FlashFailure("unverified", f"emptying {kind.upper()}{slot} was not "
+                               f"confirmed (input registers 100, 110-114 read {registers[0]}, "
+                               f"{status})")
         self._note(f"{kind.upper()}{slot} held a truncated program: emptied it")
 
     async def _write(self, frame: list[int], result: ProgramResult | None) -> None:
@@ -372,7 +486,9 @@ class Flasher:
                     (cause,) = await self.link.read_input(CAUSE_REGISTER, 1)
                 if exc.code != DEVICE_BUSY and cause != DPRAM_FULL:
                     reason = exc.name if cause is None else (
-                        f"{exc.name}, cause {cause:#04x} ("
+                        f"{exc.name}, cause not recorded (input register {CAUSE_REGISTER} "
+                        "reads 0: another client's request may have reset it)" if cause == 0
+                        else f"{exc.name}, cause {cause:#04x} ("
                         f"{self.profile.illegal_function_causes.get(cause, 'unknown cause')})")
                     raise Refused(exc, cause, reason) from None
                 attempt += 1
@@ -387,33 +503,134 @@ class Flasher:
 
     async def _send(self, program: FlashProgram, result: ProgramResult, index: int) -> None:
         frame = program.frames[index]
+        if index == 0:
+            self._opened = (program.kind, program.slot)  # from here on it may be open
         try:
-            await self._write(frame, result)
-            self.report.frames_written += 1
-        except FlashFailure:  # the device stayed busy: close what was opened
+            try:
+                await self._write(frame, result)
+            except (LinkTimeout, LinkLost):
+                self._unanswered = 1
+                raise
+        except FlashFailure as failure:  # the device stayed busy: close what was opened
             if index > 0:
-                await self._abandon(program)
+                failure.args = (f"{failure}{await self._tidy(program)}",)
             raise
         except Refused as refusal:
-            if index > 0:
-                await self._abandon(program)
-            raise FlashFailure("rejected", f"{program.label}: the device refused frame "
-                               f"{index} ({self._describe(frame)}): {refusal}",
-                               program.where(index)) from None
+            await self._refused(program, index, refusal)
+        self.report.frames_written += 1
+        if 0 < index < len(program.frames) - 1:
+            self._accepted += 1
+        elif index == len(program.frames) - 1:
+            self._opened = None
 
-    async def _abandon(self, program: FlashProgram) -> None:
-        """After a refused frame, or giving up on a program: end the download and empty the
-        slot, so the device is ready and holds no truncated program. Failures here are noted,
-        not raised: the refusal is what the user must see."""
-        try:
+    async def _refused(self, program: FlashProgram, index: int, refusal: Refused) -> None:
+        """The device refused frame `index` of `program`: say why, at its source line, and
+        tidy up, unless another client's download explains the refusal."""
+        frame = program.frames[index]
+        if refusal.code == ILLEGAL_FUNCTION:
             (state,) = await self.link.read_input(STATE_REGISTER, 1)
-            if state in (1, 2):
-                await self._write(self._encoder().close_frame("mp" if state == 1 else "isr"), None)
-            await self._empty(program.kind, program.slot)
-        except (LinkError, DeviceException, Refused, FlashFailure) as exc:
-            self._note(f"{program.label}: could not tidy up after the refusal: {exc}")
+            if index == 0 and state in (1, 2):
+                self._opened = None
+                raise FlashFailure("interrupted", f"{program.label}: the device refused the "
+                                   f"create frame: {await self._await_other_client(state)}"
+                                   ) from None
+            if index > 0 and state == 0:
+                self._opened = None
+                raise FlashFailure("interrupted", f"{program.label}: the device refused frame "
+                                   f"{index} because its download was closed by someone else "
+                                   f"(input register {STATE_REGISTER} reads 0): another "
+                                   f"client is downloading; {program.slot_label} may hold the "
+                                   f"first {self._accepted} of its {len(program.frames) - 2} "
+                                   "lines. Flash again when the other client is done: the "
+                                   "flash writes it again") from None
+            if index == 0 and refusal.cause == MACRO_RUNNING:
+                running = await self._running()
+                raise FlashFailure("rejected", f"{program.label}: nothing was written: "
+                                   f"{running or 'a macro program'} is running (cause 0xc3); "
+                                   "stop it, or let the flash stop it (stop_running)",
+                                   program.where(index)) from None
+        left = await self._tidy(program) if index > 0 else ""
+        raise FlashFailure("rejected", f"{program.label}: the device refused frame "
+                           f"{index} ({self._describe(frame)}): {refusal}{left}",
+                           program.where(index)) from None
 
-    async def _verify(self, program: FlashProgram, result: ProgramResult) -> None:
+    async def _running(self) -> str | None:
+        """The running MP by holding register 8, None if it reads 0 (none, or an ISR)."""
+        try:
+            (slot,) = await self.link.read_holding(CALL_REGISTER, 1)
+        except (LinkError, DeviceException):
+            return None
+        return f"MP{slot}" if slot else None
+
+    async def _check_running(self) -> None:
+        """Before anything is written: a running program makes the device refuse downloads
+        (cause 0xC3) and may be the one about to be replaced. Stop it only with consent."""
+        running = await self._running()
+        if running is None:
+            return
+        if not self.options.stop_running:
+            raise FlashFailure("rejected", f"{running} is running (holding register "
+                               f"{CALL_REGISTER} reads {running[2:]}): nothing was written; "
+                               "stop it first, or let the flash stop it (stop_running)")
+        await self._stop_programs(running)
+
+    async def _stop_programs(self, running: str | None) -> None:
+        """RTC MP_TERMINATE (every MP and ISR; motion goes on), then wait until register 8
+        reads 0."""
+        code = self.catalogue.rtc_by_short["MP_TERMINATE"].code
+        assert code is not None
+        await self._write([code], None)
+        deadline = time.monotonic() + self.options.busy_timeout
+        while await self._running() is not None:
+            if time.monotonic() > deadline:
+                raise FlashFailure("rejected", f"{running} still runs "
+                                   f"{self.options.busy_timeout:g} s after MP_TERMINATE")
+            await asyncio.sleep(INIT_POLL_S)
+        self._note(f"stopped {running or 'the running program'} (MP_TERMINATE), as asked")
+
+    async def _tidy(self, program: FlashProgram) -> str:
+        """After giving up on a program: end the download and empty the slot, so the device
+        is ready and holds no truncated program, retried with growing pauses. Returns ""
+        when done, else what the device may hold and how to repair it (for the message):
+        the failure itself is what the user must see first."""
+        problem = "no answer"
+        for attempt in range(1, TIDY_ATTEMPTS + 1):
+            try:
+                await self._settle()
+                (state,) = await self.link.read_input(STATE_REGISTER, 1)
+                if state in (1, 2):
+                    await self._write(self._encoder().close_frame(
+                        "mp" if state == 1 else "isr"), None)
+                    self._opened = None
+                await self._empty(program.kind, program.slot)
+                return ""
+            except Refused as refusal:
+                problem = str(refusal)
+                if refusal.cause == MACRO_RUNNING:
+                    running = await self._running()
+                    if not self.options.stop_running:
+                        problem = (f"the device will not empty it while "
+                                   f"{running or 'a macro program'} runs (cause 0xc3)")
+                        break
+                    try:
+                        await self._stop_programs(running)
+                    except (LinkError, DeviceException, Refused, FlashFailure) as exc:
+                        problem = str(exc)
+            except (LinkError, DeviceException, FlashFailure) as exc:
+                problem = str(exc)
+            await asyncio.sleep(backoff(attempt, TIDY_PAUSE_MAX_S, TIDY_PAUSE_FIRST_S))
+        lines = len(program.frames) - 2
+        held = f"the first {self._accepted}" + (
+            f" or {self._accepted + 1}" if self._unanswered and self._accepted < lines else "")
+        left = (f"; the tidy-up failed ({problem}): {program.slot_label} may hold {held} of "
+                f"its {lines} lines, and the device may still be in download state. Repair: "
+                f"run the flash again (it closes an open download and writes "
+                f"{program.slot_label} again)")
+        self._note(left[2:])
+        return left
+
+    async def _verify(self, program: FlashProgram, result: ProgramResult,
+                      mark: tuple[int, int]) -> None:
         registers = await self.link.read_input(STATE_REGISTER, STATUS_FIRST + STATUS_COUNT
                                                - STATE_REGISTER)
         state = registers[0]
@@ -421,9 +638,13 @@ class Flasher:
         result.download_status = status
         mp_no, isr_no, command, line, error = status
         expected = (program.slot, 0) if program.kind == "mp" else (0, program.slot)
+        if self._anomalies() != mark:
+            raise LinkTimeout(f"{program.label}: an answer arrived that no request was "
+                              "waiting for (a delayed or duplicated request): the device may "
+                              "hold a line twice")
         if state != 0:
             raise FlashFailure("unverified", f"{program.label}: the device is in "
-                               f"{STATES.get(state, state)} state after the close frame",
+                               f"{state_name(state)} state after the close frame",
                                program.where(len(program.frames) - 1))
         if (mp_no, isr_no) != expected:
             raise FlashFailure("unverified", f"{program.label}: the download status "
@@ -437,6 +658,25 @@ class Flasher:
             raise FlashFailure("rejected", f"{program.label}: the device refused the program: "
                                f"download error {error:#04x} ({reason}) at slot line {line} "
                                f"({name})", program.where(index))
+        self._last_status = status
+
+    async def _final_check(self) -> None:
+        """After the last program: fence, and the device must still be ready with the
+        download status the last verification read, so a late create or close frame that
+        reached it after a verification shows (a late line frame meets a ready device,
+        which refuses it)."""
+        if self._last_status is None:
+            return
+        status = self._last_status
+        await self._settle()
+        registers = await self.link.read_input(STATE_REGISTER, STATUS_FIRST + STATUS_COUNT
+                                               - STATE_REGISTER)
+        now = registers[STATUS_FIRST - STATE_REGISTER:]
+        if registers[0] != 0 or now != status:
+            raise FlashFailure("unverified", f"after the last verification the device changed "
+                               f"(input register {STATE_REGISTER}: {state_name(registers[0])}; "
+                               f"110-114: {now}, verified as {status}): a delayed request "
+                               "reached it; flash again")
 
     # ------------------------------------------------------- initial table, triggers
     async def _init(self, init: FlashInit, result: StepResult) -> None:
