@@ -152,6 +152,7 @@ class FlashJob:
     settings_retries: int | None
     settings_set_word_order: bool
     fleet: bool  # --fleet: every device at once, a table at the end
+    stop_running: bool = False  # stop a running program before writing (else: refuse)
 
 
 class Progress(Protocol):

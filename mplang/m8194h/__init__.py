@@ -43,7 +43,7 @@ BUILD_OPTIONS = frozenset({"--word-order", "--pins"})
 """The word order of the image (holding register 14) and slot pins (mpc.toml `[slots]`):
 the M8194H's alone."""
 FLASH_OPTIONS = frozenset({"--unit", "--word-order", "--set-word-order", "--record",
-                           "--retries"})
+                           "--retries", "--stop-running"})
 """`mpc flash` options beyond the common ones: Modbus, image frames, the flash record."""
 FLASHES_FLEETS = True
 FLASH_INSTEAD = ""

@@ -36,7 +36,8 @@ def flash(job: FlashJob, ui: FlashUI) -> str:
                 device.retries, job.settings_retries, DEFAULT_RETRIES))
         devices.append(flashing.FleetDevice(device.name, image, endpoint, flashing.FlashOptions(
             set_word_order=job.set_word_order or job.settings_set_word_order,
-            rebuild=rebuild, address=device.address(), force=job.force)))
+            rebuild=rebuild, address=device.address(), force=job.force,
+            stop_running=job.stop_running)))
     record = flashing.FlashRecord(record_path)
     if job.dry_run:
         _dry_run(devices, record, job.as_json, ui)

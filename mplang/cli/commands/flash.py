@@ -64,6 +64,9 @@ DEFAULT_TIMEOUT, DEFAULT_RETRIES = 1.0, 3
 @click.option("--set-word-order", is_flag=True,
               help="If the device's word order (holding register 14) differs from the "
               "image's, set it instead of refusing.")
+@click.option("--stop-running", is_flag=True,
+              help="If a program is running, stop it (MP_TERMINATE) before writing, instead "
+              "of refusing to flash.")
 @click.option("--force", is_flag=True,
               help="Write every program, even those the flash record says the device holds.")
 @click.option("--record", "record_file", type=click.Path(dir_okay=False, path_type=Path),
@@ -79,9 +82,10 @@ DEFAULT_TIMEOUT, DEFAULT_RETRIES = 1.0, 3
 def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | None,
             serial: str | None, unit: int, baud: int, parity: str, stopbits: str,
             to: str | None, fleet: Path | None, timeout: float, retries: int,
-            set_word_order: bool, force: bool, record_file: Path | None, as_json: bool,
-            dry_run: bool, project_file: Path | None, target: str, word_order: str | None,
-            temp_vars: range, allow_outside_includes: bool, werror: bool) -> None:
+            set_word_order: bool, stop_running: bool, force: bool, record_file: Path | None,
+            as_json: bool, dry_run: bool, project_file: Path | None, target: str,
+            word_order: str | None, temp_vars: range, allow_outside_includes: bool,
+            werror: bool) -> None:
     """Download FILE... (.mp sources built together, or one image JSON; without FILE, the
     sources of mpc.toml) into a device over Modbus TCP or RTU, and verify every program
     through its download-status registers. Programs the flash record says the device already
@@ -136,7 +140,7 @@ def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | N
         settings_timeout=settings.timeout if settings else None,
         settings_retries=settings.retries if settings else None,
         settings_set_word_order=bool(settings and settings.set_word_order),
-        fleet=fleet is not None)
+        fleet=fleet is not None, stop_running=stop_running)
     try:
         outcome = family.flash_devices(job, _FlashUI(setup.werror))
     except CommandError as exc:
@@ -150,7 +154,7 @@ def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | N
 
 FLASH_OPTIONS = (("--unit", "unit"), ("--word-order", "word_order"),
                  ("--set-word-order", "set_word_order"), ("--record", "record_file"),
-                 ("--retries", "retries"))
+                 ("--retries", "retries"), ("--stop-running", "stop_running"))
 """Options of `mpc flash` beyond the common ones: refused for a family whose
 `FLASH_OPTIONS` does not take them."""
 

@@ -547,7 +547,7 @@ class Flasher:
                 running = await self._running()
                 raise FlashFailure("rejected", f"{program.label}: nothing was written: "
                                    f"{running or 'a macro program'} is running (cause 0xc3); "
-                                   "stop it, or let the flash stop it (stop_running)",
+                                   "stop it, or let the flash stop it (mpc flash --stop-running)",
                                    program.where(index)) from None
         left = await self._tidy(program) if index > 0 else ""
         raise FlashFailure("rejected", f"{program.label}: the device refused frame "
@@ -571,7 +571,8 @@ class Flasher:
         if not self.options.stop_running:
             raise FlashFailure("rejected", f"{running} is running (holding register "
                                f"{CALL_REGISTER} reads {running[2:]}): nothing was written; "
-                               "stop it first, or let the flash stop it (stop_running)")
+                               "stop it first, or let the flash stop it "
+                               "(mpc flash --stop-running)")
         await self._stop_programs(running)
 
     async def _stop_programs(self, running: str | None) -> None:
