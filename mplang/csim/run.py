@@ -62,7 +62,8 @@ def pick_entry(build: FamilyBuild, call: str | None) -> tuple[CsimProgram, int, 
     if wanted_program:
         candidates = [p for p in build.programs if p.name.upper() == wanted_program.upper()]
         if not candidates:
-            raise NoSuchProgram(f"no program named {wanted_program!r} in this build")
+            raise NoSuchProgram(f"no program named {wanted_program!r} in this build"
+                                f"{_callable(build.programs)}")
     key = wanted_label.upper()
     for program in candidates:
         if not wanted_program and program.name.upper() == key:
@@ -73,7 +74,18 @@ def pick_entry(build: FamilyBuild, call: str | None) -> tuple[CsimProgram, int, 
         labels = program.script.labels
         if label in labels:
             return program, labels[label], f"{program.name}:${label}"
-    raise NoSuchProgram(f"{call!r} names no program, entry or label of this build")
+    raise NoSuchProgram(f"{call!r} names no program, entry or label of this build"
+                        f"{_callable(build.programs)}")
+
+
+def _callable(programs: list[CsimProgram]) -> str:
+    """"; callable: prog, prog:entry, prog:$LABEL" for a message."""
+    names: list[str] = []
+    for program in programs:
+        names.append(program.name)
+        names += [f"{program.name}:{entry}" for entry in program.entries]
+        names += [f"{program.name}:${label}" for label in program.script.labels]
+    return f"; callable: {', '.join(names)}" if names else ""
 
 
 def run_build(build: FamilyBuild, call: str | None, max_time: float, *,

@@ -76,3 +76,14 @@ def test_unused_modules_appear_once_used(tmp_path: Path) -> None:
     path = tmp_path / "t.csim"
     path.write_text("PN50=255\n")  # immediate only: refused in a program
     assert not csim.check_native([path]).ok
+
+
+def test_an_unknown_call_lists_the_callable_programs_entries_and_labels() -> None:
+    from mplang.csim import check_native
+    from mplang.csim.run import NoSuchProgram, run_build
+
+    build = check_native([ROOT / "samples" / "csim" / "program_flow.csim"])
+    with pytest.raises(NoSuchProgram) as caught:
+        run_build(build, "nosuch", 1.0)
+    assert "; callable: program_flow, " in str(caught.value)
+    assert "program_flow:$ROUND" in str(caught.value)
