@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import pytest
+from loopback import LoopbackServer
 
 from mplang.cli.common import (
     EXIT_INTERRUPTED,
@@ -181,30 +182,18 @@ def whenever(values: list[int], fault: str) -> Plan:
 
 
 # ------------------------------------------------------------------------------ TCP proxy
-class TcpFaultProxy:
+class TcpFaultProxy(LoopbackServer):
     """A Modbus TCP proxy on a loopback port between the client and the device, one device
     connection per client connection, one request at a time (MBAP framing)."""
 
     def __init__(self, device_port: int, plan: Plan, late_by: float = LATE) -> None:
+        super().__init__()
         self.device_port = device_port
         self.faults = Faults(plan)
         self.late_by = late_by
         self.late_delivered = 0  # late answers written to a connection the client kept
         self.late_lost = 0  # late answers whose connection the client had closed
         self.late_pending = 0  # late answers not sent yet
-        self._server: asyncio.Server | None = None
-        self._tasks: set[asyncio.Task[None]] = set()
-
-    async def start(self) -> int:
-        self._server = await asyncio.start_server(self._serve, "127.0.0.1", 0)
-        return int(self._server.sockets[0].getsockname()[1])
-
-    async def close(self) -> None:
-        if self._server is not None:
-            self._server.close()
-        for task in list(self._tasks):
-            task.cancel()
-        await asyncio.gather(*self._tasks, return_exceptions=True)
 
     @staticmethod
     async def _read_adu(reader: asyncio.StreamReader) -> bytes:
@@ -263,9 +252,7 @@ class TcpFaultProxy:
             writer.close()
             self.late_pending -= 1
 
-        task = asyncio.ensure_future(release())
-        self._tasks.add(task)
-        task.add_done_callback(self._tasks.discard)
+        self._spawn(release())
 
 
 # ----------------------------------------------------------------------------- RTU faults

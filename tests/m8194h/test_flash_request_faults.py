@@ -26,6 +26,7 @@ from pathlib import Path
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from loopback import LoopbackServer
 from test_flash_faults import (
     FRAME_WINDOW,
     MP41,
@@ -115,31 +116,13 @@ async def deliver(relay: Relay, heap: list[tuple[float, int, bytes]], wake: asyn
             await asyncio.sleep(SPACING)
 
 
-class RequestFaultProxy:
+class RequestFaultProxy(LoopbackServer):
     """Modbus TCP on a loopback port, one device connection per client connection."""
 
     def __init__(self, device_port: int, schedule: Schedule) -> None:
+        super().__init__()
         self.device_port = device_port
         self.relay = Relay(schedule)
-        self._server: asyncio.Server | None = None
-        self._tasks: set[asyncio.Task[None]] = set()
-
-    async def start(self) -> int:
-        self._server = await asyncio.start_server(self._serve, "127.0.0.1", 0)
-        return int(self._server.sockets[0].getsockname()[1])
-
-    async def close(self) -> None:
-        if self._server is not None:
-            self._server.close()
-        for task in list(self._tasks):
-            task.cancel()
-        await asyncio.gather(*self._tasks, return_exceptions=True)
-
-    def _spawn(self, coroutine: object) -> asyncio.Task[None]:
-        task: asyncio.Task[None] = asyncio.ensure_future(coroutine)  # type: ignore[arg-type]
-        self._tasks.add(task)
-        task.add_done_callback(self._tasks.discard)
-        return task
 
     async def _serve(self, client_reader: asyncio.StreamReader,
                      client_writer: asyncio.StreamWriter) -> None:
