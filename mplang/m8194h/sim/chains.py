@@ -28,6 +28,10 @@ Conventions and simplifications
   The 3-axis examples end that way, their closing calls having nType 0 (l.8601, l.8680).
   A last segment that comes too late to brake fully brakes at once (VA) and loses the
   remaining speed on the end point.
+* A running chain forgets the segments it has finished (all but the one before the
+  present one) whenever a segment comes in (`_ChainPath.forget`): nothing reads a motion
+  before the present, and path lengths stay absolute, so a program that loops segments for
+  ever keeps a bounded path and samples exactly what the whole path would give.
 * MIX_2D_CONTINUE nType 1-5 (l.8762) are LINE_2D, ARC_CW/CCW and CIRCLE_CW/CCW with the
   arc conventions of `paths`; relative centres and end points count from the segment's
   start, ABS_ ones are absolute (l.8820).

@@ -103,6 +103,7 @@ class VirtualController:
         self.line_time = int(execution["line_time_us"]) / 1e6
         self.rtc_time = int(execution["rtc_command_time_us"]) / 1e6
         self.fifo_capacity = self.profile.limit("command_fifo")
+        self.isr_capacity = self.profile.limit("isr_queue")
         # operator code -> symbol, built once: VAR_CALCULATE and IF are the hot lines
         self.calc_symbols = {v: k for k, v in self.profile.calc_ops.items()}
         self.cmp_symbols = {v: k for k, v in self.profile.cmp_ops.items()}
@@ -120,7 +121,7 @@ class VirtualController:
         self.illegal_cause = 0  # register 102
         self.stack: list[Frame] = []
         self.fifo: deque[QueuedCommand] = deque()
-        self.isr_queue: deque[int] = deque()  # ISR numbers waiting to run
+        self.isr_queue: deque[tuple[int, bool]] = deque()  # (ISRn, from a call) waiting
         self.return_value = 0
         self.error: str | None = None  # why the last program stopped, if it failed
         self.log: deque[str] = deque(maxlen=200)  # what the device did, for `mpc sim -v`
@@ -230,10 +231,22 @@ class VirtualController:
         self.programs[key] = (table, program)
         return program
 
-    def request_isr(self, slot: int) -> None:
+    def request_isr(self, slot: int, call: bool = True) -> None:
         """Run ISRn as soon as possible: at once, above a running MP (which resumes where it
-        was when the ISR ends), or after the ISR that runs now (ISRs do not nest)."""
-        self.isr_queue.append(slot)
+        was when the ISR ends), or after the ISR that runs now (ISRs do not nest).
+
+        The waiting requests are bounded as on the device (profile `limits.isr_queue`): the
+        chip's (`call` False) are taken only while no ISR runs, so a flood of them merges in
+        the chip's flags; a call (MP_ISR_CALL) for an ISR whose call already waits merges
+        into that one, as a flag that is set already."""
+        if call and (slot, True) in self.isr_queue:
+            self.log.append(f"{self.clock:.4f} s: ISR{slot} call merged into the waiting one")
+            return
+        if len(self.isr_queue) >= self.isr_capacity:
+            self.log.append(f"{self.clock:.4f} s: ISR{slot} request dropped: "
+                            f"{self.isr_capacity} requests wait")
+            return
+        self.isr_queue.append((slot, call))
 
     def _isr_running(self) -> bool:
         return any(frame.table.kind == "isr" for frame in self.stack)
@@ -267,23 +280,25 @@ class VirtualController:
             if fifo and fifo[0].due <= self.clock and loading is None:
                 self._run_rtc(fifo.popleft())
                 continue
-            if self.isr_queue and not self._isr_running():
-                self._start_isr(self.isr_queue.popleft())
+            isr_running = self._isr_running()
+            if self.isr_queue and not isr_running:
+                self._start_isr(self.isr_queue.popleft()[0])
                 continue
             if not stack and self.triggers.waiting:
                 self.triggers.start_waiting()  # a DI-triggered MP waited for this moment
                 continue
-            if self.chip_state == 10 and stack and not self._isr_running():
+            if self.chip_state == 10 and stack and not isr_running:
                 self.chip_state = 8  # the ISR returned to the program it interrupted
             if loading is not None:  # the chip loads its table: the FIFO waits (RS 11368)
                 horizon = min(until, loading)
             else:
                 horizon = until if not fifo or fifo[0].due > until else fifo[0].due
-            interrupt = self.motion.next_interrupt(self.clock)  # (RESET_CARD replaces it)
-            if interrupt is not None:
+            # the chip's requests wait in its flags while an ISR runs (ISRs do not nest)
+            interrupt = None if isr_running else self.motion.next_interrupt(self.clock)
+            if interrupt is not None:  # (RESET_CARD replaces the motion model)
                 if interrupt <= self.clock:
                     for _time, isr in self.motion.take_interrupts(self.clock):
-                        self.request_isr(isr)
+                        self.request_isr(isr, call=False)
                     continue
                 horizon = min(horizon, interrupt)
             if not stack:

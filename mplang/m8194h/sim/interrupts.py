@@ -10,7 +10,8 @@ Conventions and simplifications (manual = RS manual, "l.N" its line N)
 * Interrupts (7.3.10-7.3.13): a factor raises a request only if ENABLE_INT is on and the
   factor is enabled on the axis (INTFACTOR_ENABLE, which also clears that axis's bit of the
   triggered register, l.3959).  Compare factors fire on the edge (the condition becoming
-  true).  A request stays pending until the controller takes it; while one is pending for
+  true).  A request stays pending until the controller takes it (which it does only while
+  no ISR runs: profile ``limits.isr_queue``); while one is pending for
   an (axis, factor) the same factor does not queue another -- so PULSE asks for one ISR at
   a time, not one per pulse.  DISABLE_INT drops pending requests, INTFACTOR_DISABLE those
   of its factors.  C-STA/C-END are the start/end of the constant-speed part of a profile

@@ -765,6 +765,7 @@ class MotionModel:
         if m is None:
             return
         s, v, _a = m.prof.state(now - m.t0)
+        chain.path.forget(s)  # finished segments: only `now` and later are read again
         if seg is not None:
             shift = tuple(self._ax[i].shift for i in chain.axes)
             part, length, chain.end = _lay(seg, chain.end, shift)

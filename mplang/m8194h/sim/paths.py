@@ -113,6 +113,16 @@ class _ChainPath(_Path):
         self.parts.append(part)
         self.length += length
 
+    def forget(self, s: float) -> None:
+        """Drop the parts that end before the one holding path length `s` but one, so a
+        chain that runs for ever keeps a bounded path.  Offsets stay absolute, so every
+        length from the kept parts on maps exactly as before; the motion that drives the
+        path never samples a length before `s` again (it only moves forward in time)."""
+        drop = bisect_right(self.offsets, s) - 2
+        if drop > 0:
+            del self.parts[:drop]
+            del self.offsets[:drop]
+
     def _at(self, s: float) -> tuple[_Path, float]:
         i = max(bisect_right(self.offsets, s) - 1, 0)
         return self.parts[i], s - self.offsets[i]
