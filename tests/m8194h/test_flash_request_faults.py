@@ -317,7 +317,9 @@ def test_line_frame_delayed_past_the_timeout_never_lands_in_the_new_download(
     outcome = flash_relayed(transport, face, late_line(150, late_by), image, timeout=0.5)
     assert [action for action, _request in outcome.relay.fired] == [("delay", late_by)]
     assert outcome.report.ok, outcome.report.error
-    assert outcome.report.programs[0].downloads == 2
+    # Downloaded again at least once (more if a loaded machine makes another answer late):
+    # what counts is that the device holds exactly the program and the flash says so.
+    assert outcome.report.programs[0].downloads >= 2
     assert outcome.link.fences + outcome.link.quiet_fences >= 1
     assert stored(face, "mp", 156) == image.programs[0].frames[1:-1]
     assert_truthful(face, image, outcome.report)
