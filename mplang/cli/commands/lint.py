@@ -19,16 +19,18 @@ from mplang.cli.common import (
     write_output,
 )
 from mplang.cli.families import choose
+from mplang.cli.shell import complete_paths
 from mplang.lang.diagnostics import Severity
 
 
 @click.command("lint", short_help="Run every check without producing an image.")
-@click.argument("files", nargs=-1)
+@click.argument("files", nargs=-1, shell_complete=complete_paths)
 @click.option("--format", "fmt",
               type=click.Choice(["text", "json", "sarif", "github", "gitlab"]), default="text",
               show_default=True, help="gcc-style lines, a JSON list, SARIF 2.1.0, GitHub "
               "workflow commands (annotations) or GitLab Code Quality JSON.")
-@click.option("-o", "--output", default=None, metavar="OUT", help="Write the report here.")
+@click.option("-o", "--output", default=None, metavar="OUT", shell_complete=complete_paths,
+              help="Write the report here.")
 @project_option
 @with_common
 @click.pass_context
