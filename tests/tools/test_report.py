@@ -74,11 +74,22 @@ def test_sarif_links_the_installed_docs_or_none(tmp_path: Path,
     assert "helpUri" not in driver["rules"][0] and "informationUri" not in driver
 
 
-def test_the_old_relative_help_uri_is_rejected(tmp_path: Path) -> None:
-    """The schema check has teeth: the form issue 15 reported fails it."""
+def test_the_forms_issue_15_reported_are_rejected(tmp_path: Path) -> None:
+    """The checks have teeth: a relative helpUri, an unencoded file name and a relative
+    file URI without a base fail them."""
     sarif = json.loads(render_sarif(every_rule("x.mp")[:1], root=tmp_path))
     sarif["runs"][0]["tool"]["driver"]["rules"][0]["helpUri"] = "docs/checks/E101.md"
     with pytest.raises(AssertionError, match="is not a 'uri'"):
+        validated(json.dumps(sarif))
+    sarif = json.loads(render_sarif(every_rule("x.mp")[:1], root=tmp_path))
+    artifact = sarif["runs"][0]["results"][0]["locations"][0]["physicalLocation"][
+        "artifactLocation"]
+    artifact["uri"] = "cell one/bad.mp"
+    with pytest.raises(AssertionError, match="is not a 'uri-reference'"):
+        validated(json.dumps(sarif))
+    artifact["uri"] = "bad.mp"
+    del artifact["uriBaseId"]
+    with pytest.raises(AssertionError, match="relative uri without uriBaseId"):
         validated(json.dumps(sarif))
 
 
