@@ -51,3 +51,17 @@ def test_installed_package_compiles(wheel: Path, tmp_path: Path) -> None:
                           capture_output=True, text=True, check=False)
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.strip() == "[[2761, 21], [3150, 1, 0, 1000], [3274]]"
+
+
+def test_wheel_metadata_licence_and_plot_extra(wheel: Path) -> None:
+    """PEP 639 licence metadata with the LICENSE file, and matplotlib only in `plot`."""
+    archive = zipfile.ZipFile(wheel)
+    names = archive.namelist()
+    (metadata,) = [n for n in names if n.endswith(".dist-info/METADATA")]
+    text = archive.read(metadata).decode()
+    assert "License-Expression: MIT" in text.splitlines()
+    assert "Provides-Extra: plot" in text.splitlines()
+    matplotlib = [line for line in text.splitlines()
+                  if line.startswith("Requires-Dist: matplotlib")]
+    assert matplotlib and all('extra == "plot"' in line for line in matplotlib)
+    assert any(n.endswith(".dist-info/licenses/LICENSE") for n in names)

@@ -21,6 +21,7 @@ Exit codes (also in docs/cli.md):
   12 mpc fmt --check: some files are not formatted
   13 mpc import: converted with omissions (each named on standard error at its C line)
   14 mpc disasm: some frames could not be carried over exactly (named on standard error)
+  15 an optional dependency is not installed (mpc plot: the mplang[plot] extra)
   70 internal error (a bug in mpc: please report it with the input)
 """
 
@@ -37,6 +38,7 @@ from mplang.cli.common import (
     EXIT_FLEET_MIXED,
     EXIT_INTERNAL,
     EXIT_INTERRUPTED,
+    EXIT_MISSING_EXTRA,
     EXIT_NO_DEVICE,
     EXIT_NO_INPUT,
     EXIT_NOT_EXACT,
@@ -56,6 +58,7 @@ __all__ = [
     "EXIT_FLEET_MIXED",
     "EXIT_INTERNAL",
     "EXIT_INTERRUPTED",
+    "EXIT_MISSING_EXTRA",
     "EXIT_NOT_EXACT",
     "EXIT_NO_DEVICE",
     "EXIT_NO_INPUT",

@@ -11,6 +11,7 @@ import pytest
 from click.testing import CliRunner
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from sarifcheck import validated
 
 from mplang.cli import main
 
@@ -102,7 +103,7 @@ def test_lint_text_json_sarif(project: Path) -> None:
     code, out, _ = run("lint", str(project / "bad.mp"), "--format", "json")
     assert code == 1 and {d["code"] for d in json.loads(out)} == {"E201", "E202"}
     code, out, _ = run("lint", str(project / "bad.mp"), "--format", "sarif")
-    sarif = json.loads(out)
+    sarif = validated(out)
     assert code == 1 and sarif["version"] == "2.1.0"
     results = sarif["runs"][0]["results"]
     rules = sarif["runs"][0]["tool"]["driver"]["rules"]

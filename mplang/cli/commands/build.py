@@ -17,11 +17,12 @@ from mplang.cli.common import (
     write_output,
 )
 from mplang.cli.families import all_formats, build_checked, check_format, choose
+from mplang.cli.shell import complete_paths
 
 
 @click.command("build", short_help="Compile sources into one download image.")
-@click.argument("files", nargs=-1)
-@click.option("-o", "--output", default=None, metavar="OUT",
+@click.argument("files", nargs=-1, shell_complete=complete_paths)
+@click.option("-o", "--output", default=None, metavar="OUT", shell_complete=complete_paths,
               help="Write the result here ('-' or absent: standard output).")
 @click.option("--format", "fmt", type=LazyChoice((), all_formats), default=None,
               help="M8194H: image JSON (the default), human listing, hex frames, the link "

@@ -14,12 +14,13 @@ from mplang.cli.common import (
     parse_temps,
     write_output,
 )
+from mplang.cli.shell import complete_paths
 from mplang.family.face import Family
 
 
 @click.command("disasm", short_help="Turn an image JSON back into .mp source.")
-@click.argument("image", metavar="IMAGE")
-@click.option("-o", "--output", default=None, metavar="OUT",
+@click.argument("image", metavar="IMAGE", shell_complete=complete_paths)
+@click.option("-o", "--output", default=None, metavar="OUT", shell_complete=complete_paths,
               help="Write the source here ('-' or absent: standard output).")
 @click.option("--temp-vars", callback=parse_temps, default=None, metavar="FIRST-LAST",
               help="VAR pool the image was built with [default: 500-511]; lines computed "

@@ -30,6 +30,7 @@ from mplang.cli.common import (
     with_serial_line,
 )
 from mplang.cli.families import Selection, refuse_options, select
+from mplang.cli.shell import complete_paths
 from mplang.family.face import FamilyBuild
 from mplang.family.registry import families
 from mplang.tools.project import Project, ProjectError, Target, load_fleet
@@ -43,7 +44,7 @@ DEFAULT_TIMEOUT, DEFAULT_RETRIES = 1.0, 3
 
 
 @click.command("flash", short_help="Download and verify programs in a device or a fleet.")
-@click.argument("files", nargs=-1)
+@click.argument("files", nargs=-1, shell_complete=complete_paths)
 @click.option("--tcp", callback=parse_device_address, default=None, metavar="HOST[:PORT]",
               help="The device's Modbus TCP address (ET-M8194H) [default port: 502].")
 @click.option("--serial", default=None, metavar="PORT",

@@ -32,6 +32,7 @@ from mplang.cli.common import (
     load_project_file,
     project_option,
 )
+from mplang.cli.shell import complete_paths
 from mplang.lang.diagnostics import DiagnosticSink, Span
 from mplang.tools.project import find_project
 
@@ -199,7 +200,7 @@ def _format_stdin(options: FormatOptions, check: bool, show_diff: bool) -> int:
 
 
 @click.command("fmt", short_help="Lay out .mp sources in the canonical format.")
-@click.argument("files", nargs=-1)
+@click.argument("files", nargs=-1, shell_complete=complete_paths)
 @click.option("--check", is_flag=True,
               help="Write nothing; list the files that would change and exit 12 if any.")
 @click.option("--diff", "show_diff", is_flag=True,

@@ -14,11 +14,12 @@ from mplang.cli.common import (
     guarded,
     write_output,
 )
+from mplang.cli.shell import complete_paths
 
 
 @click.command("import", short_help="Convert a vendor-API C program into .mp source.")
-@click.argument("file", metavar="FILE.c")
-@click.option("-o", "--output", default=None, metavar="OUT",
+@click.argument("file", metavar="FILE.c", shell_complete=complete_paths)
+@click.option("-o", "--output", default=None, metavar="OUT", shell_complete=complete_paths,
               help="Write the .mp source here ('-' or absent: standard output).")
 @click.option("--encoding", default=None, metavar="CODEC",
               help="Text encoding of FILE [default: UTF-8, else cp950, else Latin-1].")

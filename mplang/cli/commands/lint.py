@@ -1,4 +1,5 @@
-"""`mpc lint`: the compiler's checks alone, as text, JSON or SARIF; for the other controller
+"""`mpc lint`: the compiler's checks alone, as text, JSON, SARIF, GitHub workflow commands or
+GitLab Code Quality JSON; for the other controller
 families (`.fbs`/`.csim` listings, `.mp` with their `--target`) their checks, reported the
 same way."""
 
@@ -18,14 +19,18 @@ from mplang.cli.common import (
     write_output,
 )
 from mplang.cli.families import choose
+from mplang.cli.shell import complete_paths
 from mplang.lang.diagnostics import Severity
 
 
 @click.command("lint", short_help="Run every check without producing an image.")
-@click.argument("files", nargs=-1)
-@click.option("--format", "fmt", type=click.Choice(["text", "json", "sarif"]), default="text",
-              show_default=True, help="gcc-style lines, a JSON list, or SARIF 2.1.0.")
-@click.option("-o", "--output", default=None, metavar="OUT", help="Write the report here.")
+@click.argument("files", nargs=-1, shell_complete=complete_paths)
+@click.option("--format", "fmt",
+              type=click.Choice(["text", "json", "sarif", "github", "gitlab"]), default="text",
+              show_default=True, help="gcc-style lines, a JSON list, SARIF 2.1.0, GitHub "
+              "workflow commands (annotations) or GitLab Code Quality JSON.")
+@click.option("-o", "--output", default=None, metavar="OUT", shell_complete=complete_paths,
+              help="Write the report here.")
 @project_option
 @with_common
 @click.pass_context
@@ -50,8 +55,10 @@ def command(ctx: click.Context, files: tuple[str, ...], fmt: str, output: str | 
         else:
             write_output(text, output)
     else:
-        write_output(render.render_sarif(diagnostics) if fmt == "sarif"
-                     else render.render_diagnostics_json(diagnostics), output)
+        renderer = {"sarif": render.render_sarif, "github": render.render_github,
+                    "gitlab": render.render_gitlab}.get(fmt)
+        write_output(render.render_diagnostics_json(diagnostics) if renderer is None
+                     else renderer(diagnostics), output)
     errors = sum(1 for d in diagnostics if d.severity is Severity.ERROR)
     if errors or (werror and diagnostics):
         sys.exit(EXIT_SOURCE_ERRORS)

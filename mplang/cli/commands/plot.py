@@ -3,6 +3,7 @@ path and the position and velocity of every moving axis against time (PNG or SVG
 
 from __future__ import annotations
 
+import importlib
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -10,6 +11,7 @@ from typing import TYPE_CHECKING
 import click
 
 from mplang.cli.common import (
+    EXIT_MISSING_EXTRA,
     EXIT_RUN_FAILED,
     OutputError,
     build_setup,
@@ -18,6 +20,7 @@ from mplang.cli.common import (
     with_common,
 )
 from mplang.cli.families import build_and_run, choose
+from mplang.cli.shell import complete_paths
 
 if TYPE_CHECKING:
     from mplang.family.trace import Trace
@@ -34,6 +37,21 @@ def image_format(output: str) -> str:
     return fmt
 
 
+class MissingExtra(click.ClickException):
+    exit_code = EXIT_MISSING_EXTRA
+
+
+def require_matplotlib() -> None:
+    """matplotlib is the optional `plot` extra: say how to get it before a possibly long
+    simulation, instead of failing on the import after it."""
+    try:
+        importlib.import_module("matplotlib")
+    except ImportError as exc:
+        raise MissingExtra(
+            f"mpc plot needs matplotlib, which cannot be imported ({exc}); install mplang "
+            "with its plot extra: pip install 'mplang[plot]'") from None
+
+
 def check_output_place(output: Path) -> None:
     """Refuse, before a possibly long simulation, an output whose directory is missing or
     that names a directory."""
@@ -44,11 +62,12 @@ def check_output_place(output: Path) -> None:
 
 
 @click.command("plot", short_help="Plot the simulated tool path and axis motion (PNG/SVG).")
-@click.argument("files", nargs=-1)
+@click.argument("files", nargs=-1, shell_complete=complete_paths)
 @click.option("--call", "call", default=None, metavar="MPn|NAME",
               help="Program to call [default: the first MP of the first file]; FATEK: a "
               "table NAME[:STEP]; CSIM: a program, an MP's name or a $LABEL.")
 @click.option("-o", "--output", required=True, metavar="OUT.png|OUT.svg",
+              shell_complete=complete_paths,
               help="Image to write; the format follows the suffix.")
 @click.option("--width", type=click.IntRange(300, 8000), default=1200, show_default=True,
               help="Image width in pixels.")
@@ -71,6 +90,7 @@ def command(ctx: click.Context, files: tuple[str, ...], call: str | None, output
     did: the XY path (XZ and YZ too when Z moves) and position and velocity against time.
     A program that fails or does not finish is plotted up to that point, and exits 5."""
     fmt = image_format(output)
+    require_matplotlib()
     setup = build_setup(ctx, files, project_file, target, word_order, temp_vars,
                         allow_outside_includes, werror)
     selection = choose(setup)

@@ -20,6 +20,7 @@ from mplang.cli.common import (
     with_common,
 )
 from mplang.cli.families import build_and_run, choose
+from mplang.cli.shell import complete_paths
 
 if TYPE_CHECKING:
     from mplang.family.trace import Trace
@@ -39,7 +40,7 @@ def check_trace_place(trace_file: str) -> None:
 
 
 @click.command("run", short_help="Run one program on a fresh virtual controller.")
-@click.argument("files", nargs=-1)
+@click.argument("files", nargs=-1, shell_complete=complete_paths)
 @click.option("--call", "call", default=None, metavar="MPn|NAME",
               help="Program to call [default: the first MP of the first file]; FATEK: a "
               "table NAME[:STEP]; CSIM: a program, an MP's name or a $LABEL.")
@@ -48,6 +49,7 @@ def check_trace_place(trace_file: str) -> None:
 @click.option("--max-time", type=click.FloatRange(min=0.001), default=3600.0, show_default=True,
               help="Give up after this much simulated time (seconds).")
 @click.option("--trace", "trace_file", default=None, metavar="FILE.csv",
+              shell_complete=complete_paths,
               help="Also write time, and LP, EP and velocity of every axis, as CSV.")
 @click.option("--trace-period", type=click.FloatRange(min=0.00001), default=None,
               metavar="SECONDS", help="Sampling period of --trace in simulated time "

@@ -21,10 +21,11 @@ from mplang.cli.common import (
     with_serial_line,
 )
 from mplang.cli.families import build_checked, refuse_options, select
+from mplang.cli.shell import complete_paths
 
 
 @click.command("sim", short_help="Serve a virtual M8194H over Modbus TCP and/or RTU.")
-@click.argument("files", nargs=-1)
+@click.argument("files", nargs=-1, shell_complete=complete_paths)
 @click.option("--tcp", callback=parse_host_port, default=None, metavar="[HOST:]PORT",
               help="Serve Modbus TCP here: HOST:PORT, PORT (a bare number is a port, on "
               "127.0.0.1) or HOST (port 1502); port 0: any free port [default without "

@@ -8,11 +8,18 @@ from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
+from sarifcheck import validated
 
 from mplang import csim, fatek
 from mplang.cli import EXIT_NO_INPUT, EXIT_OK, EXIT_SOURCE_ERRORS, EXIT_USAGE, main
 from mplang.m8194h.compiler import Options
-from mplang.tools.report import render_diagnostics_json, render_sarif, render_text
+from mplang.tools.report import (
+    render_diagnostics_json,
+    render_github,
+    render_gitlab,
+    render_sarif,
+    render_text,
+)
 
 ROOT = Path(__file__).resolve().parents[3]
 SAMPLES = ROOT / "samples"
@@ -48,23 +55,25 @@ def test_mp_for_csim_lints_with_its_warnings_and_werror_fails_it() -> None:
 
 
 @pytest.mark.parametrize("name", ["E604.fbs", "W601.fbs", "E705.csim", "W701.csim"])
-@pytest.mark.parametrize("fmt", ["text", "json", "sarif"])
+@pytest.mark.parametrize("fmt", ["text", "json", "sarif", "github", "gitlab"])
 def test_family_diagnostics_use_the_project_renderers(name: str, fmt: str) -> None:
     path = CHECKS / name
     diagnostics = fatek.check_native([path]).diagnostics if path.suffix == ".fbs" \
         else csim.check_native([path]).diagnostics
     assert diagnostics
-    expected = {"text": render_text, "json": render_diagnostics_json,
-                "sarif": render_sarif}[fmt](diagnostics)
+    expected = {"text": render_text, "json": render_diagnostics_json, "sarif": render_sarif,
+                "github": render_github, "gitlab": render_gitlab}[fmt](diagnostics)
     code, out, _ = run("lint", path, "--format", fmt)
     assert out == expected
+    if fmt == "sarif":
+        validated(out)
     assert code == (EXIT_SOURCE_ERRORS if name.startswith("E") else EXIT_OK)
 
 
 def test_sarif_names_the_family_rules() -> None:
     code, out, _ = run("lint", CHECKS / "E604.fbs", "--format", "sarif")
     assert code == EXIT_SOURCE_ERRORS
-    sarif = json.loads(out)
+    sarif = validated(out)
     results = sarif["runs"][0]["results"]
     assert {r["ruleId"] for r in results} == {"E604"}
     assert results[0]["locations"][0]["physicalLocation"]["region"]["startLine"] == 4
@@ -99,7 +108,7 @@ def test_lint_to_a_file(tmp_path: Path) -> None:
     report = tmp_path / "report.sarif"
     code, out, _ = run("lint", CHECKS / "E604.fbs", "--format", "sarif", "-o", report)
     assert (code, out) == (EXIT_SOURCE_ERRORS, "")
-    assert json.loads(report.read_text())["version"] == "2.1.0"
+    assert validated(report.read_text())["version"] == "2.1.0"
 
 
 def test_missing_input_and_mixed_families() -> None:
