@@ -7,12 +7,13 @@ program verified, inside its range and nowhere else.
 from __future__ import annotations
 
 import asyncio
+from pathlib import Path
 
 import pytest
-from test_flash import device, endpoint, tcp_device
+from test_flash import assert_all_stored, device, endpoint, tcp_device
 from test_flash_incremental import JOB, Counter, image_of
 
-from mplang.m8194h.flash import FlashOptions, flash
+from mplang.m8194h.flash import FlashOptions, FlashRecord, FlashReport, flash
 from mplang.m8194h.flash import manifest as mf
 from mplang.m8194h.modbus import DeviceFace
 
@@ -156,3 +157,52 @@ def test_manual_3_19_a_failed_flash_leaves_no_manifest_to_trust() -> None:
     assert not report.ok  # type: ignore[attr-defined]
     with pytest.raises(mf.ManifestError, match="no manifest"):
         mf.decode([face.controller.md.word(n) for n in range(960, 1024)])
+
+
+def test_manual_3_19_second_computer_trusts_the_manifest_and_writes_only_what_differs(
+        tmp_path: Path) -> None:
+    """Flash with one record; then from another 'computer' (an empty record elsewhere): the
+    manifest and the unchanged download status vouch for every program, nothing is written;
+    one program changed: only it is written."""
+    identity = mf.MdRange(960, 1023)
+    face, counter = device(), Counter()
+    changed = JOB.replace("VAR1 = VAR1 + 1", "VAR1 = VAR1 + 2")
+
+    async def main() -> list[FlashReport]:
+        async with tcp_device(face, counter) as (_server, port):
+            reports = []
+            for source, record in ((JOB, tmp_path / "a" / "record.json"),
+                                   (JOB, tmp_path / "b" / "record.json"),
+                                   (changed, tmp_path / "c" / "record.json")):
+                before = counter.frames
+                reports.append(await flash(image_of(source), endpoint(port), FlashOptions(
+                    identity=identity, record=FlashRecord(record))))
+                reports[-1].frames_written = counter.frames - before
+            return reports
+    first, second, third = asyncio.run(main())
+    assert first.ok and first.count("verified") == 3
+    assert second.ok and second.count("unchanged") == 3 and second.frames_written == 0
+    assert any("trusting the device's build manifest" in n for n in second.notes)
+    assert third.ok and [p.status for p in third.programs] == [
+        "unchanged", "verified", "unchanged"]
+    assert third.frames_written == len(image_of(changed).programs[1].frames)
+    assert_all_stored(face, image_of(changed))
+
+
+def test_manual_3_19_manifest_is_not_trusted_after_another_download(tmp_path: Path) -> None:
+    """Another tool downloads a program after the flash: 110-114 change, so the manifest
+    no longer vouches, and every program is written again."""
+    identity = mf.MdRange(960, 1023)
+    face, counter = device(), Counter()
+    image = image_of(JOB)
+    other = image_of("MP 7 other\n    VAR2 = 1\nEND MP\n")
+
+    async def main() -> FlashReport:
+        async with tcp_device(face, counter) as (_server, port):
+            await flash(image, endpoint(port), FlashOptions(identity=identity))
+            await flash(other, endpoint(port))  # no manifest, no record: the other tool
+            return await flash(image, endpoint(port), FlashOptions(
+                identity=identity, record=FlashRecord(tmp_path / "record.json")))
+    report = asyncio.run(main())
+    assert report.ok and report.count("verified") == 3, report.notes
+    assert any("changed since its build manifest" in n for n in report.notes)

@@ -239,31 +239,22 @@ class Flasher:
             current.error, current.where = message, where
 
     async def _store_manifest(self, identity: manifests.MdRange) -> None:
-        """After every program verified: the build manifest, with the download status the
-        device shows now, written and read back (not rewritten when the device already holds
-        it, apart from the time: MD are non-volatile memory)."""
+        """After every program verified: the build manifest with the download status the
+        device shows now, written and read back (`manifest.store`)."""
         registers = await self.link.read_input(STATE_REGISTER, STATUS_FIRST + STATUS_COUNT
                                                - STATE_REGISTER)
         if registers[0] != 0:
             raise FlashFailure("unverified", f"the device is in {state_name(registers[0])} "
                                "state after the last program: no manifest written")
-        wanted = manifests.manifest_of(self.image, registers[STATUS_FIRST - STATE_REGISTER:],
-                                       int(time.time()))
-        order = self.image.word_order
         try:
-            held = await manifests.read_manifest(self.link, identity, order)
-        except manifests.ManifestError:
-            held = None
-        if held is not None and held.same_content(wanted):
-            self.report.manifest = manifests.to_json(held)
-            return
-        try:
-            await manifests.write_manifest(self.link, identity,
-                                           manifests.encode(wanted), order)
+            held, written = await manifests.store(
+                self.link, identity, self.image, registers[STATUS_FIRST - STATE_REGISTER:],
+                int(time.time()))
         except manifests.ManifestError as exc:
             raise FlashFailure("unverified", str(exc)) from None
-        self.report.manifest = manifests.to_json(wanted)
-        self.progress(f"build manifest written to {identity} and read back")
+        self.report.manifest = manifests.to_json(held)
+        if written:
+            self.progress(f"build manifest written to {identity} and read back")
 
     # ---------------------------------------------------------------- connection
     async def _connect(self) -> None:
@@ -334,6 +325,20 @@ class Flasher:
         else:
             trusted = True
             fresh["slots"] = dict(old["slots"])
+        if not trusted and self.options.identity is not None and not self.options.force:
+            found = await manifests.vouched(self.link, self.options.identity, self.image,
+                                            state, status)
+            if isinstance(found, str):
+                if found:
+                    self._note(f"{found}: not trusted")
+            else:
+                trusted = True
+                fresh["slots"] = {p.slot_label: {
+                    "hash": p.content_hash(self.image.word_order), "name": p.name,
+                    "source": p.source, "build_id": None, "at": None}
+                    for p in self.image.programs if p.slot_label in found}
+                self._note(f"trusting the device's build manifest ({len(found)} program(s) "
+                           "match)")
         self._entry = fresh
         record.devices[self.address] = fresh
         record.save()

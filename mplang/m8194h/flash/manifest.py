@@ -284,3 +284,37 @@ def matching_slots(manifest: Manifest, image: FlashImage) -> frozenset[str]:
         p.slot_label for p in image.programs
         if p.slot_label in held
         and held[p.slot_label].hash == p.content_hash(image.word_order)[:HASH_BYTES * 2])
+
+
+async def store(link: DeviceLink, md: MdRange, image: FlashImage, status: Sequence[int],
+                flashed_at: int) -> tuple[Manifest, bool]:
+    """Write the image's manifest with download status `status` unless the device holds the
+    same one apart from the time (MD are non-volatile memory: no needless writes). The
+    manifest the device holds afterwards, and whether it was written."""
+    wanted = manifest_of(image, status, flashed_at)
+    try:
+        held: Manifest | None = await read_manifest(link, md, image.word_order)
+    except ManifestError:
+        held = None
+    if held is not None and held.same_content(wanted):
+        return held, False
+    await write_manifest(link, md, encode(wanted), image.word_order)
+    return wanted, True
+
+
+async def vouched(link: DeviceLink, md: MdRange, image: FlashImage, state: int,
+                  status: Sequence[int]) -> frozenset[str] | str:
+    """The image's slots the device's manifest vouches for, or why it vouches for none: it
+    must be complete, for this word order, and the device ready with exactly the download
+    status (input registers 110-114) the manifest recorded (any download since changes
+    them). "" when the device holds no manifest at all (a first flash: nothing to say)."""
+    try:
+        manifest = await read_manifest(link, md, image.word_order)
+    except ManifestError as exc:
+        return "" if str(exc).startswith("no manifest") else str(exc)
+    if manifest.word_order != image.word_order:
+        return "the device's build manifest is for another word order"
+    if state != 0 or list(manifest.status) != list(status):
+        return ("the device's download status (input registers 110-114) changed since its "
+                "build manifest was written")
+    return matching_slots(manifest, image)
