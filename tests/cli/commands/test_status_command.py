@@ -147,6 +147,8 @@ def test_status_and_flash_refuse_bad_identity_and_report_no_device(tmp_path: Pat
     assert gone.returncode == EXIT_NO_DEVICE and "no device" in gone.stderr
     bad = mpc(work, "flash", "job.mp", "--tcp", f"127.0.0.1:{closed}", "--identity", "MD0-MD3")
     assert bad.returncode == EXIT_USAGE and "at least 8" in bad.stderr
+    csim = mpc(work, "status", "--serial", str(tmp_path / "tty"), "--target", "csim")
+    assert csim.returncode == EXIT_USAGE and "reads CSIM devices not yet" in csim.stderr
     both = mpc(work, "status", "--tcp", f"127.0.0.1:{closed}", "--identity", "MD0-MD9",
                "--no-identity")
     assert both.returncode == EXIT_USAGE
@@ -159,3 +161,26 @@ def test_status_and_flash_refuse_bad_identity_and_report_no_device(tmp_path: Pat
     (work / "mpc.toml").write_text('[project]\nsources = ["job.mp"]\n\n[flash]\nidentity = 5\n')
     typed = mpc(work, "status", "--tcp", f"127.0.0.1:{closed}")
     assert typed.returncode == EXIT_NO_INPUT and "mpc.toml:5: [flash] identity" in typed.stderr
+
+
+def test_manual_3_19_status_over_modbus_rtu(tmp_path: Path) -> None:
+    """The RS-M8194H: the same status over a pty pair (`mpc sim --serial pty`)."""
+    work = folder(tmp_path / "w")
+    proc = subprocess.Popen([sys.executable, "-m", "mplang", "sim", "--serial", "pty",
+                             "--unit", "3", "--duration", "60"], stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True)
+    try:
+        assert proc.stdout is not None
+        line = proc.stdout.readline()
+        assert "Modbus RTU on " in line, line
+        port = line.split("Modbus RTU on ", 1)[1].split()[0]
+        flashed = mpc(work, "flash", "job.mp", "--serial", port, "--unit", "3", "--record",
+                      "r.json")
+        assert flashed.returncode == EXIT_OK, flashed.stderr
+        status = mpc(work, "status", "--serial", port, "--unit", "3", "job.mp")
+        assert status.returncode == EXIT_OK, status.stdout + status.stderr
+        assert port in status.stdout.splitlines()[0]
+        assert "  in sync   ISR2   edge" in status.stdout
+    finally:
+        proc.terminate()
+        proc.wait(10)
