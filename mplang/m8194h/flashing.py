@@ -25,7 +25,7 @@ def flash(job: FlashJob, ui: FlashUI) -> str:
     """Flash every device of the job; the outcome (`FLASH_OUTCOMES`)."""
     images = _Images(job.paths, job.options, ui, job.word_order_fixed)
     record_path = job.record or flashing.default_record_path()
-    identity = _identity(job)
+    identity = identity_range(job.identity, job.identity_where)
     devices: list[flashing.FleetDevice] = []
     for device in job.devices:
         image, rebuild = images.for_target(device)
@@ -51,17 +51,18 @@ def flash(job: FlashJob, ui: FlashUI) -> str:
     return _flash_fleet(devices, job.as_json, ui)
 
 
-def _identity(job: FlashJob) -> MdRange | None:
-    """The machine-data range of the build manifest: --identity, [flash] identity, or the
-    default; None for --no-identity / `identity = false`."""
-    if job.identity is False:
+def identity_range(identity: str | bool | None, where: str | None) -> MdRange | None:
+    """The machine-data range of the build manifest (`mpc flash`, `mpc status`): --identity,
+    [flash] identity (`where` names its line), or the default; None for --no-identity /
+    `identity = false`."""
+    if identity is False:
         return None
-    text = job.identity if isinstance(job.identity, str) else DEFAULT_RANGE
+    text = identity if isinstance(identity, str) else DEFAULT_RANGE
     try:
         return parse_range(text)
     except ValueError as exc:
-        if job.identity_where:
-            raise CommandError("input", f"{job.identity_where}: {exc}") from None
+        if where:
+            raise CommandError("input", f"{where}: {exc}") from None
         raise CommandError("usage", str(exc), "--identity") from None
 
 

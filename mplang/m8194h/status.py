@@ -36,6 +36,7 @@ from mplang.m8194h.flash.registers import (
     WORD_ORDER_REGISTER,
     state_name,
 )
+from mplang.m8194h.flashing import identity_range
 from mplang.m8194h.modbus import DeviceException, DeviceLink, Endpoint, LinkError
 
 AXES = ("X", "Y", "Z", "U")
@@ -82,6 +83,8 @@ async def read_status(link: DeviceLink, identity: mf.MdRange | None,
                                "current": span[0] == 0 and list(manifest.status) == download}
         except mf.ManifestError as exc:
             out["manifest"] = {"range": str(identity), "error": str(exc)}
+        except DeviceException as exc:  # a device that refuses its machine data
+            out["manifest"] = {"range": str(identity), "error": f"cannot be read: {exc}"}
     if variables:
         out["variables"] = [{"name": v.name, "var": v.index,
                              "value": join32(await link.read_holding(VAR_BASE + 2 * v.index, 2),
@@ -181,15 +184,7 @@ def _render_manifest(manifest: dict[str, Any] | None) -> list[str]:
 def status(job: StatusJob, ui: StatusUI) -> str:
     """The family face's `status_device`: read the device, compare with the build if one is
     given, print it; one of `OUTCOMES`."""
-    identity = None
-    if job.identity is not False:
-        text = job.identity if isinstance(job.identity, str) else mf.DEFAULT_RANGE
-        try:
-            identity = mf.parse_range(text)
-        except ValueError as exc:
-            if job.identity_where:
-                raise CommandError("input", f"{job.identity_where}: {exc}") from None
-            raise CommandError("usage", str(exc), "--identity") from None
+    identity = identity_range(job.identity, job.identity_where)
     device = job.device
     endpoint = Endpoint(host=device.host, port=device.port, serial=device.serial,
                         baudrate=device.baud, parity=device.parity, stopbits=device.stopbits,
