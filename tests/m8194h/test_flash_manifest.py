@@ -7,9 +7,12 @@ program verified, inside its range and nowhere else.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 from pathlib import Path
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from test_flash import assert_all_stored, device, endpoint, tcp_device
 from test_flash_incremental import JOB, Counter, image_of
 
@@ -206,3 +209,16 @@ def test_manual_3_19_manifest_is_not_trusted_after_another_download(tmp_path: Pa
     report = asyncio.run(main())
     assert report.ok and report.count("verified") == 3, report.notes
     assert any("changed since its build manifest" in n for n in report.notes)
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(st.integers(0, 0xFFFFFFFF), max_size=40), st.integers(0, 0xFFFF))
+def test_manual_3_19_any_md_contents_decode_or_are_refused(body: list[int], low: int) -> None:
+    """Whatever another tool left in the range, with a valid-looking header and checksum
+    or not: a manifest or ManifestError, nothing else."""
+    words = [mf.MAGIC, (mf.VERSION << 16) | (mf.HEADER_WORDS + len(body)), 0, 0, 0, 0, low,
+             *body]
+    words[2] = mf._crc(words)
+    for candidate in (words, words[:len(words) // 2], [mf.MAGIC, *body]):
+        with contextlib.suppress(mf.ManifestError):
+            mf.decode(candidate)
