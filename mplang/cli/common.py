@@ -37,6 +37,7 @@ EXIT_WOULD_REFORMAT = 12
 EXIT_OMISSIONS = 13
 EXIT_NOT_EXACT = 14
 EXIT_MISSING_EXTRA = 15
+EXIT_OUT_OF_SYNC = 16
 EXIT_INTERNAL = 70
 SERVER_PORT = 1502
 """`mpc sim --tcp HOST`'s port (502 needs privileges; 1502 is the usual unprivileged one)."""

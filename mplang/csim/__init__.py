@@ -29,6 +29,8 @@ from mplang.csim.flashing import flash as flash_devices
 from mplang.csim.run import FamilyRun, NoSuchProgram, RunSetupError, run_build
 from mplang.csim.service import serve
 
+status_device = None
+"""No `mpc status`: see docs/cli.md (the CSIM's query commands are not read yet)."""
 disassemble = None
 """No image format to read back: a CSIM lists its program itself (ULP)."""
 
@@ -58,4 +60,5 @@ __all__ = [
     "flash_devices",
     "run_build",
     "serve",
+    "status_device",
 ]

@@ -153,6 +153,35 @@ class FlashJob:
     settings_set_word_order: bool
     fleet: bool  # --fleet: every device at once, a table at the end
     stop_running: bool = False  # stop a running program before writing (else: refuse)
+    identity: str | bool | None = None  # where the build manifest goes: a range, False
+    # (never), None (the family's default)
+    identity_where: str | None = None  # "FILE:LINE: [flash] identity" when it came from there
+
+
+@dataclass(frozen=True)
+class StatusJob:
+    """What `mpc status` asks of a family: one device, and optionally what would be flashed
+    into it (FILE..., an image, or the project's sources) to compare with."""
+
+    device: FlashTarget
+    paths: list[Path]
+    options: Options
+    word_order_fixed: bool
+    as_json: bool
+    timeout: float
+    retries: int
+    identity: str | bool | None = None  # as FlashJob.identity
+    identity_where: str | None = None
+
+
+class StatusUI(Protocol):
+    """Where `mpc status` prints, and how a build's diagnostics are reported."""
+
+    def say(self, text: str) -> None: ...
+
+    def out(self, text: str) -> None: ...
+
+    def checked(self, build: FamilyBuild) -> None: ...
 
 
 class Progress(Protocol):
@@ -316,6 +345,12 @@ class Family(Protocol):
         """`mpc flash`: download, verify and report (one of `FLASH_OUTCOMES`), raising
         `CommandError` for what the job asks wrongly; None where nothing can reach the
         family's devices (`NO_TRANSPORT` says why, `FLASH_INSTEAD` what to do)."""
+        ...
+
+    @property
+    def status_device(self) -> Callable[[StatusJob, StatusUI], str] | None:
+        """`mpc status`: read one device (and compare it with a build), print it, and say
+        "in-sync", "out-of-sync" or "no-device"; None where the family has no status."""
         ...
 
     @property

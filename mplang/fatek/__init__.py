@@ -31,6 +31,7 @@ from mplang.fatek.run import FamilyRun, NoSuchTable, run_build
 serve = None
 """No device service: nothing can reach a FATEK positioning table (`NO_TRANSPORT`)."""
 flash_devices = None
+status_device = None  # no status reads: see docs/cli.md (mpc status)
 """Nothing to flash into (`NO_TRANSPORT`; `FLASH_INSTEAD` says what to do)."""
 disassemble = None
 """No image to read back: the listing is the program."""
@@ -61,4 +62,5 @@ __all__ = [
     "flash_devices",
     "run_build",
     "serve",
+    "status_device",
 ]

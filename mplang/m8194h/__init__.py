@@ -23,6 +23,8 @@ from mplang.family.face import (
     RunSetupError,
     Say,
     ServeRequest,
+    StatusJob,
+    StatusUI,
 )
 from mplang.ir.unit import Options
 from mplang.m8194h.compiler import compile_paths
@@ -43,8 +45,9 @@ BUILD_OPTIONS = frozenset({"--word-order", "--pins"})
 """The word order of the image (holding register 14) and slot pins (mpc.toml `[slots]`):
 the M8194H's alone."""
 FLASH_OPTIONS = frozenset({"--unit", "--word-order", "--set-word-order", "--record",
-                           "--retries", "--stop-running"})
-"""`mpc flash` options beyond the common ones: Modbus, image frames, the flash record."""
+                           "--retries", "--stop-running", "--identity", "--no-identity"})
+"""`mpc flash` options beyond the common ones: Modbus, image frames, the flash record, the
+build manifest in machine data."""
 FLASHES_FLEETS = True
 FLASH_INSTEAD = ""
 SERVE_OPTIONS = frozenset({"--unit", "--memory", "--word-order"})
@@ -79,6 +82,7 @@ __all__ = [
     "flash_devices",
     "run_build",
     "serve",
+    "status_device",
 ]
 
 
@@ -120,3 +124,11 @@ def flash_devices(job: FlashJob, ui: FlashUI) -> str:
     from mplang.m8194h import flashing
 
     return flashing.flash(job, ui)
+
+
+def status_device(job: StatusJob, ui: StatusUI) -> str:
+    """Read one device and compare it with a build (`mplang.m8194h.status`), imported when
+    called, as `serve`."""
+    from mplang.m8194h import status
+
+    return status.status(job, ui)

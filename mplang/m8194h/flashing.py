@@ -15,6 +15,7 @@ from mplang.family.face import CommandError, FlashJob, FlashTarget, FlashUI
 from mplang.ir.unit import Options
 from mplang.m8194h import flash as flashing
 from mplang.m8194h.compiler import compile_paths
+from mplang.m8194h.flash.manifest import DEFAULT_RANGE, MdRange, parse_range
 from mplang.m8194h.modbus import DeviceLink, Endpoint
 
 DEFAULT_TIMEOUT, DEFAULT_RETRIES = 1.0, 3
@@ -24,6 +25,7 @@ def flash(job: FlashJob, ui: FlashUI) -> str:
     """Flash every device of the job; the outcome (`FLASH_OUTCOMES`)."""
     images = _Images(job.paths, job.options, ui, job.word_order_fixed)
     record_path = job.record or flashing.default_record_path()
+    identity = identity_range(job.identity, job.identity_where)
     devices: list[flashing.FleetDevice] = []
     for device in job.devices:
         image, rebuild = images.for_target(device)
@@ -37,7 +39,7 @@ def flash(job: FlashJob, ui: FlashUI) -> str:
         devices.append(flashing.FleetDevice(device.name, image, endpoint, flashing.FlashOptions(
             set_word_order=job.set_word_order or job.settings_set_word_order,
             rebuild=rebuild, address=device.address(), force=job.force,
-            stop_running=job.stop_running)))
+            stop_running=job.stop_running, identity=identity)))
     record = flashing.FlashRecord(record_path)
     if job.dry_run:
         _dry_run(devices, record, job.as_json, ui)
@@ -47,6 +49,21 @@ def flash(job: FlashJob, ui: FlashUI) -> str:
     if not job.fleet:
         return _flash_one(devices[0], job.as_json, ui)
     return _flash_fleet(devices, job.as_json, ui)
+
+
+def identity_range(identity: str | bool | None, where: str | None) -> MdRange | None:
+    """The machine-data range of the build manifest (`mpc flash`, `mpc status`): --identity,
+    [flash] identity (`where` names its line), or the default; None for --no-identity /
+    `identity = false`."""
+    if identity is False:
+        return None
+    text = identity if isinstance(identity, str) else DEFAULT_RANGE
+    try:
+        return parse_range(text)
+    except ValueError as exc:
+        if where:
+            raise CommandError("input", f"{where}: {exc}") from None
+        raise CommandError("usage", str(exc), "--identity") from None
 
 
 def _first_int(*values: int | None) -> int:

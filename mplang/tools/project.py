@@ -35,7 +35,7 @@ and source suffixes (`SUFFIXES`); nothing here repeats them."""
 SECTIONS = frozenset({"project", "slots", "targets", "flash", "fmt"})
 PROJECT_KEYS = frozenset({"sources", "target", "word-order", "temp-vars", "var-pool",
                           "allow-outside-includes", "werror"})
-FLASH_KEYS = frozenset({"record", "timeout", "retries", "set-word-order"})
+FLASH_KEYS = frozenset({"record", "timeout", "retries", "set-word-order", "identity"})
 SLOT_TEXT = re.compile(r"(MP|ISR)\s*(\d+)", re.IGNORECASE)
 TABLE_LINE = re.compile(r"^\s*\[+\s*([^\]]+?)\s*\]+")
 KEY_LINE = re.compile(r"^\s*(\"[^\"]*\"|'[^']*'|[A-Za-z0-9_-]+)\s*=")
@@ -78,6 +78,10 @@ class FlashSettings:
     timeout: float | None = None
     retries: int | None = None
     set_word_order: bool = False
+    identity: str | bool | None = None
+    """The machine-data range of the build manifest ("MD960-MD1023"), False for none, None
+    for the family's default; the family checks the range itself."""
+    identity_where: str = ""  # "FILE:LINE: [flash] identity" for messages about it
 
 
 @dataclass(frozen=True)
@@ -518,6 +522,10 @@ def load_project(path: Path) -> Project:
     refusal = write_refusal(root, record)
     if refusal is not None:
         raise where.error("flash", "record", refusal)
+    identity = flash.get("identity")
+    if identity is not None and identity is not False and not isinstance(identity, str):
+        raise where.error("flash", "identity", "must be a machine-data range such as "
+                          "\"MD960-MD1023\", or false to never write the build manifest")
     fmt = _table(data, "fmt", where)
     return Project(
         path=path, sources=sources, target=target, sources_line=where.line("project", "sources"),
@@ -538,7 +546,9 @@ def load_project(path: Path) -> Project:
             retries=None if "retries" not in flash else
             _int(flash["retries"], 0, 100, "flash", "retries", where),
             set_word_order=_bool(flash.get("set-word-order", False), "flash",
-                                 "set-word-order", where)),
+                                 "set-word-order", where),
+            identity=identity,
+            identity_where=f"{path}:{where.line('flash', 'identity')}: [flash] identity"),
         fmt=dict(fmt))
 
 

@@ -73,6 +73,11 @@ DEFAULT_TIMEOUT, DEFAULT_RETRIES = 1.0, 3
 @click.option("--record", "record_file", type=click.Path(dir_okay=False, path_type=Path),
               default=None, help="The flash record for incremental flashing [default: "
               "[flash] record of mpc.toml, else $XDG_STATE_HOME/mpc/flash-record.json].")
+@click.option("--identity", default=None, metavar="MDa-MDb",
+              help="The machine data that hold the build manifest [default: [flash] identity "
+              "of mpc.toml, else MD768-MD1023].")
+@click.option("--no-identity", is_flag=True,
+              help="Write no build manifest: leave every machine data (MD) as it is.")
 @click.option("--json", "as_json", is_flag=True, help="Print a JSON summary on standard output.")
 @click.option("--dry-run", is_flag=True,
               help="Print every frame that would be sent; connect to nothing.")
@@ -84,7 +89,8 @@ def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | N
             serial: str | None, unit: int, baud: int, parity: str, stopbits: str,
             to: str | None, fleet: Path | None, timeout: float, retries: int,
             set_word_order: bool, stop_running: bool, force: bool, record_file: Path | None,
-            as_json: bool, dry_run: bool, project_file: Path | None, target: str,
+            identity: str | None, no_identity: bool, as_json: bool, dry_run: bool,
+            project_file: Path | None, target: str,
             word_order: str | None, temp_vars: range, allow_outside_includes: bool,
             werror: bool) -> None:
     """Download FILE... (.mp sources built together, or one image JSON; without FILE, the
@@ -107,6 +113,8 @@ def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | N
                                "--serial and --to")
     if tcp is not None and serial is not None:
         raise click.UsageError("give one device: --tcp HOST[:PORT] or --serial PORT")
+    if identity is not None and no_identity:
+        raise click.UsageError("give --identity RANGE or --no-identity, not both")
     setup = build_setup(ctx, files, project_file, target, word_order, temp_vars,
                         allow_outside_includes, werror, need_sources=False)
     if fleet is None and to is None:  # what cannot be flashed is refused before the device
@@ -141,7 +149,11 @@ def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | N
         settings_timeout=settings.timeout if settings else None,
         settings_retries=settings.retries if settings else None,
         settings_set_word_order=bool(settings and settings.set_word_order),
-        fleet=fleet is not None, stop_running=stop_running)
+        fleet=fleet is not None, stop_running=stop_running,
+        identity=False if no_identity else identity if identity is not None
+        else settings.identity if settings else None,
+        identity_where=None if no_identity or identity is not None or settings is None
+        else settings.identity_where)
     try:
         outcome = family.flash_devices(job, _FlashUI(setup.werror))
     except CommandError as exc:
@@ -155,7 +167,8 @@ def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | N
 
 FLASH_OPTIONS = (("--unit", "unit"), ("--word-order", "word_order"),
                  ("--set-word-order", "set_word_order"), ("--record", "record_file"),
-                 ("--retries", "retries"), ("--stop-running", "stop_running"))
+                 ("--retries", "retries"), ("--stop-running", "stop_running"),
+                 ("--identity", "identity"), ("--no-identity", "no_identity"))
 """Options of `mpc flash` beyond the common ones: refused for a family whose
 `FLASH_OPTIONS` does not take them."""
 

@@ -49,6 +49,7 @@ from typing import Any
 from mplang.ir import catalogue as catalogue_module
 from mplang.ir.catalogue import Catalogue
 from mplang.m8194h.encode import Encoder
+from mplang.m8194h.flash import manifest as manifests
 from mplang.m8194h.flash.image import FlashImage, FlashInit, FlashProgram, FlashTriggers
 from mplang.m8194h.flash.record import FlashRecord
 from mplang.m8194h.flash.registers import (
@@ -115,6 +116,9 @@ class FlashOptions:
     stop_running: bool = False
     """Stop a running macro program (RTC MP_TERMINATE) before writing. Default: refuse
     before anything is written and name the program that runs (holding register 8)."""
+    identity: manifests.MdRange | None = None
+    """Where the build manifest goes in machine data (None: never touch MD). Written after
+    everything verified; invalidated before the first program is written."""
 
 
 def _results(image: FlashImage) -> list[ProgramResult]:
@@ -168,6 +172,11 @@ class Flasher:
         self.progress(f"{self.report.device}: {len(self.image.programs)} program(s), "
                       f"{frames} frames")
         try:
+            if self.options.identity is not None:
+                try:
+                    manifests.check_room(self.image, self.options.identity)
+                except manifests.ManifestError as exc:
+                    raise FlashFailure("rejected", f"nothing was written: {exc}") from None
             await self._connect()
             unchanged = await self._consult_record()
             self.report.frames_planned = sum(len(p.frames) for p in self.image.programs
@@ -180,6 +189,10 @@ class Flasher:
                               f"not written: {', '.join(labels)}")
             if self.report.frames_planned:
                 await self._check_running()
+            identity = self.options.identity
+            if identity is not None and any(p.slot_label not in unchanged
+                                            for p in self.image.programs):
+                await manifests.invalidate(self.link, identity, self.image.word_order)
             for program, result in zip(self.image.programs, self.report.programs,
                                        strict=True):
                 if program.slot_label in unchanged:
@@ -198,6 +211,8 @@ class Flasher:
                 self._current = self.report.triggers
                 await self._triggers(self.image.triggers, self.report.triggers)
                 self._current = None
+            if identity is not None:
+                await self._store_manifest(identity)
         except FlashFailure as failure:
             self._fail(failure.outcome, str(failure), failure.where)
         except Refused as refusal:
@@ -222,6 +237,24 @@ class Flasher:
             current.status = {"rejected": "rejected", "unverified": "unverified"}.get(
                 outcome, "interrupted")
             current.error, current.where = message, where
+
+    async def _store_manifest(self, identity: manifests.MdRange) -> None:
+        """After every program verified: the build manifest with the download status the
+        device shows now, written and read back (`manifest.store`)."""
+        registers = await self.link.read_input(STATE_REGISTER, STATUS_FIRST + STATUS_COUNT
+                                               - STATE_REGISTER)
+        if registers[0] != 0:
+            raise FlashFailure("unverified", f"the device is in {state_name(registers[0])} "
+                               "state after the last program: no manifest written")
+        try:
+            held, written = await manifests.store(
+                self.link, identity, self.image, registers[STATUS_FIRST - STATE_REGISTER:],
+                int(time.time()))
+        except manifests.ManifestError as exc:
+            raise FlashFailure("unverified", str(exc)) from None
+        self.report.manifest = manifests.to_json(held)
+        if written:
+            self.progress(f"build manifest written to {identity} and read back")
 
     # ---------------------------------------------------------------- connection
     async def _connect(self) -> None:
@@ -292,6 +325,20 @@ class Flasher:
         else:
             trusted = True
             fresh["slots"] = dict(old["slots"])
+        if not trusted and self.options.identity is not None and not self.options.force:
+            found = await manifests.vouched(self.link, self.options.identity, self.image,
+                                            state, status)
+            if isinstance(found, str):
+                if found:
+                    self._note(f"{found}: not trusted")
+            else:
+                trusted = True
+                fresh["slots"] = {p.slot_label: {
+                    "hash": p.content_hash(self.image.word_order), "name": p.name,
+                    "source": p.source, "build_id": None, "at": None}
+                    for p in self.image.programs if p.slot_label in found}
+                self._note(f"trusting the device's build manifest ({len(found)} program(s) "
+                           "match)")
         self._entry = fresh
         record.devices[self.address] = fresh
         record.save()

@@ -104,6 +104,7 @@ class FlashReport:
     seconds: float = 0.0
     frames_planned: int = 0  # frames of the programs to write (known once connected)
     frames_written: int = 0  # frames the device accepted so far (progress displays poll it)
+    manifest: dict[str, object] | None = None  # the build manifest in the device's MD
 
     @property
     def ok(self) -> bool:
@@ -124,4 +125,5 @@ class FlashReport:
                 "programs": [p.to_json() for p in self.programs],
                 **({"init": self.init.to_json()} if self.init is not None else {}),
                 **({"triggers": self.triggers.to_json()} if self.triggers is not None
-                   else {})}
+                   else {}),
+                **({"manifest": self.manifest} if self.manifest is not None else {})}

@@ -1,0 +1,131 @@
+"""`mpc status`: what one controller holds and does, read without writing anything, and (given
+sources, an image or a project) each slot compared with what `mpc flash` would write. The
+work is the family's (`Family.status_device`: the M8194H's `mplang.m8194h.status`); this
+module resolves the device and the build and maps the outcome to an exit code.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import click
+
+from mplang.cli.common import (
+    EXIT_NO_DEVICE,
+    EXIT_OK,
+    EXIT_OUT_OF_SYNC,
+    InputError,
+    build_setup,
+    guarded,
+    parse_device_address,
+    project_option,
+    report,
+    with_common,
+    with_serial_line,
+)
+from mplang.cli.families import select
+from mplang.family.face import FamilyBuild
+from mplang.tools.project import Target
+
+STATUS_EXIT = {"in-sync": EXIT_OK, "out-of-sync": EXIT_OUT_OF_SYNC, "no-device": EXIT_NO_DEVICE}
+
+
+@click.command("status", short_help="Show what a device holds and does, and compare it.")
+@click.argument("files", nargs=-1)
+@click.option("--tcp", callback=parse_device_address, default=None, metavar="HOST[:PORT]",
+              help="The device's Modbus TCP address (ET-M8194H) [default port: 502].")
+@click.option("--serial", default=None, metavar="PORT",
+              help="The serial port of a Modbus RTU device (RS-M8194H).")
+@click.option("--unit", type=click.IntRange(1, 247), default=1, show_default=True,
+              help="Modbus unit id: the RTU slave address (the ET-M8194H answers as 1).")
+@with_serial_line
+@click.option("--to", "to", default=None, metavar="NAME",
+              help="The device [targets.NAME] of mpc.toml.")
+@click.option("--timeout", type=click.FloatRange(min=0.01, max=60), default=1.0,
+              show_default=True, help="Seconds to wait for each answer.")
+@click.option("--retries", type=click.IntRange(0, 100), default=3, show_default=True,
+              help="Repeats of a read after a timeout or a lost connection.")
+@click.option("--identity", default=None, metavar="MDa-MDb",
+              help="The machine data holding the build manifest [default: [flash] identity "
+              "of mpc.toml, else MD768-MD1023].")
+@click.option("--no-identity", is_flag=True, help="Do not read the build manifest.")
+@click.option("--json", "as_json", is_flag=True, help="Print the status as JSON.")
+@project_option
+@with_common
+@click.pass_context
+@guarded
+def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | None,
+            serial: str | None, unit: int, baud: int, parity: str, stopbits: str,
+            to: str | None, timeout: float, retries: int, identity: str | None,
+            no_identity: bool, as_json: bool, project_file: Path | None, target: str,
+            word_order: str | None, temp_vars: range, allow_outside_includes: bool,
+            werror: bool) -> None:
+    """Read a device over Modbus TCP or RTU: identity and firmware, word order, state,
+    download status, the running program, execution errors, the build manifest `mpc flash`
+    stored in its machine data, the axes; given FILE... (.mp sources or one image JSON) or a
+    project, every slot compared with what would be flashed (in sync, differs, missing,
+    extra) and the build's variables by name. Exit 0 in sync (or nothing to compare), 16
+    out of sync, 7 no device."""
+    from mplang.family.face import CommandError, StatusJob
+
+    if sum(x is not None for x in (tcp, serial, to)) != 1:
+        raise click.UsageError("give one device: --tcp HOST[:PORT], --serial PORT or --to NAME")
+    if identity is not None and no_identity:
+        raise click.UsageError("give --identity RANGE or --no-identity, not both")
+    setup = build_setup(ctx, files, project_file, target, word_order, temp_vars,
+                        allow_outside_includes, werror, need_sources=False)
+    project = setup.project
+    if tcp is not None:
+        device = Target(f"{tcp[0]}:{tcp[1]}", host=tcp[0], port=tcp[1], unit=unit, baud=baud,
+                        parity=parity, stopbits=int(stopbits))
+    elif serial is not None:
+        device = Target(serial, serial=serial, unit=unit, baud=baud, parity=parity,
+                        stopbits=int(stopbits))
+    else:
+        if project is None or to not in project.targets:
+            raise click.BadParameter(f"no [targets.{to}] in "
+                                     f"{project.path if project else 'an mpc.toml'}",
+                                     param_hint="--to")
+        device = project.targets[to]
+    paths = [device.image] if device.image is not None else list(device.sources) or setup.paths
+    family = select(paths, device.target or setup.options.target,
+                    setup.target_given or device.target is not None).family
+    if family.status_device is None:
+        raise click.UsageError(f"mpc status reads {family.TITLE} devices not yet: it reads "
+                               "M8194H controllers (docs/cli.md, mpc status)")
+    settings = project.flash if project is not None else None
+    job = StatusJob(
+        device=device, paths=setup.paths, options=setup.options,
+        word_order_fixed=word_order is not None
+        or (project is not None and project.word_order is not None),
+        as_json=as_json, timeout=timeout, retries=retries,
+        identity=False if no_identity else identity if identity is not None
+        else settings.identity if settings else None,
+        identity_where=None if no_identity or identity is not None or settings is None
+        else settings.identity_where)
+    try:
+        outcome = family.status_device(job, _StatusUI(setup.werror))
+    except CommandError as exc:
+        if exc.kind == "input":
+            raise InputError(str(exc)) from None
+        if exc.param is not None:
+            raise click.BadParameter(str(exc), param_hint=exc.param) from None
+        raise click.UsageError(str(exc)) from None
+    sys.exit(STATUS_EXIT[outcome])
+
+
+class _StatusUI:
+    def __init__(self, werror: bool) -> None:
+        self.werror = werror
+
+    def say(self, text: str) -> None:
+        click.echo(f"mpc status: {text}", err=True)
+
+    def out(self, text: str) -> None:
+        click.echo(text, nl=False)
+
+    def checked(self, build: FamilyBuild) -> None:
+        code = report(build, self.werror)
+        if code:
+            sys.exit(code)
