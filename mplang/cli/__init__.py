@@ -110,7 +110,8 @@ class CommandPackage(click.Group):
             return super().main(*args, **kwargs)
         finally:
             try:
-                sys.stdout.flush()
+                if not sys.stdout.closed:  # `mpc lsp` closes it when the client leaves
+                    sys.stdout.flush()
             except BrokenPipeError:
                 _quiet_broken_pipe()
                 sys.exit(EXIT_BROKEN_PIPE)

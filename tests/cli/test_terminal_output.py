@@ -141,3 +141,21 @@ def test_a_closed_pipe_ends_quietly(tmp_path: Path) -> None:
     assert first.startswith(b"---")
     assert "Traceback" not in err and "internal error" not in err and "Exception" not in err
     assert code == EXIT_BROKEN_PIPE
+
+
+def test_listing_columns_hold_for_long_paths(tmp_path: Path) -> None:
+    """The listing's lines/cost/frame columns start at the same place on every row, however
+    long the source's path (issue 15: they fell apart beyond ~25 characters)."""
+    folder = tmp_path / ("a_folder_with_a_rather_long_name" * 2)
+    folder.mkdir()
+    source = write(folder, "square.mp", "MP 21 square\n    FIXED_MOVE X, 1000\n"
+                   "    FIXED_MOVE Y, 1000\nEND MP\n")
+    code, out, _ = run("build", source, "--format", "listing")
+    assert code == EXIT_OK
+    rows = [row for row in out.splitlines() if row.startswith("  ")]
+    header = next(row for row in rows if row.lstrip().startswith("source"))
+    frame_at = header.index("frame")
+    assert len(rows) >= 4
+    for row in rows[1:]:
+        # the frame column begins where the header says, after the right-aligned cost
+        assert row[frame_at - 2:frame_at] == "  " and row[frame_at] in "0123456789ABCDEF", row
