@@ -23,12 +23,20 @@ Exit codes (also in docs/cli.md):
   14 mpc disasm: some frames could not be carried over exactly (named on standard error)
   15 an optional dependency is not installed (mpc plot: the mplang[plot] extra)
   70 internal error (a bug in mpc: please report it with the input)
+  141 standard output was closed early (`mpc ... | head`): mpc stops quietly
+
+Errors of mpc itself read `mpc: error: MESSAGE`; usage errors are click's (`Usage: ...`,
+`Error: ...`, exit 2); diagnostics of sources keep the gcc-style first line
+`FILE:LINE:COL: error[CODE]: MESSAGE` (docs/cli.md, "Terminal output").
 """
 
 from __future__ import annotations
 
 import importlib
+import os
 import pkgutil
+import sys
+from typing import Any
 
 import click
 
@@ -54,8 +62,13 @@ from mplang.cli.common import (
     EXIT_USAGE,
     EXIT_WOULD_REFORMAT,
 )
+from mplang.cli.style import COLOR_CHOICES, error, set_color
+
+EXIT_BROKEN_PIPE = 141
+"""128 + SIGPIPE: what a shell reports for a program that stopped because its reader left."""
 
 __all__ = [
+    "EXIT_BROKEN_PIPE",
     "EXIT_FLEET_MIXED",
     "EXIT_INTERNAL",
     "EXIT_INTERRUPTED",
@@ -96,9 +109,50 @@ class CommandPackage(click.Group):
         command: click.Command = module.command
         return command
 
+    def main(self, *args: Any, **kwargs: Any) -> Any:
+        """The last flush of standard output can meet a closed pipe too: quietly, as well."""
+        try:
+            return super().main(*args, **kwargs)
+        finally:
+            try:
+                if not sys.stdout.closed:  # `mpc lsp` closes it when the client leaves
+                    sys.stdout.flush()
+            except BrokenPipeError:
+                _quiet_broken_pipe()
+                sys.exit(EXIT_BROKEN_PIPE)
+
+    def invoke(self, ctx: click.Context) -> Any:
+        """Every command's errors in one style, and a closed pipe ends quietly, once for the
+        whole CLI."""
+        try:
+            return super().invoke(ctx)
+        except click.UsageError:
+            raise  # click's own form: the usage line, then the message
+        except click.ClickException as exc:
+            error(exc.format_message())
+            ctx.exit(exc.exit_code)
+        except BrokenPipeError:
+            _quiet_broken_pipe()
+            ctx.exit(EXIT_BROKEN_PIPE)
+
+
+def _quiet_broken_pipe() -> None:
+    """The reader of standard output left (`mpc fmt --diff | head -1`): point standard output
+    at /dev/null so the interpreter's last flush cannot fail again (Python's documented recipe,
+    library/signal.html, "Note on SIGPIPE")."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError, AttributeError):  # no real file descriptor (a test runner)
+        pass
+
 
 @click.group(cls=CommandPackage, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="mpc")
-def main() -> None:
+@click.option("--color", type=click.Choice(COLOR_CHOICES), default="auto", show_default=True,
+              help="Colour: on a terminal (auto, and never with NO_COLOR set), always, never.")
+@click.pass_context
+def main(ctx: click.Context, color: str) -> None:
     """mpc: compile, check, run and download M8194H macro programs (.mp), and FATEK
     FBs-PLC positioning tables and CSIM programs (--target, .fbs, .csim)."""
+    set_color(ctx, color)

@@ -16,6 +16,7 @@ from typing import Any, Protocol, TypeVar
 
 import click
 
+from mplang.cli import style
 from mplang.family.registry import DEFAULT_TARGET, known_targets
 from mplang.ir.unit import DEFAULT_TEMPS, Options
 from mplang.lang.diagnostics import Diagnostic, Severity
@@ -64,15 +65,15 @@ def guarded(func: F) -> F:
     def wrapper(*args: Any, **kwargs: Any) -> Any:
         try:
             return func(*args, **kwargs)
-        except (click.ClickException, click.exceptions.Exit, click.Abort, SystemExit):
-            raise
+        except (click.ClickException, click.exceptions.Exit, click.Abort, SystemExit,
+                BrokenPipeError):
+            raise  # BrokenPipeError: the group ends quietly (mplang.cli.CommandPackage)
         except KeyboardInterrupt:
-            click.echo("mpc: interrupted", err=True)
+            style.error("interrupted")
             sys.exit(130)
         except Exception as exc:
-            click.echo(f"mpc: internal error: {type(exc).__name__}: {exc}\n"
-                       "This is a bug in mpc; please report it with the input that caused it.",
-                       err=True)
+            style.error(f"internal error: {type(exc).__name__}: {exc}\n"
+                        "This is a bug in mpc; please report it with the input that caused it.")
             sys.exit(EXIT_INTERNAL)
 
     return wrapper  # type: ignore[return-value]
@@ -143,12 +144,14 @@ class HasDiagnostics(Protocol):
 
 
 def report(result: HasDiagnostics, werror: bool) -> int:
-    for diagnostic in result.diagnostics:
-        click.echo(diagnostic.render(), err=True)
+    """Every diagnostic with its source excerpt, then `2 errors, 1 warning in 3 files` when
+    there was any; exit 1 on an error, or a warning with --werror."""
+    style.report_diagnostics(result.diagnostics)
+    if result.diagnostics:
+        style.echo_summary(result.diagnostics)
     errors = sum(1 for d in result.diagnostics if d.severity is Severity.ERROR)
     warnings = len(result.diagnostics) - errors
     if errors or (werror and warnings):
-        click.echo(f"mpc: {errors} error(s), {warnings} warning(s)", err=True)
         return EXIT_SOURCE_ERRORS
     return EXIT_OK
 

@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING
 
 import click
 
+from mplang.cli import style
 from mplang.cli.common import EXIT_RUN_FAILED, BuildSetup, report
 from mplang.family.face import Family, FamilyBuild, FamilyRun
 from mplang.family.registry import families, family_of_path, family_of_target
@@ -185,6 +186,6 @@ def build_and_run(selection: Selection, setup: BuildSetup, call: str | None, max
     except family.NoSuchProgram as exc:
         raise click.BadParameter(str(exc), param_hint="--call") from None
     except family.RunSetupError as exc:
-        click.echo(f"mpc: {exc}", err=True)
+        style.error(str(exc))
         sys.exit(EXIT_RUN_FAILED)
     return run

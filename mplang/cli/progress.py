@@ -8,6 +8,7 @@ being called for each frame, so flashing never waits for the terminal.
 from __future__ import annotations
 
 import asyncio
+import re
 import sys
 import time
 from collections.abc import Callable
@@ -37,7 +38,8 @@ def frames_per_second(frames: int, seconds: float) -> float:
 
 
 def bar(done: int, total: int, width: int = BAR_WIDTH) -> str:
-    filled = width if total <= 0 else min(width, done * width // total)
+    """Nothing planned yet (or nothing to write) is an empty bar, never a full one."""
+    filled = 0 if total <= 0 else min(width, done * width // total)
     return "[" + "#" * filled + "." * (width - filled) + "]"
 
 
@@ -52,12 +54,17 @@ class FlashDisplay:
         self.prefix = prefix
         self.started = time.monotonic()
         self._bar_shown = False
+        self._finished = False
 
     def say(self, text: str) -> None:
-        """An event worth a line of its own (a program verified, a note, an error)."""
+        """An event worth a line of its own (a program verified, a note, an error); after
+        `finish` (the summary) the bar is not drawn again."""
         self._clear()
-        self.stream.write(f"{self.prefix}: {text}\n")
-        self._draw()
+        self.stream.write(narration(self.prefix, text) + "\n")
+        if self._finished:
+            self.stream.flush()
+        else:
+            self._draw()
 
     def status_line(self) -> str:
         reports = self.reports()
@@ -77,7 +84,7 @@ class FlashDisplay:
             self._bar_shown = False
 
     def _draw(self) -> None:
-        if self.tty:
+        if self.tty and not self._finished:
             self.stream.write("\r\x1b[2K" + self.status_line())
             self._bar_shown = True
             self.stream.flush()
@@ -91,9 +98,28 @@ class FlashDisplay:
             await asyncio.sleep(REDRAW_S)
 
     def finish(self) -> None:
-        """Leave the final bar on its own line."""
-        if self.tty:
-            self._draw()
-            self.stream.write("\n")
+        """Leave the final bar on its own line (none if no frame was planned: a device that
+        was never reached), the cursor at the start of the next; draw nothing after this."""
+        if self.tty and not self._finished:
+            if sum(r.frames_planned for r in self.reports()) > 0:
+                self._draw()
+                self.stream.write("\n")
+            else:
+                self._clear()
             self._bar_shown = False
             self.stream.flush()
+        self._finished = True
+
+
+_LOCATED = re.compile(r"^[^\s:][^:]*(?::\d+(?::\d+)?)?: error: ")
+
+
+def narration(prefix: str, text: str) -> str:
+    """A flash line as mpc writes it: an error with a place (a source line, a file, a fleet's
+    device) keeps the gcc-style `FILE:LINE: error: ...`, one without a place reads
+    `mpc: error: ...` as every command's errors do, and the rest is `mpc flash: ...`."""
+    if _LOCATED.match(text):
+        return text
+    if text.startswith("error: "):
+        return f"mpc: {text}"
+    return f"{prefix}: {text}"

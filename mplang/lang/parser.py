@@ -248,7 +248,12 @@ def _report(err: UnexpectedInput, file: str, line_no: int, text: str,
     col = err.column if isinstance(err.column, int) and err.column > 0 else 1
     if isinstance(err, UnexpectedToken) and err.token.type in ("_NL", "$END"):
         col = len(text.rstrip()) + 1  # point just past the last character
-    span = Span(file, line_no, col, col + 1)
+    end = col + 1
+    if isinstance(err, UnexpectedToken) and err.token.type not in ("_NL", "$END"):
+        # the whole offending token (its first line), as far as the line reaches
+        first = str(err.token).split("\n", 1)[0]
+        end = max(end, min(col + len(first), len(text) + 1))
+    span = Span(file, line_no, col, end)
     if isinstance(err, UnexpectedCharacters):
         char = text[col - 1] if 0 < col <= len(text) else "?"
         sink.add("E101", span, f"unexpected character {char!r}",

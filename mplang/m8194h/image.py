@@ -191,7 +191,10 @@ def render_json(result: BuildResult) -> str:
 
 
 def render_listing(result: BuildResult, sources: dict[str, list[str]]) -> str:
-    """Per source line: slot line numbers it occupies, their cost, and the frames in hex."""
+    """Per source line: slot line numbers it occupies, their cost, and the frames in hex.
+    The source column is as wide as the longest `file:line` (at least 24), so the columns
+    hold for long paths."""
+    w = _source_width(result)
     out = [f"; mplang listing  build {result.build_id()}  target {result.target.upper()}-M8194H"
            f"  word order {result.word_order}"]
     if result.init is not None:
@@ -199,12 +202,12 @@ def render_listing(result: BuildResult, sources: dict[str, list[str]]) -> str:
         out.append("")
         out.append(f"INIT  ({init.span.file}:{init.span.line}, initial table: real-time "
                    "commands, LOAD_INITIAL last)")
-        out.append(f"  {'source':<24} {'':>7} {'':>4}  frame")
+        out.append(f"  {'source':<{w}} {'':>7} {'':>4}  frame")
         for line, frame in zip(init.lines, result.init.frames, strict=True):
             source_lines = sources.get(line.span.file, [])
             text = source_lines[line.span.line - 1].strip() \
                 if 0 < line.span.line <= len(source_lines) else ""
-            out.append(f"  {line.span.file + ':' + str(line.span.line):<24} {'':>7} {'':>4}  "
+            out.append(f"  {line.span.file + ':' + str(line.span.line):<{w}} {'':>7} {'':>4}  "
                        f"{_hex(frame):<44}  {text}".rstrip())
     if result.triggers is not None:
         out.append("")
@@ -217,8 +220,8 @@ def render_listing(result: BuildResult, sources: dict[str, list[str]]) -> str:
         out.append("")
         out.append(f"{title}  ({program.span.file}:{program.span.line}, {placed})  "
                    f"{placement.lines_used}/{placement.budget} lines")
-        out.append(f"  {'source':<24} {'lines':>7} {'cost':>4}  frame")
-        out.append(f"  {'(create)':<24} {'':>7} {'':>4}  {_hex(image.create)}")
+        out.append(f"  {'source':<{w}} {'lines':>7} {'cost':>4}  frame")
+        out.append(f"  {'(create)':<{w}} {'':>7} {'':>4}  {_hex(image.create)}")
         previous: tuple[str, int] | None = None
         for lf in image.lines:
             span = lf.line.span
@@ -228,7 +231,7 @@ def render_listing(result: BuildResult, sources: dict[str, list[str]]) -> str:
             if key != previous:
                 lines = sources.get(span.file, [])
                 text = lines[span.line - 1].strip() if 0 < span.line <= len(lines) else ""
-            out.append(f"  {where if key != previous else '':<24} "
+            out.append(f"  {where if key != previous else '':<{w}} "
                        f"{_slot_lines(lf.first_slot_line, lf.line.command.line_cost):>7} "
                        f"{lf.line.command.line_cost:>4}  {_hex(lf.frame):<44}"
                        f"{'  ' + text if text else ''}".rstrip())
@@ -236,9 +239,18 @@ def render_listing(result: BuildResult, sources: dict[str, list[str]]) -> str:
         used = placement.lines_used
         close_where = f"{image.close_span.file}:{image.close_span.line}"
         close_line = str(used - 1) if result_close_counts(image) else "-"
-        out.append(f"  {close_where:<24} {close_line:>7} {'1' if close_line != '-' else '0':>4}  "
+        out.append(f"  {close_where:<{w}} {close_line:>7} {'1' if close_line != '-' else '0':>4}  "
                    f"{_hex(image.close):<44}  END {program.kind.upper()}")
     return "\n".join(out) + "\n"
+
+
+def _source_width(result: BuildResult) -> int:
+    """The listing's source column: the longest `file:line` it shows, at least 24."""
+    spans = [lf.line.span for image in result.programs for lf in image.lines]
+    spans += [image.close_span for image in result.programs]
+    if result.init is not None:
+        spans += [line.span for line in result.init.program.lines]
+    return max([24, *(len(f"{span.file}:{span.line}") for span in spans)])
 
 
 def result_close_counts(image: Any) -> bool:

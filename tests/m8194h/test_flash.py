@@ -506,7 +506,7 @@ def test_cli_flashes_samples_rejects_bad_input_and_reports_no_device(tmp_path: P
         image.write_text(json.dumps(tampered))
         rejected = mpc("flash", str(image), "--tcp", f"127.0.0.1:{port}")
         assert rejected.returncode == EXIT_REJECTED
-        assert "mpc flash: job.mp:4: error: MP41 arcs: the device refused the program: " \
+        assert "\njob.mp:4: error: MP41 arcs: the device refused the program: " \
                "download error 0x0a (FOR not closed by NEXT)" in rejected.stderr
     finally:
         proc.terminate()

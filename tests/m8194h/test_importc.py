@@ -425,7 +425,7 @@ def test_cli_omissions_exit_13_with_lines(tmp_path: Path) -> None:
     assert "MP 100" in stdout
     line = line_of(WHOLE, "for (i = 0")
     assert f"{WHOLE}:{line}: cannot convert 'for (i = 0; i < 2; i++)'" in stderr
-    assert stderr.strip().endswith("mpc: 6 construct(s) not converted")
+    assert stderr.strip().endswith("mpc: error: 6 construct(s) not converted")
 
 
 def test_cli_check_reports_at_the_c_line(tmp_path: Path) -> None:

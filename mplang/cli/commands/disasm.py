@@ -7,6 +7,7 @@ from pathlib import Path
 
 import click
 
+from mplang.cli import style
 from mplang.cli.common import (
     EXIT_NO_INPUT,
     EXIT_NOT_EXACT,
@@ -42,17 +43,17 @@ def command(image: str, output: str | None, temp_vars: range) -> None:
     try:
         result = family.disassemble(path, temp_vars)
     except BadImage as exc:
-        click.echo(f"mpc: {exc}", err=True)
+        style.error(str(exc))
         sys.exit(EXIT_NO_INPUT)
     except OSError as exc:
-        click.echo(f"mpc: {image}: cannot read: {exc.strerror or exc}", err=True)
+        style.error(f"{image}: cannot read: {exc.strerror or exc}")
         sys.exit(EXIT_NO_INPUT)
     write_output(result.text, output)
     for problem in result.problems:
         click.echo(f"{image}: warning: {problem}", err=True)
     if result.problems:
-        click.echo(f"mpc: {len(result.problems)} frame(s) or program(s) not carried over "
-                   "exactly", err=True)
+        style.error(f"{len(result.problems)} frame(s) or program(s) not carried over "
+                    "exactly")
         sys.exit(EXIT_NOT_EXACT)
 
 

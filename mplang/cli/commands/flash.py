@@ -266,7 +266,9 @@ class _FlashUI:
         self.werror = werror
 
     def say(self, text: str) -> None:
-        click.echo(f"mpc flash: {text}", err=True)
+        from mplang.cli.progress import narration
+
+        click.echo(narration("mpc flash", text), err=True)
 
     def out(self, text: str) -> None:
         click.echo(text, nl=False)

@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING, cast
 
 import click
 
+from mplang.cli import style
 from mplang.cli.common import (
     EXIT_NO_INPUT,
     EXIT_OK,
@@ -93,8 +94,7 @@ def _decode(data: bytes, display: str) -> str | None:
     except UnicodeDecodeError as exc:
         sink = DiagnosticSink()
         sink.add("E105", Span(display, 1), f"{display} is not UTF-8 text ({exc.reason})")
-        for diagnostic in sink.items:
-            click.echo(diagnostic.render(), err=True)
+        style.report_diagnostics(sink.items)
         return None
 
 
@@ -105,9 +105,8 @@ def _formatted(text: str, display: str, options: FormatOptions) -> str | None:
     try:
         return format_source(text, options, name=display)
     except SourceNotFormattable as exc:
-        for diagnostic in exc.diagnostics:
-            click.echo(diagnostic.render(), err=True)
-        click.echo(f"mpc: {display} has syntax errors; left as it is", err=True)
+        style.report_diagnostics(exc.diagnostics, {display: text.splitlines()})
+        style.error(f"{display} has syntax errors; left as it is")
         return None
 
 
@@ -153,7 +152,7 @@ def _format_file(path: Path, options: FormatOptions, check: bool, show_diff: boo
     try:
         data = path.read_bytes()
     except OSError as exc:
-        click.echo(f"mpc: cannot read {display}: {exc.strerror or exc}", err=True)
+        style.error(f"cannot read {display}: {exc.strerror or exc}")
         tally.unreadable += 1
         return
     text = _decode(data, display)
@@ -174,7 +173,7 @@ def _format_file(path: Path, options: FormatOptions, check: bool, show_diff: boo
     try:
         _write_atomically(path, formatted.encode("utf-8"))
     except OSError as exc:
-        click.echo(f"mpc: cannot write {display}: {exc.strerror or exc}", err=True)
+        style.error(f"cannot write {display}: {exc.strerror or exc}")
         tally.unwritable += 1
         return
     tally.changed.append(display)

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import click
 
+from mplang.cli import style
 from mplang.cli.common import (
     EXIT_NO_INPUT,
     EXIT_OMISSIONS,
@@ -49,12 +50,12 @@ def command(file: str, output: str | None, encoding: str | None, check: bool) ->
     try:
         data = path.read_bytes()
     except OSError as exc:
-        click.echo(f"mpc: {file}: cannot read: {exc.strerror or exc}", err=True)
+        style.error(f"{file}: cannot read: {exc.strerror or exc}")
         sys.exit(EXIT_NO_INPUT)
     try:
         text, used = read_c_file(data, encoding)
     except UnicodeDecodeError as exc:
-        click.echo(f"mpc: {file}: not {encoding} text (byte {exc.start})", err=True)
+        style.error(f"{file}: not {encoding} text (byte {exc.start})")
         sys.exit(EXIT_NO_INPUT)
     if encoding is None and used != "utf-8":
         click.echo(f"{file}: note: not UTF-8; read as {used} (use --encoding to choose)",
@@ -69,7 +70,7 @@ def command(file: str, output: str | None, encoding: str | None, check: bool) ->
     if code:
         sys.exit(code)
     if result.warnings:
-        click.echo(f"mpc: {len(result.warnings)} construct(s) not converted", err=True)
+        style.error(f"{len(result.warnings)} construct(s) not converted")
         sys.exit(EXIT_OMISSIONS)
 
 

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import click
 
+from mplang.cli import style
 from mplang.cli.common import (
     EXIT_SOURCE_ERRORS,
     build_setup,
@@ -20,7 +21,7 @@ from mplang.cli.common import (
 )
 from mplang.cli.families import choose
 from mplang.cli.shell import complete_paths
-from mplang.lang.diagnostics import Severity
+from mplang.lang.diagnostics import Diagnostic, Severity
 
 
 @click.command("lint", short_help="Run every check without producing an image.")
@@ -49,11 +50,7 @@ def command(ctx: click.Context, files: tuple[str, ...], fmt: str, output: str | 
     selection = choose(setup)
     diagnostics = selection.build(setup.options).diagnostics
     if fmt == "text":
-        text = render.render_text(diagnostics)
-        if output is None:
-            click.echo(text, nl=False, err=False)
-        else:
-            write_output(text, output)
+        _report_text(diagnostics, output)
     else:
         renderer = {"sarif": render.render_sarif, "github": render.render_github,
                     "gitlab": render.render_gitlab}.get(fmt)
@@ -62,3 +59,22 @@ def command(ctx: click.Context, files: tuple[str, ...], fmt: str, output: str | 
     errors = sum(1 for d in diagnostics if d.severity is Severity.ERROR)
     if errors or (werror and diagnostics):
         sys.exit(EXIT_SOURCE_ERRORS)
+
+
+def _report_text(diagnostics: list[Diagnostic], output: str | None) -> None:
+    """The text report: each diagnostic's gcc-style line with its source excerpt (coloured
+    only on a terminal) on standard output or OUT, then the summary on standard error:
+    `2 errors, 1 warning in 3 files`, or for a clean check `All checks passed` on a terminal
+    and nothing in a pipe (a CI log or a script sees silence, as before)."""
+    sources = style.SourceLines()
+    color = output is None and style.color_enabled(err=False)
+    text = "".join(style.render_diagnostic(d, sources, color) + "\n" for d in diagnostics)
+    if output is None:
+        click.echo(text, nl=False, color=color)
+    else:
+        write_output(text, output)
+    sys.stdout.flush()  # the report before the summary, where both reach one terminal
+    if diagnostics:
+        style.echo_summary(diagnostics)
+    elif style.is_terminal(sys.stderr):
+        style.all_checks_passed()

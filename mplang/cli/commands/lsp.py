@@ -7,6 +7,7 @@ import sys
 
 import click
 
+from mplang.cli import style
 from mplang.cli.common import (
     EXIT_TRANSPORT,
     EXIT_USAGE,
@@ -74,5 +75,5 @@ def command(listen: tuple[str, int] | None, target: str | None, temp_vars: range
     try:
         server.start_tcp(host, port)
     except OSError as exc:
-        click.echo(f"mpc lsp: cannot listen on {host}:{port}: {exc.strerror or exc}", err=True)
+        style.error(f"cannot listen on {host}:{port}: {exc.strerror or exc}")
         sys.exit(EXIT_TRANSPORT)

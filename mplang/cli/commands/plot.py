@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING
 
 import click
 
+from mplang.cli import style
 from mplang.cli.common import (
     EXIT_MISSING_EXTRA,
     EXIT_RUN_FAILED,
@@ -123,5 +124,5 @@ def _draw(trace: Trace, heading: str, called: str, finished: bool, time_s: float
     click.echo(f"{called}: {state} after {round(time_s * 1000, 3)} ms simulated; "
                f"{len(trace)} samples plotted to {output}")
     if not finished:
-        click.echo(f"error: {error}", err=True)
+        style.error(error or "the program did not finish")
         sys.exit(EXIT_RUN_FAILED)

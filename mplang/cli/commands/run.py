@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING, Any
 
 import click
 
+from mplang.cli import style
 from mplang.cli.common import (
     EXIT_RUN_FAILED,
     OutputError,
@@ -114,4 +115,4 @@ def _summarise(summary: Mapping[str, Any], as_json: bool, headline: str, trace: 
     if trace is not None:
         click.echo(f"  trace: {len(trace)} samples written to {trace_file}")
     if error:
-        click.echo(f"error: {error}", err=True)
+        style.error(error)

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import click
 
+from mplang.cli import style
 from mplang.cli.common import (
     EXIT_NO_INPUT,
     EXIT_RUN_FAILED,
@@ -87,7 +88,7 @@ def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | N
     except ServiceError as exc:
         if exc.kind == "usage":
             raise click.UsageError(str(exc)) from None
-        click.echo(f"mpc sim: {exc}", err=True)
+        style.error(str(exc))
         sys.exit({"memory": EXIT_NO_INPUT, "refused": EXIT_RUN_FAILED}.get(exc.kind,
                                                                            EXIT_TRANSPORT))
     click.echo("mpc sim: stopped")

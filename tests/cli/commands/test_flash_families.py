@@ -167,7 +167,7 @@ def test_every_download_failure_has_its_exit_code(monkeypatch: pytest.MonkeyPatc
     monkeypatch.setattr(csim_flashing, "download", failing)
     result, out, err = run("flash", FLOW, "--serial", "/dev/null", "--json")
     assert result == code
-    assert f"mpc flash: {FLOW}:5: error: a {kind} failure" in err  # the first line's place
+    assert f"\n{FLOW}:5: error: a {kind} failure\n" in err  # the first line's place
     assert (json.loads(out)["outcome"], json.loads(out)["kind"]) == (outcome, kind)
 
 

@@ -121,7 +121,7 @@ def test_syntax_errors_leave_the_file_untouched_and_exit_1(tree: Path) -> None:
     assert broken.read_text() == BROKEN
     assert (tree / "messy.mp").read_text() == TIDY  # the others are still formatted
     assert f"{broken}:2:11: error[E101]: unexpected ','" in result.stderr
-    assert f"mpc: {broken} has syntax errors; left as it is" in result.stderr
+    assert f"mpc: error: {broken} has syntax errors; left as it is" in result.stderr
     assert "1 with errors left as they are" in result.stderr
 
 
@@ -158,7 +158,7 @@ def test_unreadable_file_exits_3_after_the_others(tree: Path,
     monkeypatch.setattr(Path, "read_bytes", read_bytes)
     result = run(str(tree))
     assert result.exit_code == EXIT_NO_INPUT
-    assert f"mpc: cannot read {unreadable}: Permission denied" in result.stderr
+    assert f"mpc: error: cannot read {unreadable}: Permission denied" in result.stderr
     assert (tree / "messy.mp").read_text() == TIDY
 
 
@@ -170,7 +170,7 @@ def test_unwritable_file_exits_4_and_keeps_the_original(tree: Path,
     monkeypatch.setattr(os, "replace", refuse)
     result = run(str(tree / "messy.mp"))
     assert result.exit_code == EXIT_OUTPUT
-    assert f"mpc: cannot write {tree / 'messy.mp'}: Permission denied" in result.stderr
+    assert f"mpc: error: cannot write {tree / 'messy.mp'}: Permission denied" in result.stderr
     assert (tree / "messy.mp").read_text() == MESSY
     assert sorted(p.name for p in tree.iterdir()) == ["messy.mp", "tidy.mp"]  # temp removed
 

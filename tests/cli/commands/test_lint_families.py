@@ -12,13 +12,14 @@ from sarifcheck import validated
 
 from mplang import csim, fatek
 from mplang.cli import EXIT_NO_INPUT, EXIT_OK, EXIT_SOURCE_ERRORS, EXIT_USAGE, main
+from mplang.cli.style import SourceLines, render_diagnostic
+from mplang.lang.diagnostics import Diagnostic
 from mplang.m8194h.compiler import Options
 from mplang.tools.report import (
     render_diagnostics_json,
     render_github,
     render_gitlab,
     render_sarif,
-    render_text,
 )
 
 ROOT = Path(__file__).resolve().parents[3]
@@ -54,6 +55,11 @@ def test_mp_for_csim_lints_with_its_warnings_and_werror_fails_it() -> None:
     assert run("lint", source, "--target", "csim", "--werror")[0] == EXIT_SOURCE_ERRORS
 
 
+def _text(diagnostics: list[Diagnostic]) -> str:
+    """`mpc lint`'s text in a pipe: each diagnostic with its excerpt, no colour."""
+    return "".join(render_diagnostic(d, SourceLines(), False) + "\n" for d in diagnostics)
+
+
 @pytest.mark.parametrize("name", ["E604.fbs", "W601.fbs", "E705.csim", "W701.csim"])
 @pytest.mark.parametrize("fmt", ["text", "json", "sarif", "github", "gitlab"])
 def test_family_diagnostics_use_the_project_renderers(name: str, fmt: str) -> None:
@@ -61,7 +67,7 @@ def test_family_diagnostics_use_the_project_renderers(name: str, fmt: str) -> No
     diagnostics = fatek.check_native([path]).diagnostics if path.suffix == ".fbs" \
         else csim.check_native([path]).diagnostics
     assert diagnostics
-    expected = {"text": render_text, "json": render_diagnostics_json, "sarif": render_sarif,
+    expected = {"text": _text, "json": render_diagnostics_json, "sarif": render_sarif,
                 "github": render_github, "gitlab": render_gitlab}[fmt](diagnostics)
     code, out, _ = run("lint", path, "--format", fmt)
     assert out == expected

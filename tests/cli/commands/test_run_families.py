@@ -90,7 +90,7 @@ def test_text_summary_and_a_run_that_does_not_finish() -> None:
     assert out.startswith("drvc_three_speeds: FAILED after 5348.322 ms simulated on the "
                           "virtual FATEK FBs-PLC\n")
     assert "  X: lp 85000, ep 85000\n" in out
-    assert err == "error: step 3 waits for X0, which never turns ON (no SIM line drives it)\n"
+    assert err == "mpc: error: step 3 waits for X0, which never turns ON (no SIM line drives it)\n"
 
 
 def test_max_time_stops_a_jog() -> None:

@@ -1,0 +1,169 @@
+"""How `mpc` writes to a person: colour only on a terminal (or `--color always`), never with
+`NO_COLOR`; one error prefix (`mpc: error: ...`); diagnostics with the source line and a caret
+range under them, and a one-line summary.
+
+The first line of a diagnostic stays the gcc-style `file:line:col: error[CODE]: message`
+whatever the colour, so greps and editors' problem matchers keep reading it.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TextIO
+
+import click
+
+from mplang.lang.diagnostics import Diagnostic, Severity
+
+COLOR_CHOICES = ("auto", "always", "never")
+_META_KEY = "mpc.color"
+_MAX_SOURCE_BYTES = 4 * 1024 * 1024  # an excerpt is worth no more than this much reading
+
+
+def set_color(ctx: click.Context, mode: str) -> None:
+    """Remember `--color` for every command of this invocation."""
+    ctx.meta[_META_KEY] = mode
+
+
+def color_enabled(stream: TextIO | None = None, err: bool = True) -> bool:
+    """`--color always` colours even a pipe; `never` and `NO_COLOR` (any value but empty,
+    see no-color.org) never; `auto` only a terminal."""
+    ctx = click.get_current_context(silent=True)
+    mode = ctx.meta.get(_META_KEY, "auto") if ctx is not None else "auto"
+    if mode == "never":
+        return False
+    if mode == "always":
+        return True
+    if os.environ.get("NO_COLOR"):
+        return False
+    return is_terminal(stream if stream is not None else
+                       (sys.stderr if err else sys.stdout))
+
+
+def is_terminal(stream: TextIO) -> bool:
+    """A terminal, as far as a stream can tell (a closed or fake one is not)."""
+    try:
+        return bool(stream.isatty())
+    except (ValueError, OSError):  # a closed stream
+        return False
+
+
+def echo(text: str, err: bool = True, nl: bool = True) -> None:
+    """`click.echo` that keeps or strips the colour as `color_enabled` says."""
+    click.echo(text, err=err, nl=nl, color=color_enabled(err=err))
+
+
+def _paint(text: str, color: bool, fg: str | None = None, bold: bool = False) -> str:
+    return click.style(text, fg=fg, bold=bold) if color else text
+
+
+def error_line(message: str, color: bool) -> str:
+    """The one prefix of every error mpc itself reports (not a diagnostic of a source)."""
+    return f"{_paint('mpc', color, bold=True)}: {_paint('error', color, 'red', True)}: " \
+           f"{message}"
+
+
+def error(message: str) -> None:
+    """Report an error of mpc itself on standard error."""
+    echo(error_line(message, color_enabled()))
+
+
+class SourceLines:
+    """The lines of the files diagnostics point into, read once each; a file that cannot be
+    read (standard input, a vanished or binary file) gives no excerpt rather than an error."""
+
+    def __init__(self, known: dict[str, Sequence[str]] | None = None) -> None:
+        self._lines: dict[str, Sequence[str] | None] = dict(known or {})
+
+    def line(self, file: str, number: int) -> str | None:
+        if file not in self._lines:
+            self._lines[file] = self._read(file)
+        lines = self._lines[file]
+        if lines is None or not 0 < number <= len(lines):
+            return None
+        return lines[number - 1]
+
+    @staticmethod
+    def _read(file: str) -> list[str] | None:
+        path = Path(file)
+        try:
+            if not path.is_file() or path.stat().st_size > _MAX_SOURCE_BYTES:
+                return None
+            return path.read_text(encoding="utf-8").splitlines()
+        except (OSError, UnicodeDecodeError, ValueError):
+            return None
+
+
+_SEVERITY_COLOR = {Severity.ERROR: "red", Severity.WARNING: "yellow"}
+
+
+def render_diagnostic(diagnostic: Diagnostic, sources: SourceLines, color: bool) -> str:
+    """The gcc-style first line, then (rustc/ruff style) the source line with a caret range
+    under the span, related notes and the hint."""
+    span = diagnostic.span
+    tint = _SEVERITY_COLOR.get(diagnostic.severity, "cyan")
+    lines = [f"{_paint(str(span), color, bold=True)}: "
+             f"{_paint(f'{diagnostic.severity.value}[{diagnostic.code}]', color, tint, True)}"
+             f": {diagnostic.message}"]
+    lines += _excerpt(span.file, span.line, span.col, span.end_col, sources, color, tint)
+    for related, note in diagnostic.related:
+        lines.append(f"{_paint(str(related), color, bold=True)}: "
+                     f"{_paint('note', color, 'cyan', True)}: {note}")
+        lines += _excerpt(related.file, related.line, related.col, related.end_col, sources,
+                          color, "cyan")
+    if diagnostic.hint:
+        lines.append(f"    {_paint('hint', color, 'cyan', True)}: {diagnostic.hint}")
+    return "\n".join(lines)
+
+
+def _excerpt(file: str, number: int, col: int, end_col: int | None, sources: SourceLines,
+             color: bool, tint: str) -> list[str]:
+    text = sources.line(file, number)
+    if text is None:
+        return []
+    text = text.expandtabs(1).rstrip()  # one column a character, as spans count them
+    if len(text) > 200:
+        return []  # a generated line: the excerpt would help no one
+    start = max(1, col)
+    end = end_col if end_col is not None and end_col > start else start + 1
+    end = min(end, max(len(text) + 1, start + 1))
+    gutter = " " * len(str(number))
+    bar = _paint("|", color, "blue", True)
+    carets = _paint("^" * (end - start), color, tint, True)
+    return [f" {gutter} {bar}",
+            f" {_paint(str(number), color, 'blue', True)} {bar} {text}",
+            f" {gutter} {bar} {' ' * (start - 1)}{carets}"]
+
+
+def summary(diagnostics: Sequence[Diagnostic]) -> str:
+    """`2 errors, 1 warning in 3 files`: the files are those with a finding."""
+    errors = sum(1 for d in diagnostics if d.severity is Severity.ERROR)
+    warnings = len(diagnostics) - errors
+    files = len({d.span.file for d in diagnostics})
+
+    def count(n: int, word: str) -> str:
+        return f"{n} {word}{'' if n == 1 else 's'}"
+
+    return f"{count(errors, 'error')}, {count(warnings, 'warning')} in {count(files, 'file')}"
+
+
+def echo_summary(diagnostics: Sequence[Diagnostic]) -> None:
+    """The summary on standard error, bold (red with an error) on a terminal."""
+    errors = any(d.severity is Severity.ERROR for d in diagnostics)
+    echo(_paint(summary(diagnostics), color_enabled(), "red" if errors else None, True))
+
+
+def all_checks_passed() -> None:
+    echo(_paint("All checks passed", color_enabled(), "green", True))
+
+
+def report_diagnostics(diagnostics: Sequence[Diagnostic],
+                       known: dict[str, Sequence[str]] | None = None) -> None:
+    """Every diagnostic on standard error, rendered for a person."""
+    color = color_enabled()
+    sources = SourceLines(known)
+    for diagnostic in diagnostics:
+        echo(render_diagnostic(diagnostic, sources, color))
