@@ -100,13 +100,15 @@ def format_edits(text: str, options: FormatOptions, lines: tuple[int, int] | Non
 
 
 def quick_fixes(analysis: Analysis, within: Range) -> list[QuickFix]:
-    """For each diagnostic of the document that touches `within`: the replacement its hint
-    names, and for a warning the comment that silences it on its line."""
+    """For each diagnostic of the document on the lines of `within` (a cursor anywhere on
+    the line is enough): the replacement its hint names, and for a warning the comment that
+    silences it on its line."""
     fixes: list[QuickFix] = []
     for found in analysis.diagnostics:
         where = found.range
-        if where.end < within.start or where.start > within.end:
-            continue
+        lines_apart = where.end.line < within.start.line or where.start.line > within.end.line
+        if found.elsewhere or lines_apart:
+            continue  # a fix belongs in the file the problem is in
         meant = _MEANT.search(found.hint)
         word = _misspelled(analysis, found) if meant else None
         if meant and word is not None:
@@ -265,7 +267,29 @@ def rename(analysis: Analysis, pos: Pos, new_name: str) -> dict[Path, list[TextE
     upper = new_name.upper()
     if upper in KEYWORDS or analysis.catalogue.lookup(upper) is not None:
         raise RenameRefused(f"{new_name} is a keyword or a command")
+    clash = _clash(analysis, pos, upper)
+    if clash:
+        raise RenameRefused(f"{new_name} already names {clash}")
     edits: dict[Path, list[TextEdit]] = {}
     for place in references(analysis, pos):
         edits.setdefault(place.path, []).append(TextEdit(place.range, new_name))
     return edits
+
+
+def _clash(analysis: Analysis, pos: Pos, upper: str) -> str:
+    """What the new name (upper case) already stands for where the renamed name is used."""
+    found = target_at(analysis, pos)
+    if found is None:
+        return ""
+    target = found[1]
+    if upper == target.name.upper():
+        return ""
+    if target.kind == "label":
+        program = target.program
+        return f"a label of {program.title}" if program and upper in program.labels else ""
+    for kind, table in (("a CONST", analysis.consts), ("an ALIAS", analysis.aliases),
+                        ("a VAR", analysis.declared)):
+        if upper in table:
+            return kind
+    program = analysis.program_named(upper)
+    return f"the program {program.title}" if program else ""

@@ -351,3 +351,27 @@ async def test_a_source_with_syntax_errors_gets_no_formatting_edit(client: Langu
         text_document=ident(opened), options=lsp.FormattingOptions(tab_size=4,
                                                                     insert_spaces=True)))
     assert edits is not None and list(edits) == []
+
+
+@ASYNC
+async def test_semantic_tokens_count_the_negotiated_code_units(client: LanguageClient,
+                                                               project: Path) -> None:
+    # Neovim offers UTF-8 first: the server takes it, and counts bytes.
+    assert INITIALIZED[-1].capabilities.position_encoding == lsp.PositionEncodingKind.Utf8
+    uri = (project / "emoji.mp").as_uri()
+    text = "MP 1\n    VAR_CALCULATE VAR2, '😀', VAR3, VAR4\nEND MP\n"
+    client.text_document_did_open(lsp.DidOpenTextDocumentParams(lsp.TextDocumentItem(
+        uri=uri, language_id="mplang", version=1, text=text)))
+    await client.wait_for_notification(lsp.TEXT_DOCUMENT_PUBLISH_DIAGNOSTICS)
+    full = await client.text_document_semantic_tokens_full_async(lsp.SemanticTokensParams(
+        text_document=ident(uri)))
+    assert full is not None
+    line = text.split("\n")[1]
+    quote = line.index("'")
+    tokens = decode(full.data, ["keyword", "function", "variable", "enumMember", "namespace",
+                                "label", "number", "string", "comment", "operator"])
+    # '😀' is three code points and six UTF-8 bytes: what follows moves by three.
+    assert tokens[(1, quote)] == (6, "string")
+    assert tokens[(1, quote + 6)] == (1, "operator")
+    assert tokens[(1, line.index("VAR3") + 3)] == (4, "variable")
+    client.text_document_did_close(lsp.DidCloseTextDocumentParams(ident(uri)))
