@@ -112,7 +112,7 @@ def quick_fixes(analysis: Analysis, within: Range) -> list[QuickFix]:
         meant = _MEANT.search(found.hint)
         word = _misspelled(analysis, found) if meant else None
         if meant and word is not None:
-            replacement = meant.group(1)
+            replacement = _spelled(analysis, meant.group(1))
             fixes.append(QuickFix(f"Replace '{word.text}' with '{replacement}'", found,
                                   TextEdit(line_range(where.start.line, word.start, word.end),
                                            replacement), True))
@@ -130,10 +130,11 @@ def _misspelled(analysis: Analysis, found: EditorDiagnostic) -> Token | None:
     if not 0 <= line < len(analysis.lines):
         return None
     end = found.range.end.character if found.range.end.line == line else 1 << 30
-    names = [t for t in lex_line(analysis.lines[line]) if t.kind == "name"
-             and t.end >= found.range.start.character and t.start <= end]
+    on_line = [t for t in lex_line(analysis.lines[line]) if t.kind == "name"]
+    names = [t for t in on_line if t.end >= found.range.start.character and t.start <= end]
     quoted = {q.upper() for q in _QUOTED.findall(found.message)}
-    for token in names:
+    # the quoted name, nearest the range first (a CALL's span may cover only `CALL`)
+    for token in sorted(on_line, key=lambda t: (t not in names, t.start)):
         if token.upper in quoted:
             return token
     if len(names) == 1:
@@ -142,6 +143,16 @@ def _misspelled(analysis: Analysis, found: EditorDiagnostic) -> Token | None:
     close = difflib.get_close_matches(meant.group(1).upper() if meant else "",
                                       [t.upper for t in names], n=1, cutoff=0.5)
     return next((t for t in names if close and t.upper == close[0]), None)
+
+
+def _spelled(analysis: Analysis, suggestion: str) -> str:
+    """A suggested name as its definition spells it (the compiler suggests upper case)."""
+    upper = suggestion.upper()
+    for table in (analysis.consts, analysis.aliases, analysis.declared):
+        if upper in table:
+            return table[upper].name
+    program = analysis.program_named(upper)
+    return program.name if program is not None and program.name else suggestion
 
 
 def _ignore_edit(analysis: Analysis, line: int, code: str) -> TextEdit | None:

@@ -108,7 +108,7 @@ def register_editing(server: MpLanguageServer, guarded: Callable[[Any], Any]) ->
             location = server.location(uri, analysis, Location(path, entry.selection))
             found.append(lsp.WorkspaceSymbol(name=entry.name, kind=SYMBOL_KINDS[entry.kind],
                                              location=location,
-                                             container_name=entry.detail or None))
+                                             container_name=path.name))
         return found
 
     @server.feature(lsp.TEXT_DOCUMENT_FOLDING_RANGE)

@@ -119,7 +119,9 @@ def test_references_of_names_and_labels(tmp_path: Path) -> None:
     assert [r.range.start.line for r in again] == [4, 7]
     done = editing.references(analysis, Pos(2, 5), include_declaration=False)
     assert [r.range.start.line for r in done] == [6]
-    assert editing.references(analysis, Pos(5, 14)) != []  # parts
+    parts = editing.references(analysis, Pos(5, 14))
+    assert [(r.range.start.line, r.range.start.character) for r in parts] == [
+        (1, 6), (5, 4), (5, 12)]
     assert editing.references(analysis, Pos(11, 5)) == []  # GOTO, a keyword
 
 
@@ -139,3 +141,18 @@ def test_rename_checks_the_new_name(tmp_path: Path) -> None:
     with pytest.raises(RenameRefused, match="a label of MP 1 feed"):
         editing.rename(two, Pos(4, 11), "later")
     assert editing.rename(two, Pos(4, 11), "again") != {}  # its own name: no clash
+
+
+def test_every_did_you_mean_hint_is_a_fix_in_the_defined_spelling(tmp_path: Path) -> None:
+    text = ("CONST SPEED = 10\nMP 1 helper\n    SET_V X, SPED\nEND MP\nMP 2 main\n"
+            "    CALL helpr\n    FIXD_MOVE X, 1\nEND MP\nINTERRUPTS mainn\n"
+            "    ON X P>=C+ CALL ISR 1\nEND INTERRUPTS\nISR 1\n    SET_V X, 1\nEND ISR\n")
+    analysis = check(tmp_path, text)
+    fixes = [f for f in editing.quick_fixes(analysis, Range(Pos(0, 0), Pos(20, 0)))
+             if f.preferred]
+    assert [f.title for f in fixes] == [
+        "Replace 'SPED' with 'SPEED'", "Replace 'helpr' with 'helper'",
+        "Replace 'FIXD_MOVE' with 'FIXED_MOVE'", "Replace 'mainn' with 'main'"]
+    fixed = apply(text, [f.edit for f in fixes])
+    assert [d.code for d in analyse(tmp_path / "main.mp", fixed).diagnostics
+            if d.severity == "error"] == []

@@ -226,6 +226,7 @@ async def test_workspace_symbols_cover_included_files(client: LanguageClient, op
     assert speed.name == "SPEED" and speed.kind == lsp.SymbolKind.Constant
     assert isinstance(speed.location, lsp.Location)
     assert speed.location.uri == (project / "common.mp").as_uri()
+    assert speed.container_name == "common.mp"
     everything = await client.workspace_symbol_async(lsp.WorkspaceSymbolParams(query=""))
     assert {s.name for s in everything or []} == {"SPEED", "count", "total", "main", "helper",
                                                   "top"}
