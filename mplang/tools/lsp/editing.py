@@ -20,7 +20,7 @@ from mplang.tools.fmt import FormatOptions, FormatterBug, SourceNotFormattable, 
 from mplang.tools.lsp.analysis import Analysis, EditorDiagnostic, ProgramBlock
 from mplang.tools.lsp.features import Target, resolve, target_at
 from mplang.tools.lsp.positions import Location, Pos, Range, line_range
-from mplang.tools.lsp.tokens import Token, cursor_at, lex_line
+from mplang.tools.lsp.tokens import Cursor, Token, lex_line, line_words
 
 _MEANT = re.compile(r"did you mean ([A-Za-z_][A-Za-z0-9_.]*)\?")
 _QUOTED = re.compile(r"'([^']+)'")
@@ -70,7 +70,12 @@ def format_edits(text: str, options: FormatOptions, lines: tuple[int, int] | Non
     """The edits that give `text` the canonical layout; with `lines` (first, last: 0-based,
     inclusive) only those touching that line range. None when the formatter refuses the text:
     a syntax error (or a lone carriage return, which the editor and the compiler would count
-    as different line breaks) leaves the document as it is."""
+    as different line breaks) leaves the document as it is.
+
+    The formatter keeps every non-blank line, in order, and only changes its whitespace or
+    the blank lines between: so the old and new lines pair up in one pass (a general diff
+    would take quadratic time on a large file), each changed line and each changed run of
+    blank lines an edit of its own."""
     if re.search(r"\r(?!\n)", text):
         return []
     try:
@@ -78,21 +83,28 @@ def format_edits(text: str, options: FormatOptions, lines: tuple[int, int] | Non
     except (SourceNotFormattable, FormatterBug):
         return []
     old, new = _lines_with_breaks(text), _lines_with_breaks(formatted)
-    edits: list[TextEdit] = []
-    matcher = difflib.SequenceMatcher(None, old, new, autojunk=False)
-    for tag, i1, i2, j1, j2 in matcher.get_opcodes():
-        if tag == "equal":
+    old_code = [i for i, line in enumerate(old) if line.strip()]
+    new_code = [i for i, line in enumerate(new) if line.strip()]
+    if len(old_code) != len(new_code):
+        return []  # cannot happen: the formatter checks it keeps every line
+
+    def end(index: int) -> Pos:
+        return Pos(index, 0) if index < len(old) else _end_of(old)
+
+    pieces: list[tuple[int, int, str]] = []  # old lines [first, stop) -> new text
+    previous_old = previous_new = -1
+    for at_old, at_new in [*zip(old_code, new_code, strict=True), (len(old), len(new))]:
+        run_old, run_new = old[previous_old + 1:at_old], new[previous_new + 1:at_new]
+        if run_old != run_new:
+            pieces.append((previous_old + 1, at_old, "".join(run_new)))
+        if at_old < len(old) and old[at_old] != new[at_new]:
+            pieces.append((at_old, at_old + 1, new[at_new]))
+        previous_old, previous_new = at_old, at_new
+    edits = []
+    for first, stop, replacement in pieces:
+        if lines is not None and (max(first, stop - 1) < lines[0] or first > lines[1]):
             continue
-        pieces = [(i1 + k, i1 + k + 1, j1 + k, j1 + k + 1) for k in range(i2 - i1)] \
-            if tag == "replace" and i2 - i1 == j2 - j1 else [(i1, i2, j1, j2)]
-        for a1, a2, b1, b2 in pieces:
-            if lines is not None:
-                first, last = lines
-                touched = (a1, max(a1, a2 - 1))
-                if touched[1] < first or touched[0] > last:
-                    continue
-            end = Pos(a2, 0) if a2 < len(old) else _end_of(old)
-            edits.append(TextEdit(Range(Pos(a1, 0), end), "".join(new[b1:b2])))
+        edits.append(TextEdit(Range(Pos(first, 0), end(stop)), replacement))
     return edits
 
 
@@ -207,13 +219,17 @@ def references(analysis: Analysis, pos: Pos, include_declaration: bool = True
     target = found[1]
     definition = _definition_of(target)
     places: list[Location] = []
+    upper = target.name.upper()
     for entry in analysis.files.values():
         for number, text in enumerate(entry.lines):
-            for token in lex_line(text):
-                if token.kind not in ("name", "int") or token.upper != target.name.upper():
+            if upper not in text.upper():
+                continue
+            for token, cursor in line_words(text):
+                if token.upper != upper:
                     continue
                 where = Location(entry.path, line_range(number, token.start, token.end))
-                if where == definition or _names(analysis, entry.path, number, token, target):
+                if where == definition or _names(analysis, entry.path, number, cursor,
+                                                 target):
                     places.append(where)
     if definition is not None:
         places = [p for p in places if p != definition]
@@ -228,11 +244,10 @@ def _definition_of(target: Target) -> Location | None:
     return target.definition.location if target.definition else None
 
 
-def _names(analysis: Analysis, path: Path, line: int, token: Token, target: Target) -> bool:
-    """Whether `token` (on `line` of `path`) stands for `target`."""
-    cursor = cursor_at(analysis.lines[line] if path == analysis.path
-                       else analysis.files[path].lines[line], token.start)
-    if cursor.in_comment or cursor.word != token:
+def _names(analysis: Analysis, path: Path, line: int, cursor: Cursor, target: Target) -> bool:
+    """Whether the word under `cursor` (on `line` of `path`) stands for `target`."""
+    token = cursor.word
+    if token is None:
         return False
     if cursor.head in ("GOTO", "LABEL") and cursor.position == 1:
         program = _program_of(analysis, path, line)

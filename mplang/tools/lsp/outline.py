@@ -20,7 +20,7 @@ from mplang.lang.parser import parse_text
 from mplang.tools.lsp.analysis import Analysis, Definition
 from mplang.tools.lsp.features import param_accepts, resolve
 from mplang.tools.lsp.positions import Location, Pos, Range, line_range
-from mplang.tools.lsp.tokens import cursor_at, lex_line
+from mplang.tools.lsp.tokens import cursor_at, lex_line, line_words
 
 
 @dataclass
@@ -209,13 +209,13 @@ def semantic_tokens(analysis: Analysis) -> list[int]:
                     for label in program.labels.values()}
     definitions |= {Location(p.path, p.name_range) for p in analysis.programs}
     for number, text in enumerate(analysis.lines):
+        cursors = {token.start: cursor for token, cursor in line_words(text)}
         for token in lex_line(text):
             kind = _LEXED_TYPES.get(token.kind)
             modifiers = 0
             if token.kind in ("name", "int"):
-                cursor = cursor_at(text, token.start)
-                target = resolve(analysis, number, cursor, token) \
-                    if cursor.word == token else None
+                cursor = cursors.get(token.start)
+                target = resolve(analysis, number, cursor, token) if cursor else None
                 if target is not None:
                     kind = _TARGET_TYPES.get(target.kind)
                     if target.kind == "const":

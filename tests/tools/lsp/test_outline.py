@@ -109,3 +109,21 @@ def test_signature_help_inside_a_call_and_its_arguments(tmp_path: Path) -> None:
     second = outline.signature_help(analysis, Pos(2, 13))
     assert second is not None and second.active == 1
     assert outline.signature_help(analysis, Pos(0, 2)) is None  # a program header
+
+
+def test_a_line_of_thousands_of_words_is_read_in_one_pass(tmp_path: Path) -> None:
+    """Past WORDS_IN_PLACE words a word is read alone: still classified, and a hostile line
+    costs linear time instead of a re-read of the line per word."""
+    from mplang.tools.lsp import editing
+    from mplang.tools.lsp.tokens import WORDS_IN_PLACE, line_words
+
+    expression = "+".join(["A"] * 5000)
+    words = line_words(f"    VAR1 = {expression}")
+    assert len(words) == 5001
+    assert words[WORDS_IN_PLACE - 1][1].position > 0 and words[WORDS_IN_PLACE][1].position == 0
+    analysis = check(tmp_path, f"CONST A = 1\nMP 1\n    VAR1 = {expression}\nEND MP\n")
+    data = outline.semantic_tokens(analysis)
+    constants = [data[i + 3] for i in range(0, len(data), 5)
+                 if data[i + 4] & (1 << outline.TOKEN_MODIFIERS.index("readonly"))]
+    assert len(constants) == 5001  # the definition and every use
+    assert len(editing.references(analysis, Pos(0, 6))) == 5001
