@@ -137,8 +137,13 @@ def register_editing(server: MpLanguageServer, guarded: Callable[[Any], Any]) ->
         return data
 
     def remember(uri: str, data: list[int]) -> str:
+        """Keep the tokens sent for a later delta: only of open documents, so that requests
+        on unopened files cannot make the server hold ever more."""
         result_id = str(next(counter))
-        tokens_sent[uri] = (result_id, data)
+        for other in [u for u in tokens_sent if not server.is_open(u)]:
+            del tokens_sent[other]
+        if server.is_open(uri):
+            tokens_sent[uri] = (result_id, data)
         return result_id
 
     @server.feature(lsp.TEXT_DOCUMENT_SEMANTIC_TOKENS_FULL, SEMANTIC_LEGEND)
