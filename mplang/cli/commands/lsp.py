@@ -41,6 +41,8 @@ def _parse_pool(ctx: click.Context, param: click.Parameter, value: str | None
 @click.option("--tcp", "listen", callback=parse_listen_port, default=None,
               metavar="[HOST:]PORT", help="Serve one client over TCP instead of stdio: PORT "
               "(a bare number is a port, on 127.0.0.1) or HOST:PORT.")
+@click.option("--stdio", is_flag=True, help="Serve over standard input/output (the default; "
+              "accepted because most editors pass it).")
 @click.option("--target", type=click.Choice(["et", "rs"]), default=None,
               help="Controller the checks are for: ET-M8194H or RS-M8194H [default: the "
               "project file's, else et].")
@@ -51,10 +53,14 @@ def _parse_pool(ctx: click.Context, param: click.Parameter, value: str | None
               help="Let INCLUDE reach files outside the project directory.")
 @click.option("-v", "--verbose", is_flag=True, help="Log what the server does to stderr.")
 @guarded
-def command(listen: tuple[str, int] | None, target: str | None, temp_vars: range | None,
-            allow_outside_includes: bool | None, verbose: bool) -> None:
-    """Run the language server: diagnostics, hover, completion, go to definition and slot
-    budgets for .mp files. Editors start it and speak LSP over its standard input/output."""
+def command(listen: tuple[str, int] | None, stdio: bool, target: str | None,
+            temp_vars: range | None, allow_outside_includes: bool | None,
+            verbose: bool) -> None:
+    """Run the language server for .mp files: diagnostics, hover, completion, navigation,
+    formatting, symbols and slot budgets. Editors start it and speak LSP over its standard
+    input/output (`--stdio`, the default)."""
+    if stdio and listen is not None:
+        raise click.UsageError("--stdio and --tcp exclude each other: choose one transport")
     from mplang.tools.lsp.server import create_server
     from mplang.tools.lsp.workspace import Overrides
 

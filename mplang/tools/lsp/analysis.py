@@ -145,6 +145,7 @@ class EditorDiagnostic:
     hint: str
     related: tuple[tuple[Location, str], ...]
     docs: Path | None  # the check's page, when the documentation is at hand
+    elsewhere: bool = False  # found in another file, shown where it joined this one
 
 
 @dataclass(frozen=True)
@@ -496,4 +497,5 @@ def _place_diagnostic(analysis: Analysis, diagnostic: Diagnostic,
                 return None
             where = through.range
     return EditorDiagnostic(where, diagnostic.severity.value, diagnostic.code, message,
-                            diagnostic.hint, related, docs if docs.is_file() else None)
+                            diagnostic.hint, related, docs if docs.is_file() else None,
+                            elsewhere=entry is None or entry.path != analysis.path)

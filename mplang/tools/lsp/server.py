@@ -28,12 +28,14 @@ from urllib.parse import unquote
 
 from lsprotocol import types as lsp
 from pygls import uris
+from pygls.exceptions import JsonRpcException
 from pygls.io_ import StdoutWriter
 from pygls.lsp.server import LanguageServer
 
 from mplang import __version__
 from mplang.tools.lsp import features
 from mplang.tools.lsp.analysis import Analysis, EditorDiagnostic, analyse
+from mplang.tools.lsp.handlers import register_editing
 from mplang.tools.lsp.positions import (
     ENCODINGS,
     Location,
@@ -281,6 +283,8 @@ def _guarded(server: MpLanguageServer
         def run(params: Any) -> R | None:
             try:
                 return handler(params)
+            except JsonRpcException:  # an error meant for the client (a refused rename)
+                raise
             except RefusedFile as exc:  # expected of hostile input: no traceback
                 logger.warning("%s: %s", handler.__name__, exc)
                 try:
@@ -391,4 +395,5 @@ def create_server(overrides: Overrides | None = None) -> MpLanguageServer:
                 hints.append(lsp.InlayHint(position=end, label=budget.title, padding_left=True))
         return hints
 
+    register_editing(server, _guarded(server))
     return server

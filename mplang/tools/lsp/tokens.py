@@ -106,6 +106,33 @@ def cursor_at(text: str, character: int) -> Cursor:
     return Cursor(tokens, before, word, in_comment, string)
 
 
+# Words of one line read in their place in the statement; past these (only a long expression
+# has more) a word is read alone, so that a hostile line of a million words costs linear time.
+WORDS_IN_PLACE = 64
+
+
+def line_words(text: str) -> list[tuple[Token, Cursor]]:
+    """Every name and number of a line, each with the cursor that stands on it (as
+    `cursor_at(text, word.start)` gives it, for the first WORDS_IN_PLACE words; after them a
+    cursor that sees the word alone). A word glued to the one before it (`12ab`) is skipped:
+    a cursor there stands on the earlier word."""
+    tokens = lex_line(text)
+    code = [t for t in tokens if t.kind != "comment"]
+    found: list[tuple[Token, Cursor]] = []
+    for index, token in enumerate(code):
+        if token.kind not in ("name", "int"):
+            continue
+        previous = code[index - 1] if index else None
+        if previous is not None and previous.end == token.start and \
+                previous.kind in ("name", "int", "string"):
+            continue
+        if len(found) < WORDS_IN_PLACE:
+            found.append((token, Cursor(tokens, code[:index], token, False, None)))
+        else:
+            found.append((token, Cursor([token], [], token, False, None)))
+    return found
+
+
 def argument_slot(before: list[Token]) -> ArgumentSlot | None:
     """Which argument of which command the tokens before the cursor leave it in.
 

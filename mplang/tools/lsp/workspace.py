@@ -21,6 +21,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from mplang.ir.unit import Options
+from mplang.tools.fmt import FormatOptions
 from mplang.tools.project import ProjectError, find_project, load_project
 
 # The largest file the server reads from disk: .mp sources are a few KiB; anything near this is
@@ -143,3 +144,18 @@ def context_for(document: Path, overrides: Overrides | None = None) -> BuildCont
         pins=project.pins if in_project else (),
         var_pool=project.var_pool if project.var_pool is not None else base.var_pool)
     return BuildContext(sources if in_project else alone, options, found)
+
+
+def format_options_for(document: Path) -> FormatOptions:
+    """The `[fmt]` settings of the document's project, as `mpc fmt` reads them (the nearest
+    `mpc.toml` above the document), else the formatter's defaults. Raises ProjectError or
+    FormatOptionsError when the project file cannot be used, so nothing is reformatted with
+    settings the project did not ask for."""
+    found = find_project(document.parent)
+    if found is None:
+        return FormatOptions()
+    reason = refusal(os.stat(found))
+    if reason is not None:
+        raise RefusedFile(found, reason)
+    project = load_project(found)
+    return FormatOptions.from_mapping(project.fmt, where=f"{found} [fmt]")

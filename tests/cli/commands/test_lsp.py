@@ -40,6 +40,21 @@ def test_help_lists_the_options() -> None:
     assert "--tcp [HOST:]PORT" in result.output and "--target [et|rs]" in result.output
 
 
+def test_stdio_is_accepted_as_most_editors_pass_it() -> None:
+    assert "--stdio" in CliRunner().invoke(main, ["lsp", "--help"]).output
+    both = CliRunner().invoke(main, ["lsp", "--stdio", "--tcp", "2087"])
+    assert both.exit_code == EXIT_USAGE
+    assert "--stdio and --tcp exclude each other" in both.output
+    controller, terminal = pty.openpty()
+    try:  # --stdio in a terminal: the same hint as without it, not a usage error about it
+        done = subprocess.run([*SERVER, "--stdio"], stdin=terminal, capture_output=True,
+                              timeout=60)
+    finally:
+        os.close(controller)
+        os.close(terminal)
+    assert done.returncode == EXIT_USAGE and b"start it from an editor" in done.stderr
+
+
 def test_a_bad_port_is_a_usage_error() -> None:
     result = CliRunner().invoke(main, ["lsp", "--tcp", "http"])
     assert result.exit_code == EXIT_USAGE

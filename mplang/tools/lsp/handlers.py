@@ -1,0 +1,218 @@
+"""The server's editing and navigation requests: formatting, code actions, symbols, folding,
+semantic tokens, references, rename and signature help (pygls glue over `editing` and
+`outline`).
+
+Kept apart from `server` so that each stays small; `server.create_server` registers these on
+the server it builds, each behind the same guard (a failure is logged and answered with
+nothing). Positions are converted between code points and the client's encoding here.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
+
+from lsprotocol import types as lsp
+from pygls.exceptions import JsonRpcInvalidParams
+
+from mplang.tools.lsp import editing, outline
+from mplang.tools.lsp.analysis import Analysis
+from mplang.tools.lsp.positions import Location, Pos, Range, split_lines
+from mplang.tools.lsp.workspace import format_options_for
+
+if TYPE_CHECKING:
+    from mplang.tools.lsp.server import MpLanguageServer
+
+logger = logging.getLogger("mplang.tools.lsp")
+
+SYMBOL_KINDS = {"program": lsp.SymbolKind.Function, "const": lsp.SymbolKind.Constant,
+                "alias": lsp.SymbolKind.Variable, "var": lsp.SymbolKind.Variable,
+                "label": lsp.SymbolKind.Key, "block": lsp.SymbolKind.Namespace}
+SIGNATURE_TRIGGERS = [" ", ",", "("]
+SEMANTIC_LEGEND = lsp.SemanticTokensLegend(token_types=outline.TOKEN_TYPES,
+                                           token_modifiers=outline.TOKEN_MODIFIERS)
+
+
+def register_editing(server: MpLanguageServer, guarded: Callable[[Any], Any]) -> None:
+    """Register the editing and navigation features on `server`."""
+    tokens_sent: dict[str, tuple[str, list[int]]] = {}  # uri -> (result id, data)
+    counter = iter(range(1, 1 << 62))
+
+    def client_range(analysis: Analysis, range_: lsp.Range) -> Range:
+        return Range(server.from_client(analysis, range_.start),
+                     server.from_client(analysis, range_.end))
+
+    def text_edits(lines: list[str], edits: list[editing.TextEdit]) -> list[lsp.TextEdit]:
+        return [lsp.TextEdit(range=server.to_client(lines, e.range), new_text=e.text)
+                for e in edits]
+
+    def formatted(uri: str, lines: tuple[int, int] | None) -> list[lsp.TextEdit]:
+        text = server.document_text(uri)
+        options = format_options_for(server.document_path(uri))
+        return text_edits(split_lines(text), editing.format_edits(text, options, lines))
+
+    @server.feature(lsp.TEXT_DOCUMENT_FORMATTING)
+    @guarded
+    def formatting(params: lsp.DocumentFormattingParams) -> list[lsp.TextEdit] | None:
+        return formatted(params.text_document.uri, None)
+
+    @server.feature(lsp.TEXT_DOCUMENT_RANGE_FORMATTING)
+    @guarded
+    def range_formatting(params: lsp.DocumentRangeFormattingParams
+                         ) -> list[lsp.TextEdit] | None:
+        start, end = params.range.start, params.range.end
+        last = end.line - 1 if end.character == 0 and end.line > start.line else end.line
+        return formatted(params.text_document.uri, (start.line, last))
+
+    @server.feature(lsp.TEXT_DOCUMENT_CODE_ACTION, lsp.CodeActionOptions(
+        code_action_kinds=[lsp.CodeActionKind.QuickFix]))
+    @guarded
+    def code_action(params: lsp.CodeActionParams) -> list[lsp.CodeAction] | None:
+        uri = params.text_document.uri
+        analysis = server.analysis(uri)
+        wanted = params.context.only
+        if wanted and not any(lsp.CodeActionKind.QuickFix.value.startswith(k) for k in wanted):
+            return []
+        actions = []
+        for fix in editing.quick_fixes(analysis, client_range(analysis, params.range)):
+            edit = lsp.WorkspaceEdit(changes={uri: text_edits(analysis.lines, [fix.edit])})
+            actions.append(lsp.CodeAction(
+                title=fix.title, kind=lsp.CodeActionKind.QuickFix, edit=edit,
+                diagnostics=[server.diagnostic(uri, analysis, fix.diagnostic)],
+                is_preferred=fix.preferred or None))
+        return actions
+
+    def symbol(analysis: Analysis, found: outline.Symbol) -> lsp.DocumentSymbol:
+        return lsp.DocumentSymbol(
+            name=found.name, kind=SYMBOL_KINDS[found.kind], detail=found.detail or None,
+            range=server.to_client(analysis.lines, found.range),
+            selection_range=server.to_client(analysis.lines, found.selection),
+            children=[symbol(analysis, child) for child in found.children] or None)
+
+    @server.feature(lsp.TEXT_DOCUMENT_DOCUMENT_SYMBOL)
+    @guarded
+    def document_symbol(params: lsp.DocumentSymbolParams) -> list[lsp.DocumentSymbol] | None:
+        analysis = server.analysis(params.text_document.uri)
+        return [symbol(analysis, found) for found in outline.document_symbols(analysis)]
+
+    @server.feature(lsp.WORKSPACE_SYMBOL)
+    @guarded
+    def workspace_symbol(params: lsp.WorkspaceSymbolParams
+                         ) -> list[lsp.WorkspaceSymbol] | None:
+        analyses = list(server.analyses.items())
+        found = []
+        for entry, path in outline.workspace_symbols([a for _, a in analyses], params.query):
+            uri, analysis = next(((u, a) for u, a in analyses if path in a.files),
+                                 analyses[0])
+            location = server.location(uri, analysis, Location(path, entry.selection))
+            found.append(lsp.WorkspaceSymbol(name=entry.name, kind=SYMBOL_KINDS[entry.kind],
+                                             location=location,
+                                             container_name=path.name))
+        return found
+
+    @server.feature(lsp.TEXT_DOCUMENT_FOLDING_RANGE)
+    @guarded
+    def folding_range(params: lsp.FoldingRangeParams) -> list[lsp.FoldingRange] | None:
+        analysis = server.analysis(params.text_document.uri)
+        return [lsp.FoldingRange(start_line=f.first, end_line=f.last,
+                                 kind=lsp.FoldingRangeKind.Comment if f.kind == "comment"
+                                 else lsp.FoldingRangeKind.Region)
+                for f in outline.folding_ranges(analysis)]
+
+    def encoded(analysis: Analysis) -> list[int]:
+        """Semantic tokens with starts and lengths in the client's position encoding."""
+        data = outline.semantic_tokens(analysis)
+        line = start = 0
+        previous = (0, 0)  # the last token's line and client start
+        for index in range(0, len(data), 5):
+            line += data[index]
+            start = data[index + 1] + (start if data[index] == 0 else 0)
+            client = server.to_client(analysis.lines, Range(
+                Pos(line, start), Pos(line, start + data[index + 2])))
+            first, end = client.start.character, client.end.character
+            data[index + 1] = first - previous[1] if line == previous[0] else first
+            data[index + 2] = end - first
+            previous = (line, first)
+        return data
+
+    def remember(uri: str, data: list[int]) -> str:
+        """Keep the tokens sent for a later delta: only of open documents, so that requests
+        on unopened files cannot make the server hold ever more."""
+        result_id = str(next(counter))
+        for other in [u for u in tokens_sent if not server.is_open(u)]:
+            del tokens_sent[other]
+        if server.is_open(uri):
+            tokens_sent[uri] = (result_id, data)
+        return result_id
+
+    @server.feature(lsp.TEXT_DOCUMENT_SEMANTIC_TOKENS_FULL, SEMANTIC_LEGEND)
+    @guarded
+    def semantic_tokens_full(params: lsp.SemanticTokensParams) -> lsp.SemanticTokens | None:
+        uri = params.text_document.uri
+        data = encoded(server.analysis(uri))
+        return lsp.SemanticTokens(data=data, result_id=remember(uri, data))
+
+    @server.feature(lsp.TEXT_DOCUMENT_SEMANTIC_TOKENS_FULL_DELTA, SEMANTIC_LEGEND)
+    @guarded
+    def semantic_tokens_delta(params: lsp.SemanticTokensDeltaParams
+                              ) -> lsp.SemanticTokens | lsp.SemanticTokensDelta | None:
+        uri = params.text_document.uri
+        data = encoded(server.analysis(uri))
+        sent = tokens_sent.get(uri)
+        if sent is None or sent[0] != params.previous_result_id:
+            return lsp.SemanticTokens(data=data, result_id=remember(uri, data))
+        start, deleted, inserted = outline.token_delta(sent[1], data)
+        edits = [lsp.SemanticTokensEdit(start=start, delete_count=deleted, data=inserted)] \
+            if deleted or inserted else []
+        return lsp.SemanticTokensDelta(edits=edits, result_id=remember(uri, data))
+
+    @server.feature(lsp.TEXT_DOCUMENT_REFERENCES)
+    @guarded
+    def references(params: lsp.ReferenceParams) -> list[lsp.Location] | None:
+        uri = params.text_document.uri
+        analysis = server.analysis(uri)
+        found = editing.references(analysis, server.from_client(analysis, params.position),
+                                   params.context.include_declaration)
+        return [server.location(uri, analysis, where) for where in found]
+
+    @server.feature(lsp.TEXT_DOCUMENT_PREPARE_RENAME)
+    @guarded
+    def prepare_rename(params: lsp.PrepareRenameParams) -> lsp.Range | None:
+        analysis = server.analysis(params.text_document.uri)
+        found = editing.rename_range(analysis, server.from_client(analysis, params.position))
+        return server.to_client(analysis.lines, found) if found else None
+
+    @server.feature(lsp.TEXT_DOCUMENT_RENAME)
+    @guarded
+    def rename(params: lsp.RenameParams) -> lsp.WorkspaceEdit | None:
+        uri = params.text_document.uri
+        analysis = server.analysis(uri)
+        try:
+            edits = editing.rename(analysis, server.from_client(analysis, params.position),
+                                   params.new_name)
+        except editing.RenameRefused as exc:  # the client shows this to the user
+            raise JsonRpcInvalidParams(f"cannot rename: {exc}") from None
+        changes = {server.uri_for(uri, analysis, path):
+                   text_edits(server.lines_of(analysis, path), found)
+                   for path, found in edits.items()}
+        return lsp.WorkspaceEdit(changes=changes) if changes else None
+
+    @server.feature(lsp.TEXT_DOCUMENT_SIGNATURE_HELP, lsp.SignatureHelpOptions(
+        trigger_characters=SIGNATURE_TRIGGERS))
+    @guarded
+    def signature_help(params: lsp.SignatureHelpParams) -> lsp.SignatureHelp | None:
+        analysis = server.analysis(params.text_document.uri)
+        found = outline.signature_help(analysis, server.from_client(analysis,
+                                                                    params.position))
+        if found is None:
+            return None
+        parameters = [lsp.ParameterInformation(
+            label=offsets, documentation=lsp.MarkupContent(kind=lsp.MarkupKind.Markdown,
+                                                           value=text))
+            for offsets, text in found.parameters]
+        return lsp.SignatureHelp(signatures=[lsp.SignatureInformation(
+            label=found.label, documentation=found.documentation or None,
+            parameters=parameters, active_parameter=found.active)],
+            active_signature=0, active_parameter=found.active)
+

@@ -1,0 +1,287 @@
+"""The shape of a document for the editor: symbols, folding, semantic tokens and signature
+help, without pygls.
+
+Blocks are read from the parser's statements (the front end parses line by line, so a
+syntax error hides only its own line) with a tolerant stack: an unclosed block runs to the
+end of its program or of the file. Words are classified the way hover resolves them
+(`features.resolve`), so the colours agree with what hover says a word is.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from mplang.ir.catalogue import Command
+from mplang.ir.scope import KEYWORDS
+from mplang.lang import ast
+from mplang.lang.diagnostics import DiagnosticSink
+from mplang.lang.parser import parse_text
+from mplang.tools.lsp.analysis import Analysis, Definition
+from mplang.tools.lsp.features import param_accepts, resolve
+from mplang.tools.lsp.positions import Location, Pos, Range, line_range
+from mplang.tools.lsp.tokens import cursor_at, lex_line, line_words
+
+
+@dataclass
+class Symbol:
+    """One entry of the outline: a program with its labels, a declaration, a block."""
+
+    name: str
+    kind: str  # program const alias var label block
+    detail: str
+    range: Range  # the whole construct
+    selection: Range  # its name
+    children: list[Symbol] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class Fold:
+    first: int  # 0-based lines, inclusive
+    last: int
+    kind: str  # "region" | "comment"
+
+
+@dataclass(frozen=True)
+class Block:
+    """A block written in the document: its kind and the lines from header to END."""
+
+    kind: str  # mp isr for if while repeat init interrupts triggers
+    header: ast.Statement
+    first: int
+    last: int
+
+
+@dataclass(frozen=True)
+class Signature:
+    label: str
+    documentation: str
+    parameters: list[tuple[tuple[int, int], str]]  # label offsets, markdown
+    active: int
+
+
+_OPENS: dict[type, str] = {ast.ForStmt: "for", ast.IfStmt: "if", ast.WhileStmt: "while",
+                           ast.RepeatStmt: "repeat", ast.InitHeader: "init",
+                           ast.InterruptsHeader: "interrupts", ast.TriggersHeader: "triggers"}
+_CONFIG = ("init", "interrupts", "triggers")
+
+
+def blocks(lines: list[str]) -> list[Block]:
+    """Every block of the text, closed or not, outermost first by header line."""
+    statements = parse_text("\n".join(lines), "<outline>.mp", DiagnosticSink())
+    stack: list[tuple[str, ast.Statement]] = []
+    found: list[Block] = []
+
+    def close_until(index: int, last: int) -> None:
+        while len(stack) > index:
+            kind, header = stack.pop()
+            found.append(Block(kind, header, header.span.line - 1, max(last,
+                                                                       header.span.line - 1)))
+
+    for statement in statements:
+        line = statement.span.line - 1
+        match statement:
+            case ast.ProgramHeader():
+                close_until(0, line - 1)
+                stack.append((statement.kind, statement))
+            case ast.InitHeader() | ast.InterruptsHeader() | ast.TriggersHeader():
+                close_until(0, line - 1)
+                stack.append((_OPENS[type(statement)], statement))
+            case ast.ForStmt() | ast.IfStmt() | ast.WhileStmt() | ast.RepeatStmt():
+                stack.append((_OPENS[type(statement)], statement))
+            case ast.Next() | ast.End():
+                kind = "for" if isinstance(statement, ast.Next) else statement.what
+                index = next((i for i in range(len(stack) - 1, -1, -1)
+                              if stack[i][0] == kind), None)
+                if index is not None:
+                    close_until(index + 1, line - 1)
+                    close_until(index, line)
+    close_until(0, len(lines) - 1)
+    return sorted(found, key=lambda b: (b.first, -b.last))
+
+
+def folding_ranges(analysis: Analysis) -> list[Fold]:
+    """Every block of more than one line, and every run of two or more comment lines."""
+    folds = [Fold(b.first, b.last, "region") for b in blocks(analysis.lines)
+             if b.last > b.first]
+    run_start: int | None = None
+    for number, text in enumerate([*analysis.lines, ""]):
+        code = lex_line(text)
+        is_comment = bool(code) and all(t.kind == "comment" for t in code)
+        if is_comment and run_start is None:
+            run_start = number
+        elif not is_comment and run_start is not None:
+            if number - 1 > run_start:
+                folds.append(Fold(run_start, number - 1, "comment"))
+            run_start = None
+    return sorted(folds, key=lambda f: (f.first, f.last))
+
+
+# ------------------------------------------------------------------------------ symbols
+
+
+def _declaration(definition: Definition, kind: str) -> Symbol:
+    where = definition.location.range
+    line = where.start.line
+    return Symbol(definition.name, kind, definition.text,
+                  line_range(line, 0, max(where.end.character, len(definition.text))),
+                  where)
+
+
+def document_symbols(analysis: Analysis) -> list[Symbol]:
+    """The outline of the open document: its CONSTs, ALIASes, `VAR`s, programs (with their
+    labels) and INIT / INTERRUPTS / TRIGGERS blocks, in source order."""
+    symbols = _declarations(analysis, analysis.path)
+    for block in blocks(analysis.lines):
+        if block.kind in ("mp", "isr"):
+            program = analysis.program_at(block.first)
+            if program is None:
+                continue
+            symbol = Symbol(program.name or program.title, "program", program.title,
+                            line_range(block.first, 0, 0), program.name_range,
+                            [_declaration(label, "label")
+                             for label in program.labels.values()])
+        elif block.kind in _CONFIG:
+            title = analysis.lines[block.first].split("#")[0].strip()
+            symbol = Symbol(title or block.kind.upper(), "block", block.kind.upper(),
+                            line_range(block.first, 0, 0),
+                            line_range(block.first, 0, len(analysis.lines[block.first])))
+        else:
+            continue
+        end_text = analysis.lines[block.last] if block.last < len(analysis.lines) else ""
+        symbol.range = Range(Pos(block.first, 0), Pos(block.last, len(end_text)))
+        symbols.append(symbol)
+    return sorted(symbols, key=lambda s: s.range.start)
+
+
+def _declarations(analysis: Analysis, path: Path) -> list[Symbol]:
+    tables = (("const", analysis.consts), ("alias", analysis.aliases),
+              ("var", analysis.declared))
+    return [_declaration(d, kind) for kind, table in tables for d in table.values()
+            if d.location.path == path]
+
+
+def workspace_symbols(analyses: list[Analysis], query: str) -> list[tuple[Symbol, Path]]:
+    """Every program, label and declaration of the builds of the open documents whose name
+    contains `query` (any case), each once."""
+    wanted = query.upper()
+    seen: set[tuple[str, Path, Range]] = set()
+    found: list[tuple[Symbol, Path]] = []
+
+    def add(symbol: Symbol, path: Path) -> None:
+        key = (symbol.name, path, symbol.selection)
+        if wanted in symbol.name.upper() and key not in seen:
+            seen.add(key)
+            found.append((symbol, path))
+
+    for analysis in analyses:
+        for path in analysis.files:
+            for symbol in _declarations(analysis, path):
+                add(symbol, path)
+        for program in analysis.programs:
+            add(Symbol(program.name or program.title, "program", program.title,
+                       program.header_range, program.name_range), program.path)
+            for label in program.labels.values():
+                add(_declaration(label, "label"), program.path)
+    return found
+
+
+# ------------------------------------------------------------------------ semantic tokens
+
+TOKEN_TYPES = ["keyword", "function", "variable", "enumMember", "namespace", "label",
+               "number", "string", "comment", "operator"]
+TOKEN_MODIFIERS = ["declaration", "readonly", "defaultLibrary"]
+_TARGET_TYPES = {"command": "function", "keyword": "keyword", "const": "variable",
+                 "alias": "variable", "declared": "variable", "variable": "variable",
+                 "bvariable": "variable", "program": "namespace", "slot": "namespace",
+                 "label": "label", "axis": "enumMember", "symbol": "enumMember"}
+_LEXED_TYPES = {"int": "number", "string": "string", "comment": "comment", "op": "operator"}
+
+
+def semantic_tokens(analysis: Analysis) -> list[int]:
+    """The document's words as LSP semantic tokens, relative-encoded (line delta, start
+    delta, length, type, modifiers), lengths and starts in code points."""
+    data: list[int] = []
+    previous = Pos(0, 0)
+    definitions = {d.location for table in (analysis.consts, analysis.aliases,
+                                            analysis.declared) for d in table.values()}
+    definitions |= {label.location for program in analysis.programs
+                    for label in program.labels.values()}
+    definitions |= {Location(p.path, p.name_range) for p in analysis.programs}
+    for number, text in enumerate(analysis.lines):
+        cursors = {token.start: cursor for token, cursor in line_words(text)}
+        for token in lex_line(text):
+            kind = _LEXED_TYPES.get(token.kind)
+            modifiers = 0
+            if token.kind in ("name", "int"):
+                cursor = cursors.get(token.start)
+                target = resolve(analysis, number, cursor, token) if cursor else None
+                if target is not None:
+                    kind = _TARGET_TYPES.get(target.kind)
+                    if target.kind == "const":
+                        modifiers |= 1 << TOKEN_MODIFIERS.index("readonly")
+                    if target.kind in ("command", "axis", "symbol"):
+                        modifiers |= 1 << TOKEN_MODIFIERS.index("defaultLibrary")
+                elif token.kind == "name" and token.upper in KEYWORDS:
+                    kind = "keyword"
+                elif token.kind == "name":
+                    kind = None
+                where = Location(analysis.path, line_range(number, token.start, token.end))
+                if where in definitions:
+                    modifiers |= 1 << TOKEN_MODIFIERS.index("declaration")
+            if kind is None:
+                continue
+            delta = token.start - previous.character if number == previous.line \
+                else token.start
+            data += [number - previous.line, delta, token.end - token.start,
+                     TOKEN_TYPES.index(kind), modifiers]
+            previous = Pos(number, token.start)
+    return data
+
+
+def token_delta(old: list[int], new: list[int]) -> tuple[int, int, list[int]]:
+    """One edit that turns `old` into `new`: start, number deleted, data inserted (over
+    whole tokens of five numbers, as the protocol's delta reply expects)."""
+    prefix = 0
+    limit = min(len(old), len(new))
+    while prefix + 5 <= limit and old[prefix:prefix + 5] == new[prefix:prefix + 5]:
+        prefix += 5
+    suffix = 0
+    while suffix + 5 <= limit - prefix and \
+            old[len(old) - suffix - 5:len(old) - suffix] == \
+            new[len(new) - suffix - 5:len(new) - suffix]:
+        suffix += 5
+    return prefix, len(old) - prefix - suffix, new[prefix:len(new) - suffix]
+
+
+# ------------------------------------------------------------------------ signature help
+
+
+def signature_help(analysis: Analysis, pos: Pos) -> Signature | None:
+    """The catalogue's call form of the command whose arguments the cursor stands in."""
+    if not 0 <= pos.line < len(analysis.lines):
+        return None
+    cursor = cursor_at(analysis.lines[pos.line], pos.character)
+    if cursor.in_comment or cursor.string is not None:
+        return None
+    slot = cursor.argument()
+    command = analysis.catalogue.lookup(slot.command) if slot else None
+    if slot is None or command is None or not command.params:
+        return None
+    return _signature(analysis, command, min(slot.index, len(command.params) - 1))
+
+
+def _signature(analysis: Analysis, command: Command, active: int) -> Signature:
+    head = f"{command.short_name}(" if command.returns else f"{command.short_name} "
+    label = head
+    parameters = []
+    for index, param in enumerate(command.params):
+        if index:
+            label += ", "
+        start = len(label)
+        label += param.name
+        text = f"`{param.type}` {param_accepts(analysis, param)}"
+        parameters.append(((start, len(label)), text + (f": {param.doc}" if param.doc else "")))
+    if command.returns:
+        label += ")"
+    return Signature(label, command.summary or "", parameters, active)

@@ -1,0 +1,129 @@
+"""Symbols, folding, semantic tokens and signature help over an `Analysis`, without pygls
+(`mplang.tools.lsp.outline`). The server glue is tested over stdio in test_editing_server.py."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from mplang.tools.lsp import outline
+from mplang.tools.lsp.analysis import Analysis, analyse
+from mplang.tools.lsp.positions import Pos
+
+CONTROLLER = Path(__file__).resolve().parents[3] / "samples" / "controller" / "controller.mp"
+
+LOOPS = """# a loop
+# and another
+MP 1 loops
+    WHILE VAR1 < 10
+        REPEAT 3
+            VAR1 = VAR1 + 1
+        END REPEAT
+    END WHILE
+    FOR 2
+        IF VAR1 > 3
+            EXIT FOR
+        END IF
+    END FOR
+END MP
+MP 2 unclosed
+    IF VAR1 > 3
+        SET_V X, 1
+"""
+
+
+def check(tmp_path: Path, text: str) -> Analysis:
+    path = tmp_path / "main.mp"
+    path.write_text(text)
+    return analyse(path, text)
+
+
+def test_folding_of_loops_conditions_and_unclosed_blocks(tmp_path: Path) -> None:
+    folds = outline.folding_ranges(check(tmp_path, LOOPS))
+    assert [(f.first, f.last, f.kind) for f in folds] == [
+        (0, 1, "comment"), (2, 13, "region"), (3, 7, "region"), (4, 6, "region"),
+        (8, 12, "region"), (9, 11, "region"),
+        # an unclosed program and IF run to the end of the file
+        (14, 17, "region"), (15, 17, "region")]
+
+
+def test_configuration_blocks_fold_and_are_symbols() -> None:
+    analysis = analyse(CONTROLLER, CONTROLLER.read_text())
+    lines = analysis.lines
+    symbols = {s.name: s for s in outline.document_symbols(analysis)}
+    init = symbols["INIT"]
+    assert (init.kind, lines[init.range.end.line]) == ("block", "END INIT")
+    assert symbols["INTERRUPTS stroke"].range.start.line == lines.index("INTERRUPTS stroke")
+    assert lines[symbols["TRIGGERS"].range.end.line] == "END TRIGGERS"
+    assert {"COMP_PLUS", "ON_LP", "stroke", "at_2000", "at_6000"} <= set(symbols)
+    folded = {(f.first, f.last) for f in outline.folding_ranges(analysis)}
+    assert (lines.index("INIT"), lines.index("END INIT")) in folded
+    assert (lines.index("TRIGGERS"), lines.index("END TRIGGERS")) in folded
+
+
+def test_workspace_symbols_filter_by_any_case(tmp_path: Path) -> None:
+    analysis = check(tmp_path, LOOPS)
+    assert [s.name for s, _ in outline.workspace_symbols([analysis], "LOOP")] == ["loops"]
+    assert outline.workspace_symbols([analysis, analysis], "unclosed")[0][1] == analysis.path
+
+
+def test_semantic_tokens_classify_words_as_hover_does(tmp_path: Path) -> None:
+    analysis = check(tmp_path, "CONST N = 2  # two\nMP 1\n    SET_V X, N\nEND MP\n")
+    data = outline.semantic_tokens(analysis)
+    decoded = []
+    line = start = 0
+    for index in range(0, len(data), 5):
+        line += data[index]
+        start = data[index + 1] + (start if data[index] == 0 else 0)
+        decoded.append((line, start, data[index + 2], outline.TOKEN_TYPES[data[index + 3]],
+                        data[index + 4]))
+    readonly = 1 << outline.TOKEN_MODIFIERS.index("readonly")
+    declaration = 1 << outline.TOKEN_MODIFIERS.index("declaration")
+    library = 1 << outline.TOKEN_MODIFIERS.index("defaultLibrary")
+    assert decoded[:5] == [(0, 0, 5, "keyword", 0), (0, 6, 1, "variable",
+                                                     readonly | declaration),
+                           (0, 8, 1, "operator", 0), (0, 10, 1, "number", 0),
+                           (0, 13, 5, "comment", 0)]
+    assert (2, 4, 5, "function", library) in decoded
+    assert (2, 10, 1, "enumMember", library) in decoded
+    assert (2, 13, 1, "variable", readonly) in decoded
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.integers(0, 9), max_size=40), st.lists(st.integers(0, 9), max_size=40))
+def test_token_delta_turns_the_old_data_into_the_new(old: list[int], new: list[int]) -> None:
+    old, new = old[:len(old) // 5 * 5], new[:len(new) // 5 * 5]
+    start, deleted, inserted = outline.token_delta(old, new)
+    assert start % 5 == 0 and deleted % 5 == 0 and len(inserted) % 5 == 0
+    assert old[:start] + inserted + old[start + deleted:] == new
+
+
+def test_signature_help_inside_a_call_and_its_arguments(tmp_path: Path) -> None:
+    analysis = check(tmp_path, "MP 1\n    VAR1 = GET_LP(X)\n    SET_V X, 1\nEND MP\n")
+    query = outline.signature_help(analysis, Pos(1, 18))
+    assert query is not None and query.label == "GET_LP(axis)" and query.active == 0
+    (offsets, doc), = query.parameters
+    assert query.label[offsets[0]:offsets[1]] == "axis" and "one axis" in doc
+    second = outline.signature_help(analysis, Pos(2, 13))
+    assert second is not None and second.active == 1
+    assert outline.signature_help(analysis, Pos(0, 2)) is None  # a program header
+
+
+def test_a_line_of_thousands_of_words_is_read_in_one_pass(tmp_path: Path) -> None:
+    """Past WORDS_IN_PLACE words a word is read alone: still classified, and a hostile line
+    costs linear time instead of a re-read of the line per word."""
+    from mplang.tools.lsp import editing
+    from mplang.tools.lsp.tokens import WORDS_IN_PLACE, line_words
+
+    expression = "+".join(["A"] * 5000)
+    words = line_words(f"    VAR1 = {expression}")
+    assert len(words) == 5001
+    assert words[WORDS_IN_PLACE - 1][1].position > 0 and words[WORDS_IN_PLACE][1].position == 0
+    analysis = check(tmp_path, f"CONST A = 1\nMP 1\n    VAR1 = {expression}\nEND MP\n")
+    data = outline.semantic_tokens(analysis)
+    constants = [data[i + 3] for i in range(0, len(data), 5)
+                 if data[i + 4] & (1 << outline.TOKEN_MODIFIERS.index("readonly"))]
+    assert len(constants) == 5001  # the definition and every use
+    assert len(editing.references(analysis, Pos(0, 6))) == 5001
