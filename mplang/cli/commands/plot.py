@@ -80,7 +80,8 @@ def command(ctx: click.Context, files: tuple[str, ...], call: str | None, output
     assert trace is not None  # asked for with trace_period
     sources = ", ".join(str(p) for p in setup.paths)
     _draw(trace, run.plot_title(selection.describe, sources), run.called, run.finished,
-          run.time_s, run.error, (fmt, width, height), trace_period, output)
+          run.time_s, run.failure.render() if run.failure is not None else run.error,
+          (fmt, width, height), trace_period, output)
 
 
 def _draw(trace: Trace, heading: str, called: str, finished: bool, time_s: float,
@@ -103,5 +104,5 @@ def _draw(trace: Trace, heading: str, called: str, finished: bool, time_s: float
     click.echo(f"{called}: {state} after {round(time_s * 1000, 3)} ms simulated; "
                f"{len(trace)} samples plotted to {output}")
     if not finished:
-        click.echo(f"error: {error}", err=True)
+        click.echo(error, err=True)
         sys.exit(EXIT_RUN_FAILED)
