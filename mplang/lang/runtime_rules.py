@@ -48,6 +48,33 @@ _RULES = [
     Rule("R301", "not-modelled", W, "A command ran that the virtual controller does not simulate.",
          "It ran with no effect, so what follows may differ from a real machine.",
          "Nothing to do if that is fine; check the run on the machine otherwise."),
+    # ------------------------------------------------ R31: axes stopped by the machine
+    Rule("R311", "hardware-limit-stop", W, "An axis stopped on a hardware limit switch.",
+         "The axis ran into LMT+ or LMT-. The device stops that axis and latches the cause in "
+         "its error code; the program runs on. Homing routines that use the limit switch "
+         "as their home switch meet it on purpose.",
+         "Check the move's target and the direction of the search; clear the error with "
+         "CLEAR_ERROR before the next move if the program goes on.",
+         "error code bits 4/8 (LMT+/LMT-) of the axis (GET_ERROR_CODE, registers 20-23)"),
+    Rule("R312", "software-limit-stop", W, "An axis stopped on its software limit.",
+         "The move would have passed the software limit set with SET_SLMT.",
+         "Keep the move inside the limits, or set the limits the machine really has.",
+         "error code bits 1/2 (SLMT+/SLMT-) of the axis"),
+    Rule("R313", "alarm-stop", W, "An axis stopped because its servo drive raised ALARM.",
+         "The drive reports a fault; with SET_ALARM enabled the device stops that axis.",
+         "Find the drive's fault; the axis refuses new moves while the alarm is active.",
+         "error code bit 16 (ALARM) of the axis"),
+    Rule("R314", "emergency-stop", W, "The axes stopped on an emergency stop.",
+         "The EMG input was asserted, or a program or the host sent EMERGENCY_STOP. Every "
+         "axis stops and new motion is refused until the emergency is cleared.",
+         "Clear the cause, then CLEAR_EMERGENCY_STOP (software) or release EMG.",
+         "error code bit 32 (EMG) or 512 (software emergency) of every axis"),
+    Rule("R315", "home-search-failed", W, "A home search ended with the HOME error.",
+         "The search did not find what it looks for (the home switch, the Z pulse) where the "
+         "machine was, or it met a limit first.",
+         "Run it on a machine that has the sensor (a simulated machine needs it configured), "
+         "or check the search direction and the sensor wiring.",
+         "error code bit 128 (HOME) of the axis"),
     Rule("R309", "internal-fault", E, "The virtual controller failed on a line.",
          "A fault of the simulator itself, not of the program: it stopped the programs as "
          "the device stops on an execution error.",

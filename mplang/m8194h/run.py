@@ -10,7 +10,7 @@ from mplang.family.run_error import RunError, SourcePlace
 from mplang.family.trace import Trace
 from mplang.m8194h.image import BuildResult, ProgramImage
 from mplang.m8194h.sim.controller import RunResult, VirtualController
-from mplang.m8194h.sim.failure import Place
+from mplang.m8194h.sim.failure import Failure, Place
 from mplang.m8194h.sim.preload import ServiceError, preload
 from mplang.m8194h.sim.unmodelled import Notice
 from mplang.m8194h.trace import run_traced
@@ -31,8 +31,11 @@ class RunReport:
     @property
     def warnings(self) -> list[str]:
         """Every command the run met that the virtual controller does not simulate, at
-        its source line (`file:line: warning: ...`), once per program line."""
-        return [self._warning(notice) for notice in self.controller.notices]
+        its source line (`file:line:col: warning[R301]: ...`), once per program line; then
+        every axis stop (limit, alarm, emergency, failed home search, R311-R315) at the line
+        the program was at, once per cause and axis."""
+        stops = [self.located(stop).render() for stop in self.controller.stops.values()]
+        return [*(self._warning(notice) for notice in self.controller.notices), *stops]
 
     def _warning(self, notice: Notice) -> str:
         where = self.source_of(Place(notice.kind, notice.slot, notice.line)).prefix()
@@ -70,6 +73,10 @@ class RunReport:
             if self.result.error is None:
                 return None
             return RunError("R309", self.result.error, time_ms=round(self.time_s * 1000, 3))
+        return self.located(found)
+
+    def located(self, found: Failure) -> RunError:
+        """A finding of the controller at its source line, with its callers' lines."""
         where = self.source_of(found.place) if found.place is not None else SourcePlace(None)
         return RunError(
             found.code, found.message, where,

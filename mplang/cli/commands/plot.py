@@ -79,6 +79,8 @@ def command(ctx: click.Context, files: tuple[str, ...], call: str | None, output
     trace = run.trace
     assert trace is not None  # asked for with trace_period
     sources = ", ".join(str(p) for p in setup.paths)
+    for warning in run.warnings:  # unmodelled commands, axes stopped (R301-R315)
+        click.echo(warning, err=True)
     _draw(trace, run.plot_title(selection.describe, sources), run.called, run.finished,
           run.time_s, run.failure.render() if run.failure is not None else run.error,
           (fmt, width, height), trace_period, output)

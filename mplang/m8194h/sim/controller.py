@@ -30,7 +30,7 @@ from mplang.m8194h.sim import (
     memory,
     unmodelled,
 )
-from mplang.m8194h.sim.failure import EXECUTION_CODES, Failure, located
+from mplang.m8194h.sim.failure import EXECUTION_CODES, Failure, located, watch_axis_stops
 from mplang.m8194h.sim.initial_table import AxisColumn, InitialTable
 from mplang.m8194h.sim.machine_data import MachineData
 from mplang.m8194h.sim.motion import MotionModel
@@ -113,6 +113,8 @@ class VirtualController:
         self.frnet = [0] * 16  # groups 0-7 DO, 8-15 DI (16 bits each)
         self.tables: dict[tuple[str, int], MacroTable] = {}
         self.motion = MotionModel(self.profile.limit("motion_queue"))
+        self.stops: dict[tuple[str, int], Failure] = {}  # axes stopped on limits, alarms, EMG
+        watch_axis_stops(self)
         self.clock = 0.0
         self.state = "ready"  # "ready" | "mp" | "isr" (input register 100: 0/1/2)
         self.chip_state = 3  # input register 101 (appendix table 12); power on makes it 5
@@ -392,8 +394,7 @@ class VirtualController:
             error = (f"stopped after {steps} lines and {self.clock:.3f} s of simulated time "
                      "without finishing")
             return RunResult(False, self.clock, steps, error, located(
-                self.stack, frame.pc - 1, "R202", f"still running after {steps} lines and "
-                f"{self.clock:.3f} s of simulated time (--max-time)", self.clock))
+                self.stack, frame.pc - 1, "R202", f"{error} (--max-time)", self.clock))
         return RunResult(True, self.clock, steps)
 
     def _record_error(self, frame: Frame, line: StoredLine, code: int) -> None:
@@ -477,6 +478,7 @@ class VirtualController:
         self.isr_queue.clear()
         self.triggers.waiting.clear()
         self.motion = MotionModel(self.profile.limit("motion_queue"))
+        watch_axis_stops(self)
         self.handlers = self._handlers()
         self.programs.clear()
         self.unmodelled = [self.initial_table.config.factory] * 4
