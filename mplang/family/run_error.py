@@ -20,6 +20,7 @@ class SourcePlace:
     line: int | None = None
     column: int | None = None
     program: str = ""  # `MP100 home_z`
+    via: str = "call"  # how the frame above came from here: "call", or "interrupt" (an ISR)
 
     def prefix(self) -> str:
         """`file:line:col: `, as far as it is known ("" when nothing is)."""
@@ -28,7 +29,7 @@ class SourcePlace:
 
     def to_json(self) -> dict[str, object]:
         return {"file": self.file, "line": self.line, "column": self.column,
-                "program": self.program or None}
+                "program": self.program or None, "via": self.via}
 
 
 @dataclass(frozen=True)
@@ -58,7 +59,8 @@ class RunError:
         for caller in self.called_from:
             where = f"{caller.file}:{caller.line}" if caller.line is not None else caller.file
             program = f" ({caller.program})" if caller.program else ""
-            text += f"\n{caller.prefix()}note: called from {where}{program}"
+            how = "interrupted at" if caller.via == "interrupt" else "called from"
+            text += f"\n{caller.prefix()}note: {how} {where}{program}"
         return text
 
     def to_json(self) -> dict[str, object]:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import re
 from dataclasses import dataclass
 
@@ -82,7 +83,10 @@ class RunReport:
             found.code, found.message, where,
             f"{found.place.kind.upper()}{found.place.slot}" if found.place else None,
             found.place.slot_line if found.place else None, round(found.time_s * 1000, 3),
-            tuple(self.source_of(caller) for caller in found.callers))
+            tuple(dataclasses.replace(self.source_of(caller), via="interrupt" if callee is not
+                                      None and callee.kind == "isr" else "call")
+                  for caller, callee in zip(found.callers, (found.place, *found.callers),
+                                            strict=False)))
 
     def named_vars(self) -> tuple[dict[str, int], dict[str, str]]:
         """The variables by name: every declared one (VAR name, ALIAS), zero or not, then

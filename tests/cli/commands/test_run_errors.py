@@ -15,8 +15,9 @@ from click.testing import CliRunner
 from mplang.cli import EXIT_OK, EXIT_RUN_FAILED, main
 from mplang.lang.runtime_rules import RUNTIME_RULES
 from mplang.m8194h.compiler import compile_paths
-from mplang.m8194h.run import run_build
+from mplang.m8194h.run import RunReport, run_build
 from mplang.m8194h.sim.controller import VirtualController
+from mplang.m8194h.sim.preload import preload
 
 ROOT = Path(__file__).resolve().parents[3]
 JSON_ERROR_KEYS = {"code", "message", "file", "line", "column", "slot", "slot_line", "time_ms",
@@ -89,7 +90,7 @@ def test_an_error_inside_an_included_file_names_that_file_and_the_call(project: 
     error = json.loads(out)["error"]
     assert (error["file"], error["line"], error["slot"]) == (str(lib), 2, "MP20")
     assert error["called_from"] == [{"file": str(main_mp), "line": 5, "column": 5,
-                                     "program": "MP10 tour"}]
+                                     "program": "MP10 tour", "via": "call"}]
 
 
 def _chain_tables(vc: VirtualController, depth: int, last: list[list[int]]) -> None:
@@ -223,3 +224,21 @@ def test_mpc_plot_reports_the_failure_at_its_source_line(project: Path) -> None:
     assert code == EXIT_RUN_FAILED and (project / "div.svg").exists()
     assert out.startswith("MP7: FAILED")
     assert err.startswith(f"{source}:3:") and "error[R103]: division by zero" in err
+
+
+def test_an_error_in_an_isr_notes_the_line_it_interrupted(project: Path) -> None:
+    source = project / "isr.mp"
+    source.write_text("MP 1 main\n    VAR1 = 0\n    TIMER 100\nEND MP\n"
+                      "ISR 2 bad\n    VAR2 = 1 / VAR1\nEND ISR\n")
+    build = compile_paths([source])
+    vc = VirtualController(word_order=build.word_order)
+    preload(vc, build)
+    vc.call(1)
+    vc.advance(0.01)  # MP1 waits in its TIMER
+    vc.request_isr(2)
+    report = RunReport(vc, vc.run(), "MP1", build=build)
+    failure = report.failure
+    assert failure is not None and failure.code == "R103"
+    assert (failure.where.file, failure.where.line, failure.slot) == (str(source), 6, "ISR2")
+    assert failure.render().splitlines()[1] == \
+        f"{source}:3:5: note: interrupted at {source}:3 (MP1 main)"
