@@ -43,7 +43,8 @@ class Machine(MotionCommands, FlowCommands, DataCommands):
             self.sample()
         self.run_until(max_time, max_steps, offline=True)
         if self.running:
-            self.stop(f"still running after {max_time:g} s of simulated time")
+            self.stop(f"still running after {max_time:g} s of simulated time", "R202",
+                      max(self.pc - 1, 0))
             return
         self.settle(max_time)
 
@@ -54,7 +55,8 @@ class Machine(MotionCommands, FlowCommands, DataCommands):
         host may still change an input, so time just runs on."""
         while self.running and self.clock < until:
             if max_steps is not None and self.steps >= max_steps:
-                self.stop(f"more than {max_steps} lines executed: an endless loop?")
+                self.stop(f"more than {max_steps} lines executed: an endless loop?", "R202",
+                          max(self.pc - 1, 0))
                 return
             if self.wait is not None:
                 if self.wait.done():
@@ -63,7 +65,7 @@ class Machine(MotionCommands, FlowCommands, DataCommands):
                 wake = min(self.wait.wake(), self.motion.next_event(), self.pulse_wake())
                 if wake == INF and offline:
                     self.stop(f"'{self.wait.line}' waits for ever: nothing in the run can "
-                              "change what it waits for")
+                              "change what it waits for", "R201", self.wait_address)
                     return
                 self.advance_to(min(max(wake, self.clock), until))
                 continue
@@ -79,6 +81,7 @@ class Machine(MotionCommands, FlowCommands, DataCommands):
                 return
             if due > max_time:
                 self.error = f"motion still running after {max_time:g} s of simulated time"
+                self.error_code = "R202"
                 self.finished = False
                 return
             self.advance_to(due)
@@ -102,7 +105,7 @@ class Machine(MotionCommands, FlowCommands, DataCommands):
         try:
             self.execute(statement, in_program=True)
         except (RunError, MotionError) as exc:
-            self.stop(f"line {address} '{statement.text}': {exc}")
+            self.stop(f"line {address} '{statement.text}': {exc}", address=address)
             return
         if self.wait is not None:
             self.wait_address = address

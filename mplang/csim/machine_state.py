@@ -123,6 +123,8 @@ class MachineState:
         self.stack: list[int] = []
         self.wait: Wait | None = None
         self.error: str | None = None
+        self.error_code = "R401"  # what kind of run-time finding `error` is
+        self.error_address: int | None = None  # the line it stopped at, if one
         self.finished = False
         self.steps = 0
         self.wait_address = 0  # the line that set `wait` (an event returns to it)
@@ -139,10 +141,14 @@ class MachineState:
             event.last = False
             event.depth = None
 
-    def stop(self, error: str | None = None) -> None:
+    def stop(self, error: str | None = None, code: str = "R401",
+             address: int | None = None) -> None:
+        """End the program; `error` (a run-time finding `code`, mplang.lang.runtime_rules)
+        at line `address` if it failed."""
         self.running = False
         self.wait = None
         self.error = error
+        self.error_code, self.error_address = code, address
         self.finished = error is None
 
     def resolve(self, operand: Operand) -> int:

@@ -9,6 +9,8 @@ from mplang.csim.build import POSITION_UNIT, CsimProgram, FamilyBuild
 from mplang.csim.machine import Machine
 from mplang.csim.machine_state import RunError
 from mplang.family.face import NoSuchProgram, RunSetupError
+from mplang.family.run_error import RunError as RunFinding
+from mplang.family.run_error import SourcePlace
 from mplang.family.trace import SampledRun
 
 DEFAULT_SAMPLE_PERIOD = 0.001
@@ -32,6 +34,25 @@ class FamilyRun(SampledRun):
     error: str | None = None
     samples: list[tuple[float, dict[str, float]]] = field(default_factory=list)
     sample_period: float | None = None  # the grid of `samples` (None: not on a grid)
+    program: CsimProgram | None = None  # the program that ran (its lines' source origins)
+
+    @property
+    def failure(self) -> RunFinding | None:
+        """The error at the source line of the CSIM line it stopped at (a compiled .mp
+        program keeps each line's .mp origin), with its code."""
+        if self.error is None:
+            return None
+        machine, program = self.machine, self.program
+        address = machine.error_address
+        where = SourcePlace(program.source if program is not None else None,
+                            program=program.name if program is not None else "")
+        if program is not None and address is not None and \
+                0 <= address < len(program.origins):
+            span = program.origins[address]
+            where = SourcePlace(span.file, span.line, span.col, program.name)
+        return RunFinding(machine.error_code, self.error, where,
+                        program.name if program is not None else None, address,
+                        round(machine.clock * 1000, 3), line_unit="line")
 
     @property
     def time_s(self) -> float:
@@ -43,9 +64,9 @@ class FamilyRun(SampledRun):
         return self.machine.printed
 
     def to_json(self) -> dict[str, object]:
-        return {"called": self.called, "vars": self.machine.variables(),
+        return {"called": self.called, "vars": self.machine.variables(), "names": {},
                 "axes": self.machine.axes(), "time_ms": round(self.machine.clock * 1000, 3),
-                "error": self.error}
+                "error": self.failure.to_json() if self.failure is not None else None}
 
 
 def pick_entry(build: FamilyBuild, call: str | None) -> tuple[CsimProgram, int, str]:
@@ -111,4 +132,4 @@ def run_build(build: FamilyBuild, call: str | None, max_time: float, *,
     machine.run(max_time)
     samples = [(s.time, s.positions) for s in machine.samples]
     return FamilyRun(called, machine, machine.error is None and not machine.running,
-                     machine.error, samples, sample_period)
+                     machine.error, samples, sample_period, program)

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Protocol, TypeVar
 
+from mplang.family.run_error import RunError
 from mplang.family.trace import Trace
 from mplang.ir.unit import Options
 from mplang.lang.diagnostics import Diagnostic, Span
@@ -250,6 +251,11 @@ class FamilyRun(Protocol):
 
     @property
     def error(self) -> str | None: ...
+
+    @property
+    def failure(self) -> RunError | None:
+        """The error as a run-time finding at its source line (`mplang.family.run_error`)."""
+        ...
 
     @property
     def time_s(self) -> float: ...

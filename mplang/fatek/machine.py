@@ -49,6 +49,14 @@ class PlcError(Exception):
 class Stuck(Exception):
     """The run cannot go on: it waits for something that never comes, or time ran out."""
 
+    code = "R201"  # the run-time finding (mplang.lang.runtime_rules)
+
+
+class OutOfTime(Stuck):
+    """Simulated time ran out (--max-time) before MEND."""
+
+    code = "R202"
+
 
 @dataclass
 class Carry:
@@ -73,6 +81,7 @@ class Machine:
     time: float = 0.0
     carry: Carry | None = None
     steps_run: int = 0
+    at_step: int | None = None  # the step running (where a run-time error is reported)
     log: list[str] = field(default_factory=list)
     wr_trace: list[tuple[float, int]] = field(default_factory=list)
     contacts: Contacts = field(init=False)
@@ -163,7 +172,7 @@ class Machine:
         same_instant, last_time = 0, -1.0
         while True:
             if self.time > self.max_time:
-                raise Stuck(f"stopped after {self.max_time:g} s of simulated time without "
+                raise OutOfTime(f"stopped after {self.max_time:g} s of simulated time without "
                             "reaching MEND")
             same_instant = same_instant + 1 if self.time == last_time else 0
             last_time = self.time
@@ -189,6 +198,7 @@ class Machine:
         if not 1 <= number <= len(steps):
             raise PlcError(34, f"there is no step {number}")
         step = steps[number - 1]
+        self.at_step = number
         self.steps_run += 1
         if self.table.wr is not None:
             self.set_word(self.table.wr, number)
@@ -386,6 +396,7 @@ class Machine:
         condition = step.condition
         end = leg.t_end if leg is not None else self.time
         where = f"step {step.number}"
+        self.at_step = step.number  # the chain's closing step waits: errors are reported there
         if condition is not None and condition.op in ("EXT", "ACT") and leg is not None:
             if condition.op == "EXT":
                 assert condition.contact is not None
@@ -433,13 +444,13 @@ class Machine:
         if when == INF:
             raise Stuck(f"{where} runs for ever: a continuous run ends only by EXT or ACT (or "
                         f"EN=0 in the ladder); stopped after {self.max_time:g} s")
-        raise Stuck(f"stopped after {self.max_time:g} s of simulated time without reaching "
+        raise OutOfTime(f"stopped after {self.max_time:g} s of simulated time without reaching "
                     "MEND")
 
     def advance(self, when: float) -> None:
         if when > self.max_time:
             self.time = max(self.time, self.max_time)
-            raise Stuck(f"stopped after {self.max_time:g} s of simulated time without "
+            raise OutOfTime(f"stopped after {self.max_time:g} s of simulated time without "
                         "reaching MEND")
         self.time = max(self.time, when)
 

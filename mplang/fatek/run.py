@@ -12,6 +12,7 @@ import re
 from dataclasses import dataclass, field
 
 from mplang.family.face import NoSuchProgram, RunSetupError
+from mplang.family.run_error import RunError, SourcePlace
 from mplang.family.trace import SampledRun
 from mplang.fatek.build import POSITION_UNIT, FamilyBuild
 from mplang.fatek.machine import Machine, PlcError, Stuck, axis_params
@@ -47,14 +48,16 @@ class FamilyRun(SampledRun):
     """(time in s, WR+1) at the start and at every change of WR+1's status bits (FB 757-763):
     B9 waiting for the transition, B10 continuous run, B12 pulsing, B13 error, B14 step done."""
     sample_period: float | None = SAMPLE_PERIOD  # None: leg starts, ends and boundaries only
+    failure: RunError | None = None  # the error at its step's source line, with its code
 
     def to_json(self) -> dict[str, object]:
         """The `mpc run --json` shape of the M8194H (mplang/m8194h/run.py)."""
         registers = {str(r): v for r, v in sorted(self.registers.items()) if v}
         axes = {name: {"lp": pos, "ep": pos}
                 for name, pos in zip(self.axis_names, self.positions, strict=True)}
-        return {"called": self.called, "vars": registers, "axes": axes,
-                "time_ms": round(self.time_s * 1000, 3), "error": self.error}
+        return {"called": self.called, "vars": registers, "names": {}, "axes": axes,
+                "time_ms": round(self.time_s * 1000, 3),
+                "error": self.failure.to_json() if self.failure is not None else None}
 
     @property
     def samples(self) -> list[tuple[float, dict[str, int]]]:
@@ -134,6 +137,7 @@ def run_build(build: FamilyBuild, call: str | None = None, max_time: float = 360
     params = axis_params(profile, [t for t in build.programs if isinstance(t, ParamTable)])
     machine = Machine(profile, table, params, build.sim, max_time)
     error: str | None = None
+    code = "R401"
     finished = False
     try:
         machine.run(entry)
@@ -144,7 +148,7 @@ def run_build(build: FamilyBuild, call: str | None = None, max_time: float = 360
         error = f"PLC error {exc.code} ({profile.error_text(exc.code)}): {exc.detail}"
         machine.note(error)
     except Stuck as exc:
-        error = str(exc)
+        error, code = str(exc), exc.code
         machine.note(error)
     machine.record_positions()
     called = table.name if entry == 1 else f"{table.name}:{entry}"
@@ -153,4 +157,18 @@ def run_build(build: FamilyBuild, call: str | None = None, max_time: float = 360
         positions=tuple(round_half_up(p) for p in machine.rest),
         axis_names=profile.axis_names, registers=dict(machine.registers),
         relays=frozenset(machine.relays), legs=machine.legs, steps=machine.steps_run,
-        log=machine.log, sample_period=sample_period, wr_trace=machine.wr_trace)
+        log=machine.log, sample_period=sample_period, wr_trace=machine.wr_trace,
+        failure=None if error is None else _located(table, machine, code, error))
+
+
+def _located(table: PositioningTable, machine: Machine, code: str, error: str) -> RunError:
+    """The run's error at the source line of the step that ran (a table compiled from an
+    .mp file keeps the .mp line of each step), or at the table when no step ran."""
+    step = machine.at_step
+    span = table.steps[step - 1].span if step is not None and \
+        1 <= step <= len(table.steps) else table.span
+    program = table.name + (f" ({table.origin})" if table.origin else "")
+    where = SourcePlace(span.file, span.line, span.col, program) if span.line > 0 \
+        else SourcePlace(table.source or None, program=program)
+    return RunError(code, error, where, table.name, step, round(machine.time * 1000, 3),
+                    line_unit="step")

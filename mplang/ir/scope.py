@@ -68,6 +68,7 @@ class Scope:
     aliases: dict[str, int] = field(default_factory=dict)
     alias_spans: dict[str, Span] = field(default_factory=dict)
     variables: list[Variable] = field(default_factory=list)
+    alias_names: list[Variable] = field(default_factory=list)  # ALIASes, as written
     declared_indices: set[int] = field(default_factory=set)
     _evaluating: set[str] = field(default_factory=set)
     _nesting: int = 0  # expression levels of the CONSTs being evaluated, one inside another
@@ -142,6 +143,7 @@ class Scope:
                 if index is not None:
                     self.aliases[key] = index
                     self.alias_spans[key] = decl.name_span
+                    self.alias_names.append(Variable(decl.name, index, True, decl.name_span))
             elif decl.pin is None:
                 unplaced.append(decl)
             else:

@@ -99,7 +99,8 @@ def _finish(unit: object, catalogue: Catalogue, sink: DiagnosticSink,
 
     _check_filled(placements, wiring.all_wires, triggers, slot_of, sink)
     result = BuildResult(sink.sorted(), word_order=word_order, target=options.target,
-                         variables=sorted(scope.variables, key=lambda v: v.index))
+                         variables=sorted(scope.variables, key=lambda v: v.index),
+                         aliases=list(scope.alias_names))
     if not result.ok:
         return result
     encoder = Encoder(catalogue, word_order)

@@ -103,6 +103,7 @@ class BuildResult:
     target: str = "et"
     sources: dict[str, list[str]] = field(default_factory=dict)  # display name -> lines
     variables: list[Variable] = field(default_factory=list)  # `VAR name` declarations
+    aliases: list[Variable] = field(default_factory=list)  # `ALIAS name = VARn`, for run results
     init: InitImage | None = None  # the INIT block
     triggers: TriggerImage | None = None  # the TRIGGERS table
     first_source: str | None = None  # display name of the first file given (`mpc run`'s default)

@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
+import dataclasses
 import re
 from dataclasses import dataclass
 
 from mplang.family.face import NoSuchProgram, RunSetupError
+from mplang.family.run_error import RunError, SourcePlace
 from mplang.family.trace import Trace
 from mplang.m8194h.image import BuildResult, ProgramImage
 from mplang.m8194h.sim.controller import RunResult, VirtualController
+from mplang.m8194h.sim.failure import Failure, Place
 from mplang.m8194h.sim.preload import ServiceError, preload
 from mplang.m8194h.sim.unmodelled import Notice
 from mplang.m8194h.trace import run_traced
@@ -29,18 +32,77 @@ class RunReport:
     @property
     def warnings(self) -> list[str]:
         """Every command the run met that the virtual controller does not simulate, at
-        its source line (`file:line: warning: ...`), once per program line."""
-        return [self._warning(notice) for notice in self.controller.notices]
+        its source line (`file:line:col: warning[R301]: ...`), once per program line; then
+        every axis stop (limit, alarm, emergency, failed home search, R311-R315) at the line
+        the program was at, once per cause and axis."""
+        stops = [self.located(stop).render() for stop in self.controller.stops.values()]
+        return [*(self._warning(notice) for notice in self.controller.notices), *stops]
 
     def _warning(self, notice: Notice) -> str:
-        where = ""
+        where = self.source_of(Place(notice.kind, notice.slot, notice.line)).prefix()
+        return (f"{where}warning[R301]: {notice.command} is not modelled by the virtual "
+                f"controller: it ran with no effect ({notice.where()})")
+
+    def _image(self, kind: str, slot: int) -> ProgramImage | None:
         for image in self.build.programs if self.build is not None else ():
-            if (image.program.kind, image.placement.slot) == (notice.kind, notice.slot):
-                for line in image.lines:
-                    if line.first_slot_line == notice.line:
-                        where = f"{line.line.span.file}:{line.line.span.line}: "
-        return (f"{where}warning: {notice.command} is not modelled by the virtual controller:"
-                f" it ran with no effect ({notice.where()})")
+            if (image.program.kind, image.placement.slot) == (kind, slot):
+                return image
+        return None
+
+    def source_of(self, place: Place) -> SourcePlace:
+        """The source line a slot line was compiled from (`std:` and INCLUDEd files too):
+        the image keeps each frame's span, and a line spans `line_cost` slot lines."""
+        image = self._image(place.kind, place.slot)
+        program = f"{place.kind.upper()}{place.slot}"
+        if image is None:
+            return SourcePlace(None, program=program)
+        if image.program.name:
+            program += f" {image.program.name}"
+        for frames in image.lines:
+            first = frames.first_slot_line
+            if first <= place.slot_line < first + max(1, frames.line.command.line_cost):
+                span = frames.line.span
+                return SourcePlace(span.file, span.line, span.col, program)
+        span = image.close_span  # the closing line: the return to the caller
+        return SourcePlace(span.file, span.line, span.col, program)
+
+    @property
+    def failure(self) -> RunError | None:
+        """Why the run failed, at its source line, with the call chain; None if it finished."""
+        found = self.result.failure
+        if found is None:
+            if self.result.error is None:
+                return None
+            return RunError("R309", self.result.error, time_ms=round(self.time_s * 1000, 3))
+        return self.located(found)
+
+    def located(self, found: Failure) -> RunError:
+        """A finding of the controller at its source line, with its callers' lines."""
+        where = self.source_of(found.place) if found.place is not None else SourcePlace(None)
+        return RunError(
+            found.code, found.message, where,
+            f"{found.place.kind.upper()}{found.place.slot}" if found.place else None,
+            found.place.slot_line if found.place else None, round(found.time_s * 1000, 3),
+            tuple(dataclasses.replace(self.source_of(caller), via="interrupt" if callee is not
+                                      None and callee.kind == "isr" else "call")
+                  for caller, callee in zip(found.callers, (found.place, *found.callers),
+                                            strict=False)))
+
+    def named_vars(self) -> tuple[dict[str, int], dict[str, str]]:
+        """The variables by name: every declared one (VAR name, ALIAS), zero or not, then
+        every other non-zero VARn; and each declared name's device number (`VAR400`)."""
+        values = self.controller.vars
+        declared = sorted([*self.build.variables, *self.build.aliases] if self.build else [],
+                          key=lambda v: v.index)
+        named: dict[str, int] = {}
+        numbers: dict[str, str] = {}
+        for variable in declared:
+            if variable.name not in named and 0 <= variable.index < len(values):
+                named[variable.name] = values[variable.index]
+                numbers[variable.name] = f"VAR{variable.index}"
+        shown = {variable.index for variable in declared}
+        named.update({f"VAR{i}": v for i, v in enumerate(values) if v and i not in shown})
+        return named, numbers
 
     @property
     def finished(self) -> bool:
@@ -62,12 +124,15 @@ class RunReport:
         return self.title or self.called
 
     def to_json(self) -> dict[str, object]:
-        """The `mpc run --json` summary: called (the program, "MP21"), vars, axes, time_ms,
-        error; the other families' runs give the same keys."""
-        summary: dict[str, object] = {"called": self.called, **self.controller.snapshot()}
-        summary["time_ms"] = round(self.result.time_s * 1000, 3)
-        summary["error"] = self.result.error
-        return summary
+        """The `mpc run --json` summary: called (the program, "MP21"), vars (by declared
+        name), names (each declared name's VARn), axes, time_ms, error (an object, see
+        docs/cli.md); the other families' runs give the same keys."""
+        snapshot = self.controller.snapshot()
+        named, numbers = self.named_vars()
+        failure = self.failure
+        return {"called": self.called, "vars": named, "names": numbers,
+                "axes": snapshot["axes"], "time_ms": round(self.result.time_s * 1000, 3),
+                "error": failure.to_json() if failure is not None else None}
 
 
 def pick_program(build: BuildResult, call: str | None, first_file: str | None) -> int:

@@ -1,7 +1,8 @@
-"""Generate docs/checks/*.md (one page per rule) and docs/commands.md (the catalogue).
+"""Generate docs/checks/*.md (one page per rule), docs/runtime/*.md (one page per run-time
+finding) and docs/commands.md (the catalogue).
 
-Run `python -m mplang.tools.docgen` after changing rules.py or the catalogue; a test fails while
-the committed docs differ from what this writes.
+Run `python -m mplang.tools.docgen` after changing rules.py, runtime_rules.py or the catalogue;
+a test fails while the committed docs differ from what this writes.
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from mplang.fatek import profile as fatek_profile
 from mplang.ir import catalogue
 from mplang.ir.catalogue import Command
 from mplang.lang.rules import RULES, Rule
+from mplang.lang.runtime_rules import RUNTIME_RULES
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -36,6 +38,32 @@ def checks_index() -> str:
              "the build; warnings (`W`) do not, unless `--werror` is given.", "",
              "| code | name | severity | summary |", "|---|---|---|---|"]
     for rule in RULES.values():
+        lines.append(f"| [{rule.code}]({rule.code}.md) | `{rule.name}` | "
+                     f"{rule.severity.value} | {rule.summary} |")
+    return "\n".join(lines) + "\n"
+
+
+def runtime_page(rule: Rule) -> str:
+    """One run-time finding: what it means, what the device shows, how to fix it."""
+    lines = [f"# {rule.code} `{rule.name}` ({rule.severity.value})", "", rule.summary, "",
+             "`mpc run` and `mpc plot` report it as `FILE:LINE:COL: "
+             f"{rule.severity.value}[{rule.code}]: message` at the source line that raised it "
+             "(also inside INCLUDEd and `std:` files), with one `note: called from ...` per "
+             "calling program; `mpc run --json` gives it as the `\"error\"` object "
+             "(docs/cli.md).", "", "## Why", "", rule.why, ""]
+    if rule.device:
+        lines += ["## What the device shows", "", f"On the controller: {rule.device}.", ""]
+    lines += ["## How to fix it", "", rule.fix, ""]
+    return "\n".join(lines)
+
+
+def runtime_index() -> str:
+    lines = ["# Run-time findings", "",
+             "Every way a run on a virtual controller (`mpc run`, `mpc plot`) can fail, and "
+             "what it could not simulate, has a stable code, as the check codes of `mpc build` "
+             "have (docs/checks/). Errors end the run (exit code 5); warnings do not.", "",
+             "| code | name | severity | summary |", "|---|---|---|---|"]
+    for rule in RUNTIME_RULES.values():
         lines.append(f"| [{rule.code}]({rule.code}.md) | `{rule.name}` | "
                      f"{rule.severity.value} | {rule.summary} |")
     return "\n".join(lines) + "\n"
@@ -123,6 +151,9 @@ def generated() -> dict[Path, str]:
     pages: dict[Path, str] = {ROOT / "docs" / "checks" / "README.md": checks_index(),
                               ROOT / "docs" / "commands.md": commands_page(),
                               ROOT / "docs" / "device-choices.md": choices_page()}
+    pages[ROOT / "docs" / "runtime" / "README.md"] = runtime_index()
+    for code, rule in RUNTIME_RULES.items():
+        pages[ROOT / "docs" / "runtime" / f"{code}.md"] = runtime_page(rule)
     examples = ROOT / "tests" / "data" / "checks"
     for code, rule in RULES.items():
         sample = next((examples / f"{code}{suffix}" for suffix in (".mp", ".fbs", ".csim")

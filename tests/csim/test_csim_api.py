@@ -57,7 +57,7 @@ def test_run_json_has_the_keys_of_mpc_run() -> None:
     build = csim.compile_mp([SAMPLES / "cross_target.mp"], Options(), "csim")
     outcome = csim.run_build(build, None, 1000.0)
     report = outcome.to_json()
-    assert set(report) == {"called", "vars", "axes", "time_ms", "error"}
+    assert set(report) == {"called", "vars", "names", "axes", "time_ms", "error"}
     assert set(report["axes"]) == {"X", "Y", "Z", "U"}  # type: ignore[arg-type]
     assert outcome.finished and outcome.error is None
     assert outcome.samples[0][0] == 0.0

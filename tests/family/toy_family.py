@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from mplang.family.face import NoSuchProgram, RunSetupError
+from mplang.family.run_error import RunError
 from mplang.family.trace import SampledRun
 from mplang.ir.unit import Options
 from mplang.lang.diagnostics import Diagnostic, DiagnosticSink, Span
@@ -85,10 +86,16 @@ class ToyRun(SampledRun):
 
     POSITION_UNIT = POSITION_UNIT
 
+    @property
+    def failure(self) -> RunError | None:
+        """The family face's run-time finding: the toy knows no place for its errors."""
+        return None if self.error is None else RunError("R401", self.error)
+
     def to_json(self) -> Mapping[str, object]:
-        return {"called": self.called, "vars": {}, "axes": {"X": {"lp": self.samples[-1][1]["X"],
-                "ep": self.samples[-1][1]["X"]}}, "time_ms": self.time_s * 1000,
-                "error": self.error}
+        end = self.samples[-1][1]["X"]
+        return {"called": self.called, "vars": {}, "names": {},
+                "axes": {"X": {"lp": end, "ep": end}}, "time_ms": self.time_s * 1000,
+                "error": self.failure.to_json() if self.failure is not None else None}
 
 
 def run_build(build: ToyBuild, call: str | None, max_time: float, *,

@@ -277,7 +277,7 @@ def test_a_build_with_errors_does_not_run() -> None:
 
 def test_run_json_has_the_m8194h_keys() -> None:
     summary = run_sample("jog_backward.fbs").to_json()
-    assert set(summary) == {"called", "vars", "axes", "time_ms", "error"}
+    assert set(summary) == {"called", "vars", "names", "axes", "time_ms", "error"}
     assert summary["axes"] == {"X": {"lp": -1_000_000, "ep": -1_000_000},
                                "Y": {"lp": 0, "ep": 0}, "Z": {"lp": 0, "ep": 0},
                                "U": {"lp": 0, "ep": 0}}

@@ -148,7 +148,7 @@ def test_every_sample_downloads_verifies_and_runs_over_tcp(samples_build: BuildR
     assert len(progress) == 19 and "MP156 nameplate_job: 413 frames verified" in progress[16]
     assert_all_stored(face, image)
     # the flashed device runs the job exactly as a directly loaded controller does
-    expected = run_build(samples_build, "home_then_square").to_json()
+    expected = run_build(samples_build, "home_then_square").controller.snapshot()
     vc = face.controller
     slot = next(p.slot for p in image.programs if p.name == "home_then_square")
     vc.call(slot)
@@ -176,7 +176,7 @@ def test_every_sample_downloads_and_runs_over_rtu(samples_build: BuildResult) ->
     assert report.ok, report.error
     assert report.device.startswith("Modbus RTU") and "unit 5" in report.device
     assert_all_stored(face, image)
-    expected = run_build(samples_build, "tour").to_json()
+    expected = run_build(samples_build, "tour").controller.snapshot()
     vc = face.controller
     vc.call(next(p.slot for p in image.programs if p.name == "tour"))
     assert vc.run().finished

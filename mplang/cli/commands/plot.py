@@ -100,8 +100,11 @@ def command(ctx: click.Context, files: tuple[str, ...], call: str | None, output
     trace = run.trace
     assert trace is not None  # asked for with trace_period
     sources = ", ".join(str(p) for p in setup.paths)
+    for warning in run.warnings:  # unmodelled commands, axes stopped (R301-R315)
+        click.echo(warning, err=True)
     _draw(trace, run.plot_title(selection.describe, sources), run.called, run.finished,
-          run.time_s, run.error, (fmt, width, height), trace_period, output)
+          run.time_s, run.failure.render() if run.failure is not None else run.error,
+          (fmt, width, height), trace_period, output)
 
 
 def _draw(trace: Trace, heading: str, called: str, finished: bool, time_s: float,
@@ -124,5 +127,8 @@ def _draw(trace: Trace, heading: str, called: str, finished: bool, time_s: float
     click.echo(f"{called}: {state} after {round(time_s * 1000, 3)} ms simulated; "
                f"{len(trace)} samples plotted to {output}")
     if not finished:
-        style.error(error or "the program did not finish")
+        if error:  # `file:line:col: error[Rnnn]: ...` (docs/runtime/)
+            click.echo(error, err=True)
+        else:
+            style.error("the program did not finish")
         sys.exit(EXIT_RUN_FAILED)

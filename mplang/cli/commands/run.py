@@ -11,7 +11,6 @@ from typing import TYPE_CHECKING, Any
 
 import click
 
-from mplang.cli import style
 from mplang.cli.common import (
     EXIT_RUN_FAILED,
     OutputError,
@@ -83,7 +82,8 @@ def command(ctx: click.Context, files: tuple[str, ...], call: str | None, as_jso
     summary = run.to_json()
     headline = (f"{run.called}: {'finished' if run.finished else 'FAILED'} after "
                 f"{summary['time_ms']} ms simulated{run.headline_detail(selection.describe)}")
-    _summarise(summary, as_json, headline, trace, trace_file, run.error)
+    _summarise(summary, as_json, headline, trace, trace_file,
+               run.failure.render() if run.failure is not None else run.error)
     for warning in run.warnings:  # commands the virtual controller does not simulate
         click.echo(warning, err=True)
     if not run.finished:
@@ -101,18 +101,20 @@ def _write_trace(trace: Trace, trace_file: str) -> None:
 def _summarise(summary: Mapping[str, Any], as_json: bool, headline: str, trace: Trace | None,
                trace_file: str | None, error: str | None) -> None:
     """`mpc run`'s output for every family: the JSON summary, or the headline, variables,
-    axes and trace file in words (the error on standard error)."""
+    axes and trace file in words (the run-time finding on standard error)."""
     import json
 
     if as_json:
         click.echo(json.dumps(summary, indent=1))
         return
     click.echo(headline)
+    numbers = summary.get("names") or {}
     for name, value in summary["vars"].items():
-        click.echo(f"  {name} = {value}")
+        number = f" ({numbers[name]})" if name in numbers else ""
+        click.echo(f"  {name}{number} = {value}")
     for name, pos in summary["axes"].items():
         click.echo(f"  {name}: lp {pos['lp']}, ep {pos['ep']}")
     if trace is not None:
         click.echo(f"  trace: {len(trace)} samples written to {trace_file}")
-    if error:
-        style.error(error)
+    if error:  # `file:line:col: error[Rnnn]: ...` (docs/runtime/)
+        click.echo(error, err=True)

@@ -30,6 +30,7 @@ from mplang.m8194h.sim import (
     memory,
     unmodelled,
 )
+from mplang.m8194h.sim.failure import EXECUTION_CODES, Failure, located, watch_axis_stops
 from mplang.m8194h.sim.initial_table import AxisColumn, InitialTable
 from mplang.m8194h.sim.machine_data import MachineData
 from mplang.m8194h.sim.motion import MotionModel
@@ -85,6 +86,7 @@ class RunResult:
     time_s: float
     steps: int
     error: str | None = None
+    failure: Failure | None = None  # the error's code, program, slot line and call chain
 
 
 class VirtualController:
@@ -112,6 +114,8 @@ class VirtualController:
         self.frnet = [0] * 16  # groups 0-7 DO, 8-15 DI (16 bits each)
         self.tables: dict[tuple[str, int], MacroTable] = {}
         self.motion = MotionModel(self.profile.limit("motion_queue"))
+        self.stops: dict[tuple[str, int], Failure] = {}  # axes stopped on limits, alarms, EMG
+        watch_axis_stops(self)
         self.clock = 0.0
         self.state = "ready"  # "ready" | "mp" | "isr" (input register 100: 0/1/2)
         self.chip_state = 3  # input register 101 (appendix table 12); power on makes it 5
@@ -124,6 +128,7 @@ class VirtualController:
         self.isr_queue: deque[tuple[int, bool]] = deque()  # (ISRn, from a call) waiting
         self.return_value = 0
         self.error: str | None = None  # why the last program stopped, if it failed
+        self.failure: Failure | None = None  # the same, with its code and place
         self.log: deque[str] = deque(maxlen=200)  # what the device did, for `mpc sim -v`
         self.notices: dict[unmodelled.Notice, None] = {}  # unmodelled commands that ran
         self.handlers = self._handlers()
@@ -214,7 +219,7 @@ class VirtualController:
             raise ValueError(f"cannot call {kind.upper()}{slot}: "
                              f"{self.stack[0].table.kind.upper()}{self.stack[0].table.slot} "
                              "is running")
-        self.error = None
+        self.error = self.failure = None
         self.stack.append(Frame(table))  # in place: `advance` holds this list
         self.chip_state = 8 if kind == "mp" else 10
         self.log.append(f"{self.clock:.4f} s: {kind.upper()}{slot} called")
@@ -257,7 +262,7 @@ class VirtualController:
             self.log.append(f"{self.clock:.4f} s: ISR{slot} is empty: request ignored")
             return
         if not self.stack:
-            self.error = None
+            self.error = self.failure = None
         self.stack.append(Frame(table))
         self.chip_state = 10
         self.log.append(f"{self.clock:.4f} s: ISR{slot} started")
@@ -354,6 +359,9 @@ class VirtualController:
                     self._record_error(frame, line, code)
                     self.error = (str(err) if isinstance(err, ExecutionError) else
                                   f"{line.command.short_name} at line {line.slot_line}: {err}")
+                    self.failure = located(stack, pc, EXECUTION_CODES.get(code, "R104") if
+                                           isinstance(err, (ExecutionError, ValueError))
+                                           else "R309", self.error, self.clock)
                     if not isinstance(err, (ExecutionError, ValueError)):
                         LOG.warning("internal fault running %s: %r", self.error, err,
                                     exc_info=err)
@@ -387,18 +395,21 @@ class VirtualController:
         with an execution error, waiting for ever, or out of time (motion still running
         after a finished program is left to the caller)."""
         if self.error is not None:
-            return RunResult(False, self.clock, steps, self.error)
+            return RunResult(False, self.clock, steps, self.error, self.failure)
         if self.stack:
             frame = self.stack[-1]
             if frame.wait is not None and frame.wait() == math.inf:
                 line = frame.table.lines[frame.pc - 1]
                 self.clock = limit
-                return RunResult(False, self.clock, steps,
-                                 f"{line.command.short_name} at line {line.slot_line} of "
-                                 f"{frame.table.kind.upper()}{frame.table.slot} waits for ever")
-            return RunResult(False, self.clock, steps,
-                             f"stopped after {steps} lines and {self.clock:.3f} s of "
-                             "simulated time without finishing")
+                error = (f"{line.command.short_name} at line {line.slot_line} of "
+                         f"{frame.table.kind.upper()}{frame.table.slot} waits for ever")
+                return RunResult(False, self.clock, steps, error, located(
+                    self.stack, frame.pc - 1, "R201",
+                    f"{line.command.short_name} waits for ever", self.clock))
+            error = (f"stopped after {steps} lines and {self.clock:.3f} s of simulated time "
+                     "without finishing")
+            return RunResult(False, self.clock, steps, error, located(
+                self.stack, frame.pc - 1, "R202", f"{error} (--max-time)", self.clock))
         return RunResult(True, self.clock, steps)
 
     def _record_error(self, frame: Frame, line: StoredLine, code: int) -> None:
@@ -456,6 +467,7 @@ class VirtualController:
             if line is not None:
                 self._record_error(frame, line, NOT_EXECUTABLE)
             self.error = f"internal fault: {err!r}"
+            self.failure = located(self.stack, frame.pc - 1, "R309", self.error, self.clock)
         self.fifo.clear()
         self.terminate_programs(f"internal fault: {err!r}: programs stopped, FIFO cleared")
 
@@ -481,6 +493,7 @@ class VirtualController:
         self.isr_queue.clear()
         self.triggers.waiting.clear()
         self.motion = MotionModel(self.profile.limit("motion_queue"))
+        watch_axis_stops(self)
         self.handlers = self._handlers()
         self.programs.clear()
         self.unmodelled = [self.initial_table.config.factory] * 4

@@ -19,6 +19,7 @@ Conventions and simplifications (manual = RS manual, "l.N" its line N)
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -124,7 +125,7 @@ class _HomeRun:
 
 @dataclass
 class _AxisStatus:
-    errors: int = 0
+    latched: int = 0  # the error code's bits (read and written as `errors`)
     latch: int = 0
     servo_on: bool = False
     alarm_input: bool = False
@@ -132,6 +133,20 @@ class _AxisStatus:
     mach_off: int = 0  # machine position - LP
     home: _HomeRun | None = None
     home_end: float | None = None
+    raised: Callable[[int], None] | None = None  # told of newly latched bits (run reports)
+
+    @property
+    def errors(self) -> int:
+        return self.latched
+
+    @errors.setter
+    def errors(self, value: int) -> None:
+        """Every stop cause latches here, so a run can say where the program was when an
+        axis stopped on a limit, an alarm or an emergency."""
+        new = value & ~self.latched
+        self.latched = value
+        if new and self.raised is not None:
+            self.raised(new)
 
 
 @dataclass(order=True)

@@ -31,8 +31,9 @@ def test_run_loads_the_initial_table_before_the_call(tmp_path: Path) -> None:
     source.write_text(LIMITED)
     limited = CliRunner().invoke(main, ["run", str(source), "--json"])
     assert limited.exit_code == EXIT_OK, limited.output
-    x = json.loads(limited.output)["axes"]["X"]["lp"]
-    assert 1000 <= x < 1100  # the software limit of the table stops the move
+    x = json.loads(limited.stdout)["axes"]["X"]["lp"]
+    assert 1000 <= x < 1100  # the software limit of the table stops the move ...
+    assert "warning[R312]: axis X stopped on the software limit" in limited.stderr  # ... saying so
     source.write_text(LIMITED.replace("    SET_SLMT X, 1000, -1000, 0\n", ""))
     free = CliRunner().invoke(main, ["run", str(source), "--json"])
     assert json.loads(free.output)["axes"]["X"]["lp"] == 5000

@@ -65,7 +65,8 @@ def test_a_run_that_does_not_finish_is_plotted_and_exits_5(tmp_path: Path) -> No
                          "--width", "300", "--height", "300")
     assert code == EXIT_RUN_FAILED and image.exists()
     assert out.startswith("drvc_three_speeds: FAILED after 5348.322 ms")
-    assert err.startswith("mpc: error: step 3 waits for X0")
+    assert err.startswith("samples/fatek/drvc_three_speeds.fbs:13:1: error[R201]: step 3 waits "
+                          "for X0")
 
 
 def test_output_problems_and_bad_calls(tmp_path: Path) -> None:

@@ -42,7 +42,7 @@ def test_every_csim_listing_runs_and_finishes(listing: Path) -> None:
     code, out, err = run("run", listing, "--json", "--max-time", MAX_TIME)
     assert (code, err) == (EXIT_OK, "")
     assert json.loads(out) == json.loads(json.dumps(expected.to_json()))
-    assert set(json.loads(out)) == {"called", "vars", "axes", "time_ms", "error"}
+    assert set(json.loads(out)) == {"called", "vars", "names", "axes", "time_ms", "error"}
 
 
 @pytest.mark.parametrize(("name", "x"), [("format_example.fbs", 5000),
@@ -81,7 +81,7 @@ def test_the_m8194h_summary_names_the_program_called() -> None:
     code, out, _ = run("run", INDEXER, "--json")
     summary = json.loads(out)
     assert code == EXIT_OK and summary["called"] == "MP95"
-    assert list(summary) == ["called", "vars", "axes", "time_ms", "error"]
+    assert list(summary) == ["called", "vars", "names", "axes", "time_ms", "error"]
 
 
 def test_text_summary_and_a_run_that_does_not_finish() -> None:
@@ -90,7 +90,8 @@ def test_text_summary_and_a_run_that_does_not_finish() -> None:
     assert out.startswith("drvc_three_speeds: FAILED after 5348.322 ms simulated on the "
                           "virtual FATEK FBs-PLC\n")
     assert "  X: lp 85000, ep 85000\n" in out
-    assert err == "mpc: error: step 3 waits for X0, which never turns ON (no SIM line drives it)\n"
+    assert err == ("samples/fatek/drvc_three_speeds.fbs:13:1: error[R201]: step 3 waits for X0, "
+                   "which never turns ON (no SIM line drives it) in drvc_three_speeds, step 3\n")
 
 
 def test_max_time_stops_a_jog() -> None:
@@ -98,7 +99,8 @@ def test_max_time_stops_a_jog() -> None:
                        "--max-time", "2")
     summary = json.loads(out)
     assert code == EXIT_RUN_FAILED and summary["time_ms"] == 2000.0
-    assert "stopped after 2 s of simulated time" in summary["error"]
+    assert "stopped after 2 s of simulated time" in summary["error"]["message"]
+    assert summary["error"]["code"] == "R202"
 
 
 @pytest.mark.parametrize(("args", "called"), [

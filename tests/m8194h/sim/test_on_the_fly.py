@@ -197,9 +197,9 @@ def test_7_3_9_an_unmodelled_macro_line_warns_at_its_source_line_once(tmp_path: 
     result = subprocess.run([sys.executable, "-m", "mplang", "run", str(source)],
                             capture_output=True, text=True, timeout=60)
     assert result.returncode == 0, result.stderr
-    assert result.stderr.count("warning: SET_OUT is not modelled") == 1  # once, not 3 times
-    assert f"{source}:4: warning: SET_OUT is not modelled by the virtual controller: it ran " \
-           "with no effect (MP1 line 2)" in result.stderr
+    assert result.stderr.count("warning[R301]: SET_OUT is not modelled") == 1  # once, not 3
+    assert f"{source}:4:5: warning[R301]: SET_OUT is not modelled by the virtual controller: " \
+           "it ran with no effect (MP1 line 2)" in result.stderr
 
 
 def test_7_4_13_an_unmodelled_real_time_command_is_logged_by_mpc_sim_v() -> None:
