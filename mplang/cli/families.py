@@ -21,7 +21,7 @@ import click
 
 from mplang.cli import style
 from mplang.cli.common import EXIT_RUN_FAILED, BuildSetup, report
-from mplang.family.face import Family, FamilyBuild, FamilyRun
+from mplang.family.face import CommandError, Family, FamilyBuild, FamilyRun
 from mplang.family.registry import families, family_of_path, family_of_target
 from mplang.ir.unit import Options
 from mplang.tools import project as project_module
@@ -35,8 +35,20 @@ if TYPE_CHECKING:  # every family package has the face the CLI uses
     _FATEK: Family = mplang.fatek
     _CSIM: Family = mplang.csim
 
-__all__ = ["Family", "FamilyBuild", "FamilyRun", "Selection", "all_formats", "build_and_run",
-           "check_format", "choose", "refuse_options", "select"]
+__all__ = [
+    "Family",
+    "FamilyBuild",
+    "FamilyRun",
+    "Selection",
+    "all_formats",
+    "build_and_run",
+    "check_format",
+    "choose",
+    "click_error",
+    "identity_choice",
+    "refuse_options",
+    "select",
+]
 
 
 def _names(paths: Sequence[Path], limit: int = 4) -> str:
@@ -189,3 +201,30 @@ def build_and_run(selection: Selection, setup: BuildSetup, call: str | None, max
         style.error(str(exc))
         sys.exit(EXIT_RUN_FAILED)
     return run
+
+
+def click_error(exc: CommandError) -> click.ClickException:
+    """What a family's `CommandError` is on the command line: exit 3 for bad input, a usage
+    error (naming the option to blame, if any) otherwise."""
+    from mplang.cli.common import InputError
+
+    if exc.kind == "input":
+        return InputError(str(exc))
+    if exc.param is not None:
+        return click.BadParameter(str(exc), param_hint=exc.param)
+    return click.UsageError(str(exc))
+
+
+def identity_choice(identity: str | None, no_identity: bool,
+                    settings: project_module.FlashSettings | None
+                    ) -> tuple[str | bool | None, str | None]:
+    """The build manifest's machine-data range for `mpc flash` and `mpc status`: --identity,
+    none with --no-identity, else `[flash] identity`, else the family's default (None); and
+    where the project file set it, for messages about it."""
+    if identity is not None and no_identity:
+        raise click.UsageError("give --identity RANGE or --no-identity, not both")
+    if no_identity:
+        return False, None
+    if identity is not None or settings is None:
+        return identity, None
+    return settings.identity, settings.identity_where

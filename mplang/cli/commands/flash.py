@@ -29,7 +29,13 @@ from mplang.cli.common import (
     with_common,
     with_serial_line,
 )
-from mplang.cli.families import Selection, refuse_options, select
+from mplang.cli.families import (
+    Selection,
+    click_error,
+    identity_choice,
+    refuse_options,
+    select,
+)
 from mplang.cli.shell import complete_paths
 from mplang.family.face import FamilyBuild
 from mplang.family.registry import families
@@ -113,8 +119,6 @@ def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | N
                                "--serial and --to")
     if tcp is not None and serial is not None:
         raise click.UsageError("give one device: --tcp HOST[:PORT] or --serial PORT")
-    if identity is not None and no_identity:
-        raise click.UsageError("give --identity RANGE or --no-identity, not both")
     setup = build_setup(ctx, files, project_file, target, word_order, temp_vars,
                         allow_outside_includes, werror, need_sources=False)
     if fleet is None and to is None:  # what cannot be flashed is refused before the device
@@ -138,6 +142,7 @@ def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | N
     family = chosen[0][1].family
     assert family.flash_devices is not None  # refused above otherwise
     settings = setup.project.flash if setup.project is not None else None
+    manifest_range, manifest_where = identity_choice(identity, no_identity, settings)
     job = FlashJob(
         devices=targets, paths=setup.paths, options=setup.options, werror=setup.werror,
         word_order_fixed=word_order is not None
@@ -150,18 +155,11 @@ def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | N
         settings_retries=settings.retries if settings else None,
         settings_set_word_order=bool(settings and settings.set_word_order),
         fleet=fleet is not None, stop_running=stop_running,
-        identity=False if no_identity else identity if identity is not None
-        else settings.identity if settings else None,
-        identity_where=None if no_identity or identity is not None or settings is None
-        else settings.identity_where)
+        identity=manifest_range, identity_where=manifest_where)
     try:
         outcome = family.flash_devices(job, _FlashUI(setup.werror))
     except CommandError as exc:
-        if exc.kind == "input":
-            raise InputError(str(exc)) from None
-        if exc.param is not None:
-            raise click.BadParameter(str(exc), param_hint=exc.param) from None
-        raise click.UsageError(str(exc)) from None
+        raise click_error(exc) from None
     sys.exit(FLASH_EXIT[outcome])
 
 

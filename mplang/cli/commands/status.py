@@ -15,7 +15,6 @@ from mplang.cli.common import (
     EXIT_NO_DEVICE,
     EXIT_OK,
     EXIT_OUT_OF_SYNC,
-    InputError,
     build_setup,
     guarded,
     parse_device_address,
@@ -24,7 +23,7 @@ from mplang.cli.common import (
     with_common,
     with_serial_line,
 )
-from mplang.cli.families import select
+from mplang.cli.families import click_error, identity_choice, select
 from mplang.family.face import FamilyBuild
 from mplang.tools.project import Target
 
@@ -71,8 +70,6 @@ def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | N
 
     if sum(x is not None for x in (tcp, serial, to)) != 1:
         raise click.UsageError("give one device: --tcp HOST[:PORT], --serial PORT or --to NAME")
-    if identity is not None and no_identity:
-        raise click.UsageError("give --identity RANGE or --no-identity, not both")
     setup = build_setup(ctx, files, project_file, target, word_order, temp_vars,
                         allow_outside_includes, werror, need_sources=False)
     project = setup.project
@@ -95,23 +92,17 @@ def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | N
         raise click.UsageError(f"mpc status reads {family.TITLE} devices not yet: it reads "
                                "M8194H controllers (docs/cli.md, mpc status)")
     settings = project.flash if project is not None else None
+    manifest_range, manifest_where = identity_choice(identity, no_identity, settings)
     job = StatusJob(
         device=device, paths=setup.paths, options=setup.options,
         word_order_fixed=word_order is not None
         or (project is not None and project.word_order is not None),
         as_json=as_json, timeout=timeout, retries=retries,
-        identity=False if no_identity else identity if identity is not None
-        else settings.identity if settings else None,
-        identity_where=None if no_identity or identity is not None or settings is None
-        else settings.identity_where)
+        identity=manifest_range, identity_where=manifest_where)
     try:
         outcome = family.status_device(job, _StatusUI(setup.werror))
     except CommandError as exc:
-        if exc.kind == "input":
-            raise InputError(str(exc)) from None
-        if exc.param is not None:
-            raise click.BadParameter(str(exc), param_hint=exc.param) from None
-        raise click.UsageError(str(exc)) from None
+        raise click_error(exc) from None
     sys.exit(STATUS_EXIT[outcome])
 
 
