@@ -61,13 +61,12 @@ def _image_family(path: Path) -> Family:
     """The family an image names (`"target": {"family": TITLE}`, or a target's name); the
     first registered family when it names none or cannot be read (whose loader then says
     what is wrong)."""
-    import json
-
     from mplang.family.registry import families, family_of_target, family_of_title
+    from mplang.lang.limits import load_json
 
     try:
-        data = json.loads(path.read_text(encoding="utf-8", errors="replace"))
-    except (OSError, ValueError, RecursionError):
+        data = load_json(path.read_text(encoding="utf-8", errors="replace"))
+    except (OSError, ValueError):  # bad syntax or nested too deep: the loader says so
         data = None
     target = data.get("target") if isinstance(data, dict) else None
     found = None
