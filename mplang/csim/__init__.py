@@ -33,6 +33,10 @@ status_device = None
 """No `mpc status`: see docs/cli.md (the CSIM's query commands are not read yet)."""
 disassemble = None
 """No image format to read back: a CSIM lists its program itself (ULP)."""
+debug = None
+"""No `mpc dap`: the virtual CSIM runs its command lines with no place to stop (`NO_DEBUG`)."""
+NO_DEBUG = ("the virtual CSIM runs its command lines with no place to stop at a source "
+            "line; debug the same .mp sources with target et (the virtual M8194H)")
 
 __all__ = [
     "BUILD_OPTIONS",
@@ -41,6 +45,7 @@ __all__ = [
     "FLASH_INSTEAD",
     "FLASH_OPTIONS",
     "FORMATS",
+    "NO_DEBUG",
     "NO_TRANSPORT",
     "POSITION_UNIT",
     "PROTOCOL",
@@ -56,6 +61,7 @@ __all__ = [
     "RunSetupError",
     "check_native",
     "compile_mp",
+    "debug",
     "disassemble",
     "flash_devices",
     "run_build",

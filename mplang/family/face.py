@@ -21,6 +21,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Protocol, TypeVar
 
+from mplang.family.debug import DebugStart
 from mplang.family.run_error import RunError
 from mplang.family.trace import Trace
 from mplang.ir.unit import Options
@@ -374,6 +375,18 @@ class Family(Protocol):
     def disassemble(self) -> Callable[[Path, range], Disassembled] | None:
         """`mpc disasm`: an image file of the family (its temporaries pool given) back to
         `.mp` (raising `BadImage` or `OSError`), or None where the family has no image."""
+        ...
+
+    @property
+    def debug(self) -> DebugStart | None:
+        """`mpc dap`: one program of a build on a fresh virtual controller, stopped before
+        its first line (`mplang.family.debug`), or None where the family's virtual controller
+        cannot stop at a source line (`NO_DEBUG` says why)."""
+        ...
+
+    @property
+    def NO_DEBUG(self) -> str:
+        """Why the family cannot be debugged; "" for a family that can."""
         ...
 
     def check_native(self, paths: list[Path], target: str | None = None) -> FamilyBuild: ...

@@ -35,6 +35,11 @@ status_device = None  # no status reads: see docs/cli.md (mpc status)
 """Nothing to flash into (`NO_TRANSPORT`; `FLASH_INSTEAD` says what to do)."""
 disassemble = None
 """No image to read back: the listing is the program."""
+debug = None
+"""No `mpc dap`: the virtual FBs-PLC runs a positioning table a step at a time with no place
+to stop between steps (`NO_DEBUG`)."""
+NO_DEBUG = ("the virtual FATEK PLC runs whole positioning-table steps and cannot stop at a "
+            "source line; debug the same .mp sources with target et (the virtual M8194H)")
 
 __all__ = [
     "BUILD_OPTIONS",
@@ -43,6 +48,7 @@ __all__ = [
     "FLASH_INSTEAD",
     "FLASH_OPTIONS",
     "FORMATS",
+    "NO_DEBUG",
     "NO_TRANSPORT",
     "POSITION_UNIT",
     "PROTOCOL",
@@ -58,6 +64,7 @@ __all__ = [
     "RunSetupError",
     "check_native",
     "compile_mp",
+    "debug",
     "disassemble",
     "flash_devices",
     "run_build",

@@ -32,6 +32,7 @@ from mplang.m8194h.image import DEFAULT_FORMAT, FORMATS, BuildResult
 from mplang.m8194h.run import RunReport, run_family
 
 if TYPE_CHECKING:
+    from mplang.m8194h.debugger import Session
     from mplang.m8194h.disasm import Disassembly
 
 TITLE = "M8194H"
@@ -50,6 +51,7 @@ FLASH_OPTIONS = frozenset({"--unit", "--word-order", "--set-word-order", "--reco
 build manifest in machine data."""
 FLASHES_FLEETS = True
 FLASH_INSTEAD = ""
+NO_DEBUG = ""
 SERVE_OPTIONS = frozenset({"--unit", "--memory", "--word-order"})
 """`mpc sim` options beyond the common ones: the RTU address, the macro memory file and the
 word order of the virtual controller."""
@@ -64,6 +66,7 @@ __all__ = [
     "FLASH_INSTEAD",
     "FLASH_OPTIONS",
     "FORMATS",
+    "NO_DEBUG",
     "NO_TRANSPORT",
     "POSITION_UNIT",
     "PROTOCOL",
@@ -78,6 +81,7 @@ __all__ = [
     "RunSetupError",
     "check_native",
     "compile_mp",
+    "debug",
     "disassemble",
     "flash_devices",
     "run_build",
@@ -132,3 +136,11 @@ def status_device(job: StatusJob, ui: StatusUI) -> str:
     from mplang.m8194h import status
 
     return status.status(job, ui)
+
+
+def debug(build: object, call: str | None, machine: Path | None, max_time: float) -> Session:
+    """`mpc dap`: one MP of the build on a fresh virtual controller, stopped before its first
+    line (`mplang.m8194h.debugger`), imported when called, as `serve`."""
+    from mplang.m8194h import debugger
+
+    return debugger.start(build, call, machine, max_time)

@@ -143,6 +143,8 @@ class VirtualController:
         self.loading_until: float | None = None  # register 101 shows 4 until then
         self.triggers = Triggers(self)  # chapter 10: the FRnet DI trigger table
         self.md = MachineData(self)  # MD0..MD2047 (3.19), non-volatile
+        self.before_line: Callable[[Frame], bool] | None = None  # `mpc dap`: True stops
+        # `advance` before the frame's line at `frame.pc` (or its closing line) runs
         self.load_initial_now()  # "directly after power on" (RS 9738)
 
     @property
@@ -277,6 +279,7 @@ class VirtualController:
         stack = self.stack
         fifo = self.fifo
         line_time = self.line_time
+        hook = self.before_line
         while True:
             loading = self.loading_until
             if loading is not None and loading <= self.clock:
@@ -338,6 +341,8 @@ class VirtualController:
             end_pc = len(program)
             while self.clock < horizon and steps < max_steps:
                 pc = frame.pc
+                if hook is not None and hook(frame):
+                    return steps
                 if pc >= end_pc:
                     stack.pop()  # the closing line: return to the caller
                     self.clock += line_time
