@@ -1,0 +1,306 @@
+"""`mpc dap` driven as an editor drives it: a real `mpc dap` subprocess, DAP messages over its
+standard input and output (tests/dapclient.py). Test names follow the DAP specification's
+requests and events (microsoft.github.io/debug-adapter-protocol/specification)."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+from dapclient import DapClient
+
+from mplang.lang.sources import library_files
+
+ROWS = """\
+# rows.mp - a test program for mpc dap
+CONST STD_HOME_LIMIT_DIR = 2
+CONST STD_HOME_LIMIT_HV = 500
+CONST STD_HOME_LIMIT_OFFSET = 100
+INCLUDE "std:home_limit.mp"
+
+VAR rows_done
+VAR total
+
+MP 10 add_row
+    total = total + rows_done
+END MP
+
+MP 60 main
+    rows_done = 0
+    total = 0
+    FOR 5
+        rows_done = rows_done + 1
+        CALL add_row
+    NEXT
+    std_home_limit_axes = 0
+    CALL std_home_limit
+    FIXED_MOVE X, 1000
+    STOP_WAIT X
+    total = total + 100
+END MP
+"""
+DIVIDE = """\
+VAR zero
+VAR result
+
+MP 30 divide
+    zero = 0
+    result = 10 / zero
+END MP
+"""
+FOREVER = """\
+VAR spins
+
+MP 40 forever
+LABEL spin
+    spins = spins + 1
+    GOTO spin
+END MP
+"""
+HOME_LIMIT = library_files()["home_limit.mp"]
+HOME_LIMIT_FIRST = next(n for n, text in enumerate(HOME_LIMIT.read_text().splitlines(), 1)
+                        if text.strip() == "std_home_limit_error = 0")
+
+
+@pytest.fixture
+def project(tmp_path: Path) -> Path:
+    for name, text in (("rows.mp", ROWS), ("divide.mp", DIVIDE), ("forever.mp", FOREVER)):
+        (tmp_path / name).write_text(text)
+    return tmp_path
+
+
+@pytest.fixture
+def dap(project: Path) -> Iterator[DapClient]:
+    client = DapClient(project)
+    answer = client.request("initialize", {"adapterID": "mpc", "linesStartAt1": True})
+    assert answer["success"] and answer["body"]["supportsConditionalBreakpoints"]
+    yield client
+    if not client.disconnected:
+        ok(client.request("disconnect"))
+    assert client.close() == 0
+
+
+def ok(answer: dict[str, Any]) -> dict[str, Any]:
+    assert answer["success"], answer.get("message")
+    return dict(answer.get("body", {}))
+
+
+def launch(dap: DapClient, **arguments: Any) -> None:
+    ok(dap.request("launch", arguments))
+    dap.event("initialized")
+
+
+def frames(dap: DapClient) -> list[tuple[str, str, int]]:
+    """(program, source name, line) of every stack frame, innermost first."""
+    body = ok(dap.request("stackTrace", {"threadId": 1}))
+    return [(f["name"], f["source"]["name"], f["line"]) for f in body["stackFrames"]]
+
+
+def variables(dap: DapClient, scope: str) -> list[dict[str, Any]]:
+    scopes = ok(dap.request("scopes", {"frameId": 1}))["scopes"]
+    reference = next(s["variablesReference"] for s in scopes if s["name"] == scope)
+    return list(ok(dap.request("variables", {"variablesReference": reference}))["variables"])
+
+
+def resume(dap: DapClient, command: str) -> dict[str, Any]:
+    """Run (continue, next, stepIn, stepOut) and return the body of the stop it ends in."""
+    ok(dap.request(command, {"threadId": 1}))
+    return dict(dap.event("stopped")["body"])
+
+
+def set_lines(dap: DapClient, path: Path, *points: dict[str, Any]) -> list[dict[str, Any]]:
+    body = ok(dap.request("setBreakpoints", {"source": {"path": str(path)},
+                                             "breakpoints": list(points)}))
+    return list(body["breakpoints"])
+
+
+def test_launch_stop_on_entry_then_breakpoints_stack_scopes_and_steps(
+        dap: DapClient, project: Path) -> None:
+    launch(dap, program="rows.mp", call="main", stopOnEntry=True)
+    rows = project / "rows.mp"
+    placed = set_lines(dap, rows, {"line": 9})  # blank before `MP 10`: moved to its body
+    assert placed[0]["verified"] and placed[0]["line"] == 11
+    library = set_lines(dap, Path(str(HOME_LIMIT)), {"line": HOME_LIMIT_FIRST})
+    assert library[0]["verified"] and library[0]["line"] == HOME_LIMIT_FIRST
+    ok(dap.request("configurationDone"))
+    entry = dap.event("stopped")["body"]
+    assert entry["reason"] == "entry" and "ms simulated" in entry["description"]
+    threads = ok(dap.request("threads"))["threads"]
+    assert [t["id"] for t in threads] == [1] and "MP60 main" in threads[0]["name"]
+    assert frames(dap) == [("MP60 main", "rows.mp", 15)]
+
+    stop = resume(dap, "continue")  # into add_row, called from main's line 19
+    assert stop["reason"] == "breakpoint" and stop["hitBreakpointIds"] == [placed[0]["id"]]
+    assert "0.500 ms simulated" in stop["description"]
+    assert frames(dap) == [("MP10 add_row", "rows.mp", 11), ("MP60 main", "rows.mp", 19)]
+    body = ok(dap.request("stackTrace", {"threadId": 1}))
+    assert body["stackFrames"][0]["source"]["path"] == str(rows.resolve())
+    named = variables(dap, "Variables")
+    assert [(v["name"], v["value"], v["type"]) for v in named[:2]] == [
+        ("rows_done", "1", "VAR400"), ("total", "0", "VAR401")]
+    axes = variables(dap, "Axes")
+    assert [a["name"] for a in axes] == ["X", "Y", "Z", "U"]
+    parts = ok(dap.request("variables", {"variablesReference":
+                                         axes[0]["variablesReference"]}))["variables"]
+    assert [p["name"] for p in parts][:4] == ["LP", "EP", "CV", "state"]
+    inputs = [i["name"] for i in variables(dap, "Inputs")]
+    assert "X DI" in inputs and "FRnet DI8" in inputs
+    assert ok(dap.request("evaluate", {"expression": "rows_done + 1",
+                                       "context": "watch"}))["result"] == "2"
+    assert ok(dap.request("evaluate", {"expression": "VAR400",
+                                       "context": "hover"}))["result"] == "1"
+
+    assert resume(dap, "stepOut")["reason"] == "step"  # back in main, after the CALL
+    assert frames(dap) == [("MP60 main", "rows.mp", 20)]
+    resume(dap, "next")  # NEXT goes round the loop
+    assert frames(dap)[0][2] == 18
+    resume(dap, "next")
+    assert frames(dap)[0][2] == 19
+    resume(dap, "stepIn")  # into the CALL
+    assert frames(dap) == [("MP10 add_row", "rows.mp", 11), ("MP60 main", "rows.mp", 19)]
+    resume(dap, "stepOut")
+    set_lines(dap, rows)  # no breakpoints in rows.mp: `next` steps over the CALL
+    resume(dap, "next")
+    resume(dap, "next")
+    assert frames(dap)[0][2] == 19
+    resume(dap, "next")
+    assert frames(dap) == [("MP60 main", "rows.mp", 20)]
+
+    stop = resume(dap, "continue")  # the library's routine
+    assert stop["reason"] == "breakpoint"
+    assert frames(dap) == [("MP131 std_home_limit", "std:home_limit.mp", HOME_LIMIT_FIRST),
+                           ("MP60 main", "rows.mp", 22)]
+    body = ok(dap.request("stackTrace", {"threadId": 1}))
+    assert body["stackFrames"][0]["source"]["path"] == str(HOME_LIMIT)
+
+    ok(dap.request("continue", {"threadId": 1}))
+    assert dap.event("exited")["body"]["exitCode"] == 0
+    dap.event("terminated")
+
+
+def test_set_breakpoints_condition_on_declared_names_and_var_numbers(dap: DapClient,
+                                                                     project: Path) -> None:
+    launch(dap, program=["rows.mp"], call="MP60", stopOnEntry=False)
+    placed = set_lines(dap, project / "rows.mp", {"line": 11, "condition": "rows_done > 3"},
+                       {"line": 25, "condition": "VAR401 == 15 && rows_done == 5"},
+                       {"line": 16, "condition": "nosuch == 1"},
+                       {"line": 18, "condition": "rows_done >"})
+    assert [p["verified"] for p in placed] == [True, True, False, False]
+    assert "no variable 'nosuch'" in placed[2]["message"]
+    assert "cannot read" in placed[3]["message"]
+    ok(dap.request("configurationDone"))
+    assert dap.event("stopped")["body"]["reason"] == "breakpoint"
+    assert ok(dap.request("evaluate", {"expression": "rows_done"}))["result"] == "4"
+    assert resume(dap, "continue")["hitBreakpointIds"] == [placed[0]["id"]]
+    assert ok(dap.request("evaluate", {"expression": "rows_done"}))["result"] == "5"
+    resume(dap, "continue")
+    assert frames(dap) == [("MP60 main", "rows.mp", 25)]
+    assert ok(dap.request("evaluate", {"expression": "total"}))["result"] == "15"
+    bad = dap.request("evaluate", {"expression": "nosuch + 1"})
+    assert not bad["success"] and "no variable 'nosuch'" in bad["message"]
+    bad = dap.request("evaluate", {"expression": "__import__('os')"})
+    assert not bad["success"] and "not a variable" in bad["message"]
+
+
+def test_stopped_exception_at_the_run_time_error_line(dap: DapClient) -> None:
+    launch(dap, program="divide.mp")
+    ok(dap.request("configurationDone"))
+    stop = dap.event("stopped")["body"]
+    assert stop["reason"] == "exception"
+    assert stop["description"].startswith("R103: division by zero")
+    assert "divide.mp:6:" in stop["text"] and "error[R103]" in stop["text"]
+    assert frames(dap) == [("MP30 divide", "divide.mp", 6)]
+    info = ok(dap.request("exceptionInfo", {"threadId": 1}))
+    assert info["exceptionId"] == "R103" and info["breakMode"] == "always"
+    assert [v["value"] for v in variables(dap, "Variables")] == ["0", "0"]
+    ok(dap.request("continue", {"threadId": 1}))
+    assert dap.event("exited")["body"]["exitCode"] == 5
+    dap.event("terminated")
+
+
+def test_pause_a_program_that_loops_for_ever(dap: DapClient) -> None:
+    launch(dap, program="forever.mp")
+    ok(dap.request("configurationDone"))
+    busy = dap.request("stackTrace", {"threadId": 1})
+    if not busy["success"]:  # it runs: inspection waits for a stop
+        assert "running" in busy["message"]
+    ok(dap.request("pause", {"threadId": 1}))
+    stop = dap.event("stopped")["body"]
+    assert stop["reason"] == "pause" and "ms simulated" in stop["description"]
+    assert frames(dap)[0][:2] == ("MP40 forever", "forever.mp")
+    assert frames(dap)[0][2] in (5, 6)
+    assert ok(dap.request("evaluate", {"expression": "spins > 0"}))["result"] == "1"
+    ok(dap.request("continue", {"threadId": 1}))
+    ok(dap.request("disconnect", {"terminateDebuggee": True}))
+
+
+def test_launch_an_mpc_toml_project(dap: DapClient, project: Path) -> None:
+    (project / "mpc.toml").write_text('[project]\nsources = ["rows.mp"]\n')
+    launch(dap, program="mpc.toml", call="main", stopOnEntry=True)
+    ok(dap.request("configurationDone"))
+    dap.event("stopped")
+    assert frames(dap) == [("MP60 main", "rows.mp", 15)]
+    ok(dap.request("terminate"))
+    dap.event("terminated")
+
+
+@pytest.mark.parametrize(("arguments", "message"), [
+    ({}, "'program' is missing"),
+    ({"program": 5}, "must be a path or a non-empty list"),
+    ({"program": "nosuch.mp"}, "nosuch.mp: no such file"),
+    ({"program": "rows.mp", "call": "nosuch"}, "no MP named 'nosuch'"),
+    ({"program": "rows.mp", "stopOnEntry": "yes"}, "'stopOnEntry' must be true or false"),
+    ({"program": "rows.mp", "machine": "nosuch.toml"}, "no such file"),
+    ({"program": "rows.mp", "machine": "divide.mp"}, "not supported by this mpc yet"),
+    ({"program": "rows.mp", "target": "fbs-fun140"}, "FATEK"),
+    ({"program": "rows.mp", "maxTime": -1}, "'maxTime' must be a number"),
+])
+def test_launch_errors_are_error_responses(dap: DapClient, arguments: dict[str, Any],
+                                           message: str) -> None:
+    answer = dap.request("launch", arguments)
+    assert not answer["success"] and message in answer["message"], answer
+
+
+def test_launch_of_a_build_with_errors_names_the_line(dap: DapClient, project: Path) -> None:
+    (project / "broken.mp").write_text("MP 5 broken\n    NOSUCH_COMMAND 1\nEND MP\n")
+    answer = dap.request("launch", {"program": "broken.mp"})
+    assert not answer["success"] and "broken.mp:2:" in answer["message"]
+
+
+def test_hostile_input_is_answered_without_a_crash(dap: DapClient) -> None:
+    dap.send_raw(b"garbage without a colon\r\n\r\n")
+    assert "not a header line" in dap.response(0)["message"]
+    dap.send_raw(b"Content-Length: nope\r\n\r\n")
+    assert "not a byte count" in dap.response(0)["message"]
+    dap.send_raw(b"Content-Length: 9\r\n\r\n{not json")
+    assert "not JSON" in dap.response(0)["message"]
+    dap.send({"seq": 90, "type": "event", "event": "x"})
+    assert "not a DAP request" in dap.response(90)["message"]
+    dap.send({"seq": 91, "type": "request", "command": "launch", "arguments": [1]})
+    assert "must be an object" in dap.response(91)["message"]
+    for command, arguments, message in (
+            ("nosuchCommand", {}, "unknown request 'nosuchCommand'"),
+            ("stackTrace", {"threadId": 1}, "no program is launched"),
+            ("attach", {}, "cannot attach"),
+            ("setBreakpoints", {"source": 3}, "needs a 'source' object")):
+        answer = dap.request(command, arguments)
+        assert not answer["success"] and message in answer["message"], answer
+    launch(dap, program="rows.mp", call="main", stopOnEntry=True)
+    ok(dap.request("configurationDone"))
+    dap.event("stopped")
+    for command, arguments, message in (
+            ("variables", {"variablesReference": 999}, "no variables with reference 999"),
+            ("setBreakpoints", {"source": {"path": "/nowhere.mp"}, "breakpoints": [{}]},
+             "'line' must be a line number"),
+            ("evaluate", {"expression": 7}, "'expression' must be a string"),
+            ("evaluate", {"expression": "1 / 0"}, "division by zero"),
+            ("exceptionInfo", {"threadId": 1}, "did not stop on a run-time error"),
+            ("launch", {"program": "rows.mp"}, "one per session")):
+        answer = dap.request(command, arguments)
+        assert not answer["success"] and message in answer["message"], answer
+    elsewhere = set_lines(dap, Path("/nowhere.mp"), {"line": 3})
+    assert not elsewhere[0]["verified"] and "not part of the launched build" in \
+        elsewhere[0]["message"]
+    assert frames(dap) == [("MP60 main", "rows.mp", 15)]  # the session goes on
