@@ -1,7 +1,8 @@
 'use strict';
 // The mplang extension: highlighting and folding come from the grammar and the language
 // configuration; this file only starts `mpc lsp` (the compiler's own checks, hover,
-// completion, definitions) over stdio and restarts it when its settings change.
+// completion, definitions) over stdio and restarts it when its settings change, and runs
+// `mpc dap` (the same executable) for debug sessions of type `mpc` (docs/debug.md).
 
 const os = require('os');
 const path = require('path');
@@ -39,6 +40,28 @@ function serverCommand(setting, workspaceFolder, extraArgs) {
   const options = Array.isArray(extraArgs) ? extraArgs.map(String) : [];
   return { command, args: ['lsp', ...options] };
 }
+
+/**
+ * The debug adapter of a `mpc` debug session: `mpc dap` from the same `mplang.server.path`
+ * as the language server, started in the session's folder (launch paths are relative to it).
+ * @param {string | undefined} setting
+ * @param {string | undefined} workspaceFolder
+ * @returns {{command: string, args: string[]}}
+ */
+function adapterCommand(setting, workspaceFolder) {
+  return { command: serverCommand(setting, workspaceFolder, []).command, args: ['dap'] };
+}
+
+const debugAdapterFactory = {
+  /** @param {import('vscode').DebugSession} session */
+  createDebugAdapterDescriptor(session) {
+    const folder = session.workspaceFolder ? session.workspaceFolder.uri.fsPath
+      : firstWorkspaceFolder();
+    const configuration = vscode.workspace.getConfiguration(SECTION);
+    const { command, args } = adapterCommand(configuration.get(PATH_SETTING), folder);
+    return new vscode.DebugAdapterExecutable(command, args, folder ? { cwd: folder } : {});
+  },
+};
 
 function firstWorkspaceFolder() {
   const folders = vscode.workspace.workspaceFolders;
@@ -93,6 +116,7 @@ async function restartClient() {
 async function activate(context) {
   context.subscriptions.push(
     vscode.commands.registerCommand('mplang.restartServer', restartClient),
+    vscode.debug.registerDebugAdapterDescriptorFactory('mpc', debugAdapterFactory),
     vscode.workspace.onDidChangeConfiguration((event) => {
       if (event.affectsConfiguration(`${SECTION}.server`)) {
         return restartClient();
@@ -107,4 +131,4 @@ function deactivate() {
   return stopClient();
 }
 
-module.exports = { activate, deactivate, serverCommand };
+module.exports = { activate, adapterCommand, deactivate, serverCommand };

@@ -15,6 +15,7 @@ const fake = {
   configurationListeners: [],
   errors: [],
   clients: [],
+  adapterFactories: {},
   failStart: undefined,
   workspaceFolders: [{ uri: { fsPath: path.join(os.tmpdir(), 'project') } }],
 };
@@ -69,6 +70,17 @@ const fakeVscode = {
       fake.errors.push(message);
     },
   },
+  debug: {
+    registerDebugAdapterDescriptorFactory(type, factory) {
+      fake.adapterFactories[type] = factory;
+      return { dispose() {} };
+    },
+  },
+  DebugAdapterExecutable: class {
+    constructor(command, args, options) {
+      Object.assign(this, { command, args, options });
+    }
+  },
 };
 
 const originalLoad = Module._load;
@@ -89,6 +101,7 @@ beforeEach(() => {
   fake.configurationListeners = [];
   fake.errors = [];
   fake.clients = [];
+  fake.adapterFactories = {};
   fake.failStart = undefined;
 });
 
@@ -132,7 +145,8 @@ test('activate starts `mpc lsp` over stdio for mplang documents', async () => {
   assert.equal(client.serverOptions.options.cwd, folder);
   assert.ok(client.clientOptions.documentSelector.some(
     (selector) => selector.language === 'mplang' && selector.scheme === 'file'));
-  assert.equal(context.subscriptions.length, 2);
+  // the restart command, the settings listener and the `mpc` debug adapter
+  assert.equal(context.subscriptions.length, 3);
   assert.equal(typeof fake.commands['mplang.restartServer'], 'function');
   await extension.deactivate();
   assert.equal(client.stopped, true);
@@ -161,5 +175,22 @@ test('a server that cannot start is reported with the setting to fix', async () 
   assert.match(fake.errors[0], /no-such-mpc lsp/);
   assert.match(fake.errors[0], /ENOENT/);
   assert.match(fake.errors[0], /mplang\.server\.path/);
+  await extension.deactivate();
+});
+
+test('a debug session of type mpc runs `mpc dap` from mplang.server.path', async () => {
+  fake.settings['server.path'] = '.venv/bin/mpc';
+  fake.settings['server.args'] = ['--target', 'rs'];
+  await extension.activate({ subscriptions: [] });
+  const factory = fake.adapterFactories.mpc;
+  assert.equal(typeof factory.createDebugAdapterDescriptor, 'function');
+  const folder = path.join(os.tmpdir(), 'other');
+  const adapter = factory.createDebugAdapterDescriptor({ workspaceFolder: { uri: { fsPath: folder } } });
+  assert.equal(adapter.command, path.join(folder, '.venv', 'bin', 'mpc'));
+  assert.deepEqual(adapter.args, ['dap']);  // the lsp options are not the adapter's
+  assert.equal(adapter.options.cwd, folder);
+  const fallback = factory.createDebugAdapterDescriptor({});
+  assert.equal(fallback.options.cwd, fake.workspaceFolders[0].uri.fsPath);
+  assert.deepEqual(extension.adapterCommand(undefined, undefined), { command: 'mpc', args: ['dap'] });
   await extension.deactivate();
 });
