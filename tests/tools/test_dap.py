@@ -4,6 +4,11 @@ requests and events (microsoft.github.io/debug-adapter-protocol/specification)."
 
 from __future__ import annotations
 
+import json
+import os
+import pty
+import subprocess
+import sys
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -12,6 +17,9 @@ import pytest
 from dapclient import DapClient
 
 from mplang.lang.sources import library_files
+from mplang.tools.dap.launch import ARGUMENTS
+
+ROOT = Path(__file__).resolve().parents[2]
 
 ROWS = """\
 # rows.mp - a test program for mpc dap
@@ -246,6 +254,13 @@ def test_launch_an_mpc_toml_project(dap: DapClient, project: Path) -> None:
     dap.event("terminated")
 
 
+def test_launch_with_an_empty_call_runs_the_first_mp_of_the_first_file(dap: DapClient) -> None:
+    launch(dap, program="rows.mp", call="  ", stopOnEntry=True)
+    ok(dap.request("configurationDone"))
+    dap.event("stopped")
+    assert frames(dap) == [("MP10 add_row", "rows.mp", 11)]
+
+
 @pytest.mark.parametrize(("arguments", "message"), [
     ({}, "'program' is missing"),
     ({"program": 5}, "must be a path or a non-empty list"),
@@ -304,3 +319,30 @@ def test_hostile_input_is_answered_without_a_crash(dap: DapClient) -> None:
     assert not elsewhere[0]["verified"] and "not part of the launched build" in \
         elsewhere[0]["message"]
     assert frames(dap) == [("MP60 main", "rows.mp", 15)]  # the session goes on
+
+
+def test_vscode_extension_contributes_the_mpc_debugger() -> None:
+    """The debugger type `mpc` of the VS Code extension takes exactly the launch arguments
+    `mpc dap` reads, and docs/debug.md describes each."""
+    manifest = json.loads((ROOT / "editors" / "vscode" / "package.json").read_text())
+    (debugger,) = [d for d in manifest["contributes"]["debuggers"] if d["type"] == "mpc"]
+    launch_schema = debugger["configurationAttributes"]["launch"]
+    assert set(launch_schema["properties"]) == set(ARGUMENTS)
+    assert launch_schema["required"] == ["program"]
+    assert debugger["initialConfigurations"][0]["request"] == "launch"
+    assert {"language": "mplang"} in manifest["contributes"]["breakpoints"]
+    guide = (ROOT / "docs" / "debug.md").read_text()
+    assert all(f"`{name}`" in guide for name in ARGUMENTS)
+
+
+def test_mpc_dap_in_a_terminal_says_how_to_use_it() -> None:
+    """Started by hand, it explains itself and exits 2 instead of waiting for DAP input."""
+    controller, terminal = pty.openpty()
+    try:
+        result = subprocess.run([sys.executable, "-m", "mplang", "dap"], stdin=terminal,
+                                capture_output=True, text=True, timeout=60)
+    finally:
+        os.close(controller)
+        os.close(terminal)
+    assert result.returncode == 2
+    assert "start it from an editor" in result.stderr and result.stdout == ""

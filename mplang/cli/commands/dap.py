@@ -7,7 +7,7 @@ import sys
 
 import click
 
-from mplang.cli.common import guarded
+from mplang.cli.common import EXIT_USAGE, guarded
 
 
 @click.command("dap", short_help="Debug adapter (DAP) for .mp programs (editors).")
@@ -19,6 +19,10 @@ def command(verbose: bool) -> None:
     stopOnEntry and a machine file come with the launch request (docs/debug.md)."""
     from mplang.tools.dap import serve
 
+    if sys.stdin is None or sys.stdin.isatty():
+        click.echo("mpc dap: speaks the Debug Adapter Protocol on standard input/output; start "
+                   "it from an editor (see docs/debug.md)", err=True)
+        sys.exit(EXIT_USAGE)
     logging.basicConfig(stream=sys.stderr, level=logging.DEBUG if verbose else logging.WARNING,
                         format="mpc dap: %(levelname)s: %(message)s")
     serve(sys.stdin.buffer, sys.stdout.buffer)

@@ -22,6 +22,8 @@ from mplang.ir.unit import Options
 from mplang.tools import project as project_module
 from mplang.tools.report import render_text
 
+ARGUMENTS = ("program", "call", "stopOnEntry", "machine", "target", "cwd", "maxTime")
+"""The launch arguments `mpc dap` reads (others, such as `type` and `name`, are the editor's)."""
 MAX_SHOWN_DIAGNOSTICS = 10
 
 
@@ -99,7 +101,10 @@ def read_arguments(args: Mapping[str, Any]) -> Launch:
     if isinstance(max_time, bool) or not isinstance(max_time, (int, float)) \
             or not math.isfinite(max_time) or max_time <= 0:
         raise LaunchError("launch argument 'maxTime' must be a number of seconds above 0")
-    return Launch(paths, options, _string(args, "call"), stop,
+    call = args.get("call")
+    if isinstance(call, str) and not call.strip():
+        call = None  # an empty answer to an editor's prompt: the default program
+    return Launch(paths, options, _string({"call": call}, "call"), stop,
                   None if machine is None else base / machine, float(max_time))
 
 
