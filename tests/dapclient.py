@@ -26,7 +26,15 @@ class DapClient:
         self.responses: list[dict[str, Any]] = []
         self.seq = 0
         self.disconnected = False
+        self.stderr = bytearray()  # drained, so a chatty adapter never blocks on a full pipe
         threading.Thread(target=self._read, daemon=True).start()
+        threading.Thread(target=self._drain, daemon=True).start()
+
+    def _drain(self) -> None:
+        stream = self.proc.stderr
+        assert stream is not None
+        while chunk := stream.read1(65536):
+            self.stderr += chunk
 
     def _read(self) -> None:
         stream = self.proc.stdout
@@ -46,9 +54,11 @@ class DapClient:
         try:
             message = self.incoming.get(timeout=WAIT_S)
         except queue.Empty:
-            raise AssertionError(f"mpc dap sent nothing for {WAIT_S} s") from None
+            raise AssertionError(f"mpc dap sent nothing for {WAIT_S} s; stderr: "
+                                 f"{bytes(self.stderr[-2000:])!r}") from None
         if message is None:
-            raise AssertionError("mpc dap closed its output")
+            raise AssertionError(f"mpc dap closed its output; stderr: "
+                                 f"{bytes(self.stderr[-2000:])!r}")
         return message
 
     def send_raw(self, data: bytes) -> None:
@@ -105,6 +115,5 @@ class DapClient:
         try:
             return self.proc.wait(WAIT_S)
         finally:
-            for stream in (self.proc.stdout, self.proc.stderr):
-                if stream is not None:
-                    stream.close()
+            if self.proc.stdout is not None:
+                self.proc.stdout.close()

@@ -170,7 +170,9 @@ class Session:
         frame = controller.stack[-1]
         self._skip, self._mode, self._depth = (frame, frame.pc), mode, len(controller.stack)
         self._interrupted, self._stop = interrupted, None
-        controller.before_line = self._before
+        # a plain function: the interrupt prediction deep-copies the motion model, which
+        # reaches the controller; a function is copied as itself, a bound method is not
+        controller.before_line = lambda frame: self._before(frame)
         try:
             while True:
                 controller.advance(self.limit, until_idle=True)

@@ -55,6 +55,10 @@ VAR result
 
 MP 30 divide
     zero = 0
+    CALL share
+END MP
+
+MP 31 share
     result = 10 / zero
 END MP
 """
@@ -218,8 +222,9 @@ def test_stopped_exception_at_the_run_time_error_line(dap: DapClient) -> None:
     stop = dap.event("stopped")["body"]
     assert stop["reason"] == "exception"
     assert stop["description"].startswith("R103: division by zero")
-    assert "divide.mp:6:" in stop["text"] and "error[R103]" in stop["text"]
-    assert frames(dap) == [("MP30 divide", "divide.mp", 6)]
+    assert "divide.mp:10:" in stop["text"] and "error[R103]" in stop["text"]
+    assert "called from divide.mp:6" in stop["text"]
+    assert frames(dap) == [("MP31 share", "divide.mp", 10), ("MP30 divide", "divide.mp", 6)]
     info = ok(dap.request("exceptionInfo", {"threadId": 1}))
     assert info["exceptionId"] == "R103" and info["breakMode"] == "always"
     assert [v["value"] for v in variables(dap, "Variables")] == ["0", "0"]
@@ -242,6 +247,31 @@ def test_pause_a_program_that_loops_for_ever(dap: DapClient) -> None:
     assert ok(dap.request("evaluate", {"expression": "spins > 0"}))["result"] == "1"
     ok(dap.request("continue", {"threadId": 1}))
     ok(dap.request("disconnect", {"terminateDebuggee": True}))
+
+
+def test_stack_trace_shows_an_isr_as_its_own_frame(dap: DapClient) -> None:
+    """samples/compare_isr.mp: ISR3 fires at X = 120 mm while MP93 waits in STOP_WAIT."""
+    sample = ROOT / "samples" / "compare_isr.mp"
+    lines = sample.read_text().splitlines()
+    first = lines.index("ISR 3 glue_valve_open") + 2  # its first command line (1-based)
+    waits = [n for n, text in enumerate(lines, 1) if text.strip() == "STOP_WAIT X"]
+    launch(dap, program=str(sample), call="glue_bead")
+    placed = set_lines(dap, sample, {"line": first - 1})  # the ISR header: moved down
+    assert placed[0]["verified"] and placed[0]["line"] == first
+    ok(dap.request("configurationDone"))
+    stop = dap.event("stopped")["body"]
+    assert stop["reason"] == "breakpoint"
+    (isr, interrupted) = frames(dap)
+    assert isr[0] == "ISR3 glue_valve_open (interrupt)" and isr[2] == first
+    assert interrupted[0] == "MP93 glue_bead" and interrupted[2] == waits[1]
+    body = ok(dap.request("stackTrace", {"threadId": 1}))
+    assert body["stackFrames"][0]["presentationHint"] == "label"
+    assert ok(dap.request("evaluate", {"expression": "glue_on_at"}))["result"] == "0"
+    assert resume(dap, "next")["reason"] == "step"
+    assert frames(dap)[0][2] == first + 1
+    resume(dap, "stepOut")  # back in the program the ISR interrupted, still waiting
+    assert frames(dap)[0][0] == "MP93 glue_bead"
+    assert int(ok(dap.request("evaluate", {"expression": "glue_on_at"}))["result"]) >= 120000
 
 
 def test_launch_an_mpc_toml_project(dap: DapClient, project: Path) -> None:

@@ -41,6 +41,7 @@ def parse(text: str) -> ast.expr:
     source = text.strip()
     for pattern, word in _C_LOGIC:
         source = pattern.sub(word, source)
+    source = source.strip()
     if not source:
         raise ExpressionError("the expression is empty")
     try:
@@ -48,6 +49,8 @@ def parse(text: str) -> ast.expr:
     except SyntaxError as exc:
         column = f" at column {exc.offset}" if exc.offset else ""
         raise ExpressionError(f"cannot read {text.strip()!r}{column}: {exc.msg}") from None
+    except (ValueError, RecursionError, MemoryError) as exc:  # NUL bytes, deep nesting
+        raise ExpressionError(f"cannot read {text.strip()[:80]!r}: {exc}") from None
     for node in ast.walk(tree):
         if not isinstance(node, (ast.BinOp, ast.UnaryOp, ast.BoolOp, ast.Compare, ast.Name,
                                  ast.Constant, ast.Load, ast.operator, ast.unaryop,
@@ -75,6 +78,13 @@ def names(tree: ast.expr) -> list[str]:
 def evaluate(tree: ast.expr, lookup: Lookup) -> int:
     """The expression's value now; ExpressionError for an unknown name or a division by
     zero."""
+    try:
+        return _value(tree, lookup)
+    except RecursionError:
+        raise ExpressionError("the expression is nested too deeply") from None
+
+
+def _value(tree: ast.expr, lookup: Lookup) -> int:
     if isinstance(tree, ast.Constant):
         assert isinstance(tree.value, int)  # `parse` allows integers only
         return tree.value
@@ -85,25 +95,25 @@ def evaluate(tree: ast.expr, lookup: Lookup) -> int:
                                   "ALIAS name, or VARn)")
         return value
     if isinstance(tree, ast.UnaryOp):
-        operand = evaluate(tree.operand, lookup)
+        operand = _value(tree.operand, lookup)
         if isinstance(tree.op, ast.Not):
             return int(not operand)
         return -operand if isinstance(tree.op, ast.USub) else operand
     if isinstance(tree, ast.BoolOp):
-        values = (evaluate(value, lookup) for value in tree.values)
+        values = (_value(value, lookup) for value in tree.values)
         if isinstance(tree.op, ast.And):
             return int(all(values))
         return int(any(values))
     if isinstance(tree, ast.Compare):
-        left = evaluate(tree.left, lookup)
+        left = _value(tree.left, lookup)
         for op, right_tree in zip(tree.ops, tree.comparators, strict=True):
-            right = evaluate(right_tree, lookup)
+            right = _value(right_tree, lookup)
             if not _COMPARE[type(op)](left, right):
                 return 0
             left = right
         return 1
     assert isinstance(tree, ast.BinOp)
-    left, right = evaluate(tree.left, lookup), evaluate(tree.right, lookup)
+    left, right = _value(tree.left, lookup), _value(tree.right, lookup)
     try:
         return apply_operator(_BINARY[type(tree.op)], left, right)
     except ZeroDivisionError:
