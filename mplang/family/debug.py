@@ -93,6 +93,11 @@ class Debuggee(Protocol):
         """The run-time finding the program stopped on, once it has (None before)."""
         ...
 
+    def warnings(self) -> Sequence[str]:
+        """What the run met that `mpc run` warns about (`file:line:col: warning[Rnnn]: ...`):
+        commands not simulated, axis stops that did not end the program."""
+        ...
+
     def files(self) -> Mapping[str, Path]:
         """Every source file of the build, by the name the build gives it, with its place on
         disk (library files too), for the debugger to match the editor's paths."""

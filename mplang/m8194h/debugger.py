@@ -120,6 +120,9 @@ class Session:
     def finished(self) -> bool:
         return self.ended
 
+    def warnings(self) -> Sequence[str]:
+        return self.report.warnings
+
     def files(self) -> Mapping[str, Path]:
         library = library_files()
         found: dict[str, Path] = {}

@@ -233,6 +233,20 @@ def test_stopped_exception_at_the_run_time_error_line(dap: DapClient) -> None:
     dap.event("terminated")
 
 
+def test_output_events_give_mpc_runs_warnings_at_the_end(dap: DapClient,
+                                                         project: Path) -> None:
+    """An axis stop that does not end the program (R312) is told, as `mpc run` tells it."""
+    (project / "soft.mp").write_text("MP 50 limits\n    SET_MAX_V X, 8000\n"
+                                     "    SET_V X, 8000\n    SET_SLMT X, 100, -100, 0\n"
+                                     "    FIXED_MOVE X, 5000\n    STOP_WAIT X\nEND MP\n")
+    launch(dap, program="soft.mp")
+    ok(dap.request("configurationDone"))
+    assert dap.event("exited")["body"]["exitCode"] == 0
+    told = [dap.event("output")["body"]["output"] for _ in range(2)]
+    assert any("soft.mp:6:5: warning[R312]" in text for text in told)
+    assert any("MP50 limits (soft.mp): finished after" in text for text in told)
+
+
 def test_pause_a_program_that_loops_for_ever(dap: DapClient) -> None:
     launch(dap, program="forever.mp")
     ok(dap.request("configurationDone"))
@@ -275,11 +289,17 @@ def test_stack_trace_shows_an_isr_as_its_own_frame(dap: DapClient) -> None:
 
 
 def test_launch_an_mpc_toml_project(dap: DapClient, project: Path) -> None:
+    """Breakpoints set before the launch are placed by it (a `breakpoint` event each)."""
     (project / "mpc.toml").write_text('[project]\nsources = ["rows.mp"]\n')
-    launch(dap, program="mpc.toml", call="main", stopOnEntry=True)
+    early = set_lines(dap, project / "rows.mp", {"line": 16})
+    assert not early[0]["verified"] and "when the program is launched" in early[0]["message"]
+    launch(dap, program="mpc.toml", call="main")
+    changed = dap.event("breakpoint")["body"]
+    assert changed["reason"] == "changed"
+    assert changed["breakpoint"]["verified"] and changed["breakpoint"]["line"] == 16
     ok(dap.request("configurationDone"))
-    dap.event("stopped")
-    assert frames(dap) == [("MP60 main", "rows.mp", 15)]
+    assert dap.event("stopped")["body"]["reason"] == "breakpoint"
+    assert frames(dap) == [("MP60 main", "rows.mp", 16)]
     ok(dap.request("terminate"))
     dap.event("terminated")
 

@@ -313,6 +313,8 @@ class Session:
         debuggee = self._debuggee()
         if stopped.reason == "exited":
             outcome = "finished" if stopped.finished else "FAILED"
+            for warning in debuggee.warnings():  # as `mpc run` prints them
+                self.event("output", {"category": "stderr", "output": warning + "\n"})
             self.event("output", {"category": "console",
                                   "output": f"{debuggee.title}: {outcome} after {millis} "
                                   "simulated\n"})
