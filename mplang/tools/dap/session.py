@@ -110,6 +110,10 @@ class Session:
             LOG.debug("bad arguments to %s", command, exc_info=exc)
             self._error(seq, command, f"bad arguments to {command!r}: {exc}")
             return
+        except Exception as exc:  # a fault of mpc: answered and logged, the session goes on
+            LOG.exception("internal fault answering %s", command)
+            self._error(seq, command, f"internal fault of mpc dap: {exc!r}")
+            return
         self.writer.send({"type": "response", "request_seq": seq, "success": True,
                           "command": command, **({"body": body} if body is not None else {})})
         after, self._resume = self._resume, None
