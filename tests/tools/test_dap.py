@@ -263,6 +263,29 @@ def test_pause_a_program_that_loops_for_ever(dap: DapClient) -> None:
     ok(dap.request("disconnect", {"terminateDebuggee": True}))
 
 
+def test_set_breakpoints_in_an_included_file(dap: DapClient, project: Path) -> None:
+    (project / "parts").mkdir()
+    (project / "parts" / "helper.mp").write_text(
+        "VAR helped\n\nMP helper\n    helped = helped + 1\nEND MP\n")
+    (project / "uses.mp").write_text(
+        'INCLUDE "parts/helper.mp"\n\nMP 70 uses\n    CALL helper\n    CALL helper\n'
+        "END MP\n")
+    launch(dap, program="uses.mp", call="uses")
+    placed = set_lines(dap, project / "parts" / "helper.mp", {"line": 2})
+    assert placed[0]["verified"] and placed[0]["line"] == 4
+    ok(dap.request("configurationDone"))
+    dap.event("stopped")
+    assert [(name, line) for name, _, line in frames(dap)] == [("MP1 helper", 4),
+                                                              ("MP70 uses", 4)]
+    body = ok(dap.request("stackTrace", {"threadId": 1}))
+    assert body["stackFrames"][0]["source"]["path"] == \
+        str((project / "parts" / "helper.mp").resolve())
+    resume(dap, "continue")
+    assert [(name, line) for name, _, line in frames(dap)] == [("MP1 helper", 4),
+                                                              ("MP70 uses", 5)]
+    assert ok(dap.request("evaluate", {"expression": "helped"}))["result"] == "1"
+
+
 def test_stack_trace_shows_an_isr_as_its_own_frame(dap: DapClient) -> None:
     """samples/compare_isr.mp: ISR3 fires at X = 120 mm while MP93 waits in STOP_WAIT."""
     sample = ROOT / "samples" / "compare_isr.mp"
