@@ -22,7 +22,13 @@ from mplang.ir.catalogue import Catalogue
 from mplang.ir.lower import Scope
 from mplang.ir.unit import Options, lower_unit
 from mplang.lang import ast
-from mplang.lang.diagnostics import Diagnostic, DiagnosticSink, Severity, Span
+from mplang.lang.diagnostics import (
+    Diagnostic,
+    DiagnosticSink,
+    Severity,
+    Span,
+    without_ignored,
+)
 from mplang.lang.sources import SourceFile, SourceSet, load_sources
 from mplang.lang.structure import build_unit
 from mplang.m8194h.compiler import compile_paths
@@ -255,7 +261,8 @@ def _analyse(path: Path, text: str, context: BuildContext, open_texts: Mapping[P
     scratch = DiagnosticSink()  # the compiler's own run above reports; this one is discarded
     sources = load_sources(paths, scratch, allow_outside=options.allow_outside_includes,
                            texts=texts)
-    diagnostics = [*diagnostics, *_refusals(sources.files, paths, texts.refused)]
+    diagnostics = [*without_ignored(diagnostics, context.ignore),
+                   *_refusals(sources.files, paths, texts.refused)]
     by_display: dict[str, SourceText] = {}
     for source in sources.files:
         if source.path.resolve() in texts.refused:
