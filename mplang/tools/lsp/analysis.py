@@ -36,9 +36,8 @@ from mplang.m8194h.link import Placement, link
 from mplang.tools.lsp.positions import Location, Range, line_range, span_range, split_lines
 from mplang.tools.lsp.tokens import Token, lex_line
 from mplang.tools.lsp.workspace import LIMIT_TEXT, BuildContext, RefusedFile, read_text
+from mplang.tools.report import check_page
 
-# docs/checks/<CODE>.md of a source checkout; absent from an installed wheel.
-CHECK_DOCS = Path(__file__).resolve().parents[3] / "docs" / "checks"
 _VAR_USE = re.compile(r"\bVAR(\d+)\b", re.IGNORECASE)
 logger = logging.getLogger("mplang.tools.lsp")
 
@@ -488,7 +487,7 @@ def _place_diagnostic(analysis: Analysis, diagnostic: Diagnostic,
     project is left to that document."""
     related = tuple((_span_location(span, by_display[span.file]), note)
                     for span, note in diagnostic.related if span.file in by_display)
-    docs = CHECK_DOCS / f"{diagnostic.code}.md"
+    docs = check_page(diagnostic.code)  # shipped in the package, or the checkout's docs/
     entry = by_display.get(diagnostic.span.file)
     message = diagnostic.message
     if entry is not None and entry.path == analysis.path:
@@ -504,5 +503,5 @@ def _place_diagnostic(analysis: Analysis, diagnostic: Diagnostic,
                 return None
             where = through.range
     return EditorDiagnostic(where, diagnostic.severity.value, diagnostic.code, message,
-                            diagnostic.hint, related, docs if docs.is_file() else None,
+                            diagnostic.hint, related, docs,
                             elsewhere=entry is None or entry.path != analysis.path)
