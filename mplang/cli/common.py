@@ -334,6 +334,12 @@ class BuildSetup:
     target_given: bool = False  # --target on the command line, or the project file's
     word_order_given: bool = False  # --word-order on the command line (M8194H only)
 
+    def settings(self) -> tuple[object, ...]:
+        """What this build takes from its project file: builds that agree in it can be
+        one."""
+        return (self.options, self.werror, self.ignore, self.target_given,
+                self.word_order_given)
+
     @property
     def ignore(self) -> frozenset[str]:
         """The project's `[lint] ignore` codes (none without a project file)."""
@@ -389,8 +395,10 @@ def nearest_projects(paths: Sequence[Path]) -> list[tuple[Path | None, list[Path
     return list(groups.items())
 
 
-def _shown_project(project: Path | None) -> str:
-    return os.path.relpath(project) if project is not None else "no mpc.toml"
+def _shown_project(setup: BuildSetup) -> str:
+    """`FILE (its mpc.toml)` of a build's first file, for messages."""
+    where = os.path.relpath(setup.project.path) if setup.project is not None else "no mpc.toml"
+    return f"{setup.paths[0]} ({where})"
 
 
 def build_setups(ctx: click.Context, files: tuple[str, ...], project_file: Path | None,
@@ -447,20 +455,19 @@ def build_setup(ctx: click.Context, files: tuple[str, ...], project_file: Path |
                 target: str, word_order: str | None, temp_vars: range,
                 allow_outside_includes: bool, werror: bool,
                 need_sources: bool = True) -> BuildSetup:
-    """The one build of `mpc build`, `run` and `plot` (`build_setups`): FILE... under two
-    projects cannot be one build, since each project sets its own options."""
+    """The one build of `mpc build`, `run` and `plot` (`build_setups`): FILE... under
+    projects whose settings agree are one build; under projects that set different options
+    they cannot be, and the command is refused naming a file of each."""
     setups = build_setups(ctx, files, project_file, target, word_order, temp_vars,
                           allow_outside_includes, werror, need_sources, one_build=True)
-    if len(setups) > 1:
-        first, second = setups[0], setups[1]
-        raise click.UsageError(
-            f"these files are one build but belong to different projects: {first.paths[0]} "
-            f"({_shown_project(first.project.path if first.project else None)}) and "
-            f"{second.paths[0]} "
-            f"({_shown_project(second.project.path if second.project else None)}); build "
-            "each project on its own, or name one for all with --project FILE (or "
-            "--isolated for none)")
-    return setups[0]
+    first = setups[0]
+    for other in setups[1:]:
+        if other.settings() != first.settings():
+            raise click.UsageError(
+                "these files are one build but belong to projects with different settings: "
+                f"{_shown_project(first)} and {_shown_project(other)}; build each project on "
+                "its own, or name one for all with --project FILE (or --isolated for none)")
+    return replace(first, paths=[p for setup in setups for p in setup.paths])
 
 
 def _setup(ctx: click.Context, paths: list[Path], project: project_module.Project | None,

@@ -145,8 +145,9 @@ class OperandLowerer:
         the sentence listing them), the message lists them and the hint picks among them."""
         if accepted is not None:
             names, listing = accepted
-            hint = did_you_mean(expr.name, names) or "write one of the names listed, or a " \
-                "CONST or ALIAS that holds one of the values"
+            hint = did_you_mean(expr.name, names) or (
+                "write one of the names listed, or a CONST that holds one of the values"
+                if names else "write one of these numbers, or a CONST that holds one")
             self.sink.add("E202", expr.span, f"unknown name {expr.name!r}; {listing}",
                           hint=hint)
             return

@@ -88,6 +88,7 @@ def test_commands_enum_argument_lists_the_accepted_names(here: Path) -> None:
     assert "hint: did you mean ARC_CW?" in output
     _, numbers = lint(here, program("SET_PULSE_MODE X, FAST"))
     assert "SET_PULSE_MODE nMode takes one of 0, 1, 2, 3, 4, 5" in numbers
+    assert "hint: write one of these numbers, or a CONST that holds one" in numbers
 
 
 def test_include_missing_file_is_one_error_at_the_include(here: Path) -> None:

@@ -106,11 +106,12 @@ def test_one_build_of_two_projects_is_refused_naming_both(tmp_path: Path) -> Non
     for command in ("build", "run"):
         refused = mpc(command, "strict/job.mp", "plain/job.mp", cwd=tmp_path)
         assert refused.returncode == EXIT_USAGE
-        assert "belong to different projects: strict/job.mp (strict/mpc.toml) and " \
+        assert "belong to projects with different settings: strict/job.mp " \
+            "(strict/mpc.toml) and " \
             "plain/job.mp (no mpc.toml)" in refused.stderr
     isolated = mpc("build", "--isolated", "strict/job.mp", "plain/job.mp", cwd=tmp_path)
     assert isolated.returncode == EXIT_SOURCE_ERRORS  # one build, so MP1 is defined twice
-    assert "belong to different projects" not in isolated.stderr
+    assert "belong to projects" not in isolated.stderr
 
 
 def test_isolated_and_config_choose_the_project_file(tmp_path: Path) -> None:
@@ -122,6 +123,17 @@ def test_isolated_and_config_choose_the_project_file(tmp_path: Path) -> None:
                cwd=tmp_path)
     assert both.returncode == EXIT_USAGE
     assert "give --project FILE or --isolated, not both" in both.stderr
+
+
+def test_projects_that_agree_make_one_build(tmp_path: Path) -> None:
+    _, plain = two_projects(tmp_path)
+    (plain / "mpc.toml").write_text("[project]\nwerror = true\n")  # the same settings
+    (plain / "job.mp").write_text(WARNS.replace("MP 1 one", "MP 2 two"))
+    built = mpc("build", "strict/job.mp", "plain/job.mp", "--format", "listing", cwd=tmp_path)
+    assert built.returncode == EXIT_SOURCE_ERRORS  # one build, werror: the warnings fail it
+    assert "belong to projects" not in built.stderr
+    assert "strict/job.mp:2:9: warning[W102]" in built.stderr
+    assert "plain/job.mp:2:9: warning[W102]" in built.stderr
 
 
 def test_a_folder_argument_leaves_out_sub_folders_that_are_projects(tmp_path: Path) -> None:
