@@ -12,7 +12,13 @@ import subprocess
 import sys
 from pathlib import Path
 
-from mplang.cli import EXIT_NO_INPUT, EXIT_OK, EXIT_SOURCE_ERRORS, EXIT_USAGE
+from mplang.cli import (
+    EXIT_NO_INPUT,
+    EXIT_OK,
+    EXIT_SOURCE_ERRORS,
+    EXIT_USAGE,
+    EXIT_WOULD_REFORMAT,
+)
 
 ROOT = Path(__file__).resolve().parents[3]
 WARNS = """MP 1 one
@@ -165,3 +171,6 @@ def test_fmt_file_honours_the_nearest_projects_fmt_table(tmp_path: Path) -> None
     assert (strict / "job.mp").read_text() == \
         "MP 1 one\n  FOR 0\n    FIXED_MOVE X, 100\n  NEXT\nEND MP\n"
     assert (plain / "job.mp").read_text() == WARNS
+    assert mpc("fmt", "--check", "strict/job.mp", cwd=tmp_path).returncode == EXIT_OK
+    isolated = mpc("fmt", "--check", "--isolated", "strict/job.mp", cwd=tmp_path)
+    assert isolated.returncode == EXIT_WOULD_REFORMAT  # the defaults indent by 4
