@@ -65,3 +65,43 @@ def test_wheel_metadata_licence_and_plot_extra(wheel: Path) -> None:
                   if line.startswith("Requires-Dist: matplotlib")]
     assert matplotlib and all('extra == "plot"' in line for line in matplotlib)
     assert any(n.endswith(".dist-info/licenses/LICENSE") for n in names)
+
+
+def test_wheel_ships_the_check_and_runtime_pages(wheel: Path, tmp_path: Path) -> None:
+    """docs/checks and docs/runtime are package data: installed from the wheel (with pip,
+    away from the source tree), the SARIF help links and the language server's
+    documentation links find the pages (issue 15 items 4 and 8)."""
+    names = set(zipfile.ZipFile(wheel).namelist())
+    assert {"mplang/docs/checks/E201.md", "mplang/docs/checks/README.md",
+            "mplang/docs/runtime/README.md"} <= names
+    assert {f"mplang/docs/checks/{p.name}" for p in (ROOT / "docs" / "checks").glob("*.md")} \
+        <= names
+    target = tmp_path / "site"
+    subprocess.run([sys.executable, "-m", "pip", "install", "--no-deps", "--no-index", "-q",
+                    "--target", str(target), str(wheel)], check=True, capture_output=True)
+    script = (
+        "import json, sys\n"
+        "from mplang.tools.report import check_page, information_page, render_sarif\n"
+        "from mplang.lang.diagnostics import Diagnostic, Severity, Span\n"
+        "page = check_page('E201')\n"
+        "assert page is not None and str(page).startswith(sys.argv[1]), page\n"
+        "assert information_page() is not None\n"
+        "d = Diagnostic('E201', Severity.ERROR, 'unknown command', Span('a.mp', 1, 1, 3))\n"
+        "rule = json.loads(render_sarif([d]))['runs'][0]['tool']['driver']['rules'][0]\n"
+        "print(rule['helpUri'])\n"
+    )
+    proc = subprocess.run([sys.executable, "-c", script, str(target)], cwd=tmp_path,
+                          env={"PYTHONPATH": str(target), "PATH": "/usr/bin:/bin"},
+                          capture_output=True, text=True, check=False)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip() == (target / "mplang/docs/checks/E201.md").as_uri()
+
+
+def test_wheel_metadata_lsp_extra(wheel: Path) -> None:
+    """pygls only in the `lsp` extra: the base install (CI, pre-commit) goes without it."""
+    archive = zipfile.ZipFile(wheel)
+    (metadata,) = [n for n in archive.namelist() if n.endswith(".dist-info/METADATA")]
+    lines = archive.read(metadata).decode().splitlines()
+    assert "Provides-Extra: lsp" in lines
+    pygls = [line for line in lines if line.startswith("Requires-Dist: pygls")]
+    assert pygls and all('extra == "lsp"' in line for line in pygls)

@@ -19,7 +19,7 @@ import click
 from mplang.cli import style
 from mplang.family.registry import DEFAULT_TARGET, known_targets
 from mplang.ir.unit import DEFAULT_TEMPS, Options
-from mplang.lang.diagnostics import Diagnostic, Severity
+from mplang.lang.diagnostics import Diagnostic, Severity, without_ignored
 from mplang.tools import project as project_module
 
 EXIT_OK = 0
@@ -79,8 +79,10 @@ def guarded(func: F) -> F:
     return wrapper  # type: ignore[return-value]
 
 
-def expand_inputs(patterns: tuple[str, ...]) -> list[Path]:
-    """Files, directories (every .mp below) and glob patterns, in a stable order."""
+def expand_inputs(patterns: tuple[str, ...], skip_projects: bool = False) -> list[Path]:
+    """Files, directories (every .mp below) and glob patterns, in a stable order. With
+    `skip_projects` (one build), a directory's sub-folders that are projects of their own
+    (an mpc.toml of their own) are left out, with a note: they are other builds."""
     paths: list[Path] = []
     for pattern in patterns:
         path = Path(pattern)
@@ -91,6 +93,8 @@ def expand_inputs(patterns: tuple[str, ...]) -> list[Path]:
                 raise InputError(f"{_shown(pattern)}: {exc.strerror or exc}") from None
         if path.is_dir():
             found = sorted(p for p in path.rglob("*.mp") if p.is_file())  # no FIFOs
+            if skip_projects:
+                found = _own_project(path, found)
             if not found:
                 raise InputError(f"no .mp files in directory {pattern}")
             paths += found
@@ -110,6 +114,25 @@ def expand_inputs(patterns: tuple[str, ...]) -> list[Path]:
             seen.add(p.resolve())
             unique.append(p)
     return unique
+
+
+def _own_project(directory: Path, found: list[Path]) -> list[Path]:
+    """The files of `found` (below `directory`) under the directory's own project file
+    (or none), noting on standard error each sub-folder left out for its own mpc.toml."""
+    own = project_module.find_project(directory)
+    kept: list[Path] = []
+    skipped: dict[Path, int] = {}
+    for path in found:
+        nearest = project_module.find_project(path.parent)
+        if nearest == own:
+            kept.append(path)
+        elif nearest is not None:
+            skipped[nearest] = skipped.get(nearest, 0) + 1
+    for project, count in skipped.items():
+        click.echo(f"mpc: note: {os.path.relpath(project.parent)}: left out ({count} .mp "
+                   f"file{'s' if count != 1 else ''}), a project of its own "
+                   f"({os.path.relpath(project)}): build it on its own", err=True)
+    return kept
 
 
 def _shown(name: str) -> str:
@@ -143,14 +166,16 @@ class HasDiagnostics(Protocol):
     def diagnostics(self) -> list[Diagnostic]: ...
 
 
-def report(result: HasDiagnostics, werror: bool) -> int:
-    """Every diagnostic with its source excerpt, then `2 errors, 1 warning in 3 files` when
-    there was any; exit 1 on an error, or a warning with --werror."""
-    style.report_diagnostics(result.diagnostics)
-    if result.diagnostics:
-        style.echo_summary(result.diagnostics)
-    errors = sum(1 for d in result.diagnostics if d.severity is Severity.ERROR)
-    warnings = len(result.diagnostics) - errors
+def report(result: HasDiagnostics, werror: bool, ignore: frozenset[str] = frozenset()) -> int:
+    """Every diagnostic (but the warnings a project's `[lint] ignore` names) with its source
+    excerpt, then `2 errors, 1 warning in 3 files` when there was any; exit 1 on an error,
+    or a warning with --werror."""
+    diagnostics = without_ignored(result.diagnostics, ignore)
+    style.report_diagnostics(diagnostics)
+    if diagnostics:
+        style.echo_summary(diagnostics)
+    errors = sum(1 for d in diagnostics if d.severity is Severity.ERROR)
+    warnings = len(diagnostics) - errors
     if errors or (werror and warnings):
         return EXIT_SOURCE_ERRORS
     return EXIT_OK
@@ -268,10 +293,34 @@ def parse_listen_port(_ctx: click.Context, _param: click.Parameter,
         raise click.BadParameter(str(exc)) from None
 
 
-project_option = click.option(
-    "--project", "project_file", type=click.Path(dir_okay=False, path_type=Path), default=None,
-    help="Project file to use [default: mpc.toml here or in a parent directory, read only when "
-    "no FILE is given].")
+ISOLATED = "mpc.isolated"
+"""ctx.meta key: `--isolated` was given (no project file is read)."""
+
+
+def _note_isolated(ctx: click.Context, _param: click.Parameter, value: bool) -> bool:
+    ctx.meta[ISOLATED] = value
+    return value
+
+
+_project_file_option = click.option(
+    "--project", "--config", "project_file",
+    type=click.Path(dir_okay=False, path_type=Path), default=None,
+    help="Project file to use for every FILE [default: for each FILE the nearest mpc.toml "
+    "above it; without FILE, mpc.toml here or in a parent directory].")
+_isolated_option = click.option(
+    "--isolated", is_flag=True, expose_value=False, callback=_note_isolated,
+    help="Read no project file: only the command line's options apply.")
+
+
+def project_option(func: F) -> F:
+    """`--project/--config FILE` and `--isolated`: which project file applies."""
+    return _project_file_option(_isolated_option(func))
+
+
+def isolated(ctx: click.Context | None = None) -> bool:
+    """Whether `--isolated` was given to the current command."""
+    ctx = ctx or click.get_current_context(silent=True)
+    return bool(ctx is not None and ctx.meta.get(ISOLATED))
 
 
 @dataclass(frozen=True)
@@ -285,6 +334,17 @@ class BuildSetup:
     target_given: bool = False  # --target on the command line, or the project file's
     word_order_given: bool = False  # --word-order on the command line (M8194H only)
 
+    def settings(self) -> tuple[object, ...]:
+        """What this build takes from its project file: builds that agree in it can be
+        one."""
+        return (self.options, self.werror, self.ignore, self.target_given,
+                self.word_order_given)
+
+    @property
+    def ignore(self) -> frozenset[str]:
+        """The project's `[lint] ignore` codes (none without a project file)."""
+        return self.project.ignore if self.project is not None else frozenset()
+
 
 def load_project_file(path: Path) -> project_module.Project:
     try:
@@ -293,53 +353,147 @@ def load_project_file(path: Path) -> project_module.Project:
         raise InputError(str(exc)) from None
 
 
+def _given(ctx: click.Context, name: str) -> bool:
+    source = ctx.get_parameter_source(name)
+    return source is not None and source is not click.core.ParameterSource.DEFAULT
+
+
+def refuse_images(paths: Sequence[Path]) -> None:
+    """A built image given where sources belong (`mpc build image.json`): one message
+    saying what it is and what to do with it, instead of a syntax error per line. What
+    `mpc build` writes as JSON is an object with "format" and "target"; no .mp source or
+    native listing starts with `{`, so nothing else is read whole."""
+    from mplang.lang.limits import load_json
+
+    for path in paths:
+        try:
+            with path.open("rb") as stream:
+                if not stream.read(256).lstrip().startswith(b"{"):
+                    continue
+            data = load_json(path.read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            continue  # the build reports what is wrong with the file itself
+        if isinstance(data, dict) and "format" in data and "target" in data:
+            raise InputError(f"{path}: a built image (the JSON `mpc build` writes), not a "
+                             f"source: flash it with `mpc flash {path} --tcp HOST` (or "
+                             f"--serial PORT), compare it with a device with `mpc status`, or "
+                             f"turn it back into .mp source with `mpc disasm {path}`; build "
+                             "and run take .mp sources (or .fbs / .csim listings)")
+
+
+def nearest_projects(paths: Sequence[Path]) -> list[tuple[Path | None, list[Path]]]:
+    """`paths` grouped by the nearest mpc.toml above each (None: no project file), in the
+    order the groups first appear: each FILE is checked with its own project's settings,
+    as ruff finds its configuration."""
+    found: dict[Path, Path | None] = {}
+    groups: dict[Path | None, list[Path]] = {}
+    for path in paths:
+        folder = path.parent.resolve()
+        if folder not in found:
+            found[folder] = project_module.find_project(folder)
+        groups.setdefault(found[folder], []).append(path)
+    return list(groups.items())
+
+
+def _shown_project(setup: BuildSetup) -> str:
+    """`FILE (its mpc.toml)` of a build's first file, for messages."""
+    where = os.path.relpath(setup.project.path) if setup.project is not None else "no mpc.toml"
+    return f"{setup.paths[0]} ({where})"
+
+
+def build_setups(ctx: click.Context, files: tuple[str, ...], project_file: Path | None,
+                 target: str, word_order: str | None, temp_vars: range,
+                 allow_outside_includes: bool, werror: bool,
+                 need_sources: bool = True, one_build: bool = False) -> list[BuildSetup]:
+    """The builds FILE... makes, one per project: each FILE is built with the settings of
+    the nearest mpc.toml above it (`--project FILE` names one for all, `--isolated` none).
+    Without FILE, the project file found from here up gives the sources. Options given on
+    the command line win over a project file's. `mpc flash` and `mpc status`
+    (`need_sources=False`) read the project only without FILE or with --project: their
+    devices and flash record come from it. For `one_build`, a folder's sub-folders with an
+    mpc.toml of their own are left out (`expand_inputs`)."""
+    if project_file is not None and isolated(ctx):
+        raise click.UsageError("give --project FILE or --isolated, not both")
+    if not files:
+        project = None
+        if project_file is not None:
+            project = load_project_file(project_file)
+        elif not isolated(ctx):
+            found = project_module.find_project(Path.cwd())
+            if found is not None:  # named as seen from here, in messages and images
+                project = load_project_file(Path(os.path.relpath(found)))
+        if project is not None and project.sources:
+            paths = [Path(os.path.relpath(p)) for p in project.sources]
+        elif project is not None and need_sources:
+            raise click.UsageError(f"{project.path}: [project] lists no sources; give FILE...")
+        elif need_sources:
+            raise click.UsageError("give FILE... (.mp sources), or run where an mpc.toml lists "
+                                   "them (docs/project.md)")
+        else:
+            paths = []
+        return [_setup(ctx, paths, project, target, word_order, temp_vars,
+                       allow_outside_includes, werror)]
+    paths = expand_inputs(files, skip_projects=one_build and need_sources
+                          and project_file is None and not isolated(ctx))
+    if need_sources:
+        refuse_images(paths)
+    if project_file is not None:
+        return [_setup(ctx, paths, load_project_file(project_file), target, word_order,
+                       temp_vars, allow_outside_includes, werror)]
+    if isolated(ctx) or not need_sources:
+        return [_setup(ctx, paths, None, target, word_order, temp_vars,
+                       allow_outside_includes, werror)]
+    setups = []
+    for found, group in nearest_projects(paths):
+        project = None if found is None else load_project_file(Path(os.path.relpath(found)))
+        setups.append(_setup(ctx, group, project, target, word_order, temp_vars,
+                             allow_outside_includes, werror, keep_pins=False))
+    return setups
+
+
 def build_setup(ctx: click.Context, files: tuple[str, ...], project_file: Path | None,
                 target: str, word_order: str | None, temp_vars: range,
                 allow_outside_includes: bool, werror: bool,
                 need_sources: bool = True) -> BuildSetup:
-    """The sources and options of a build. FILE... wins; without it, the project file
-    (`--project`, or mpc.toml found from here up) gives the sources; options given on the
-    command line win over the file's."""
-    project: project_module.Project | None = None
-    if project_file is not None:
-        project = load_project_file(project_file)
-    elif not files:
-        found = project_module.find_project(Path.cwd())
-        if found is not None:  # named as seen from here, in messages and images
-            project = load_project_file(Path(os.path.relpath(found)))
-    if files:
-        paths = expand_inputs(files)
-    elif project is not None and project.sources:
-        paths = [Path(os.path.relpath(p)) for p in project.sources]
-    elif project is not None:
-        if need_sources:
-            raise click.UsageError(f"{project.path}: [project] lists no sources; give FILE...")
-        paths = []
-    elif need_sources:
-        raise click.UsageError("give FILE... (.mp sources), or run where an mpc.toml lists "
-                               "them (docs/project.md)")
-    else:
-        paths = []
+    """The one build of `mpc build`, `run` and `plot` (`build_setups`): FILE... under
+    projects whose settings agree are one build; under projects that set different options
+    they cannot be, and the command is refused naming a file of each."""
+    setups = build_setups(ctx, files, project_file, target, word_order, temp_vars,
+                          allow_outside_includes, werror, need_sources, one_build=True)
+    first = setups[0]
+    for other in setups[1:]:
+        if other.settings() != first.settings():
+            raise click.UsageError(
+                "these files are one build but belong to projects with different settings: "
+                f"{_shown_project(first)} and {_shown_project(other)}; build each project on "
+                "its own, or name one for all with --project FILE (or --isolated for none)")
+    return replace(first, paths=[p for setup in setups for p in setup.paths])
+
+
+def _setup(ctx: click.Context, paths: list[Path], project: project_module.Project | None,
+           target: str, word_order: str | None, temp_vars: range,
+           allow_outside_includes: bool, werror: bool, keep_pins: bool = True) -> BuildSetup:
+    """One build's options: the command line's over the project file's (its slot pins only
+    when named with --project, or when the build holds every source it lists)."""
     options = build_options(target, word_order, temp_vars, allow_outside_includes)
-
-    def given(name: str) -> bool:
-        source = ctx.get_parameter_source(name)
-        return source is not None and source is not click.core.ParameterSource.DEFAULT
-
     if project is None:
-        return BuildSetup(paths, options, werror, None, given("target"), given("word_order"))
-
+        return BuildSetup(paths, options, werror, None, _given(ctx, "target"),
+                          _given(ctx, "word_order"))
+    listed = {p.resolve() for p in project.sources}
+    # Pins name programs of the project's sources: a build of only some of them keeps none.
+    pins = project.pins if keep_pins or listed <= {p.resolve() for p in paths} else ()
     options = replace(
         options,
-        target=target if given("target") or project.target is None else project.target,
-        word_order=options.word_order if given("word_order") else project.word_order,
-        temps=temp_vars if given("temp_vars") or project.temp_vars is None
+        target=target if _given(ctx, "target") or project.target is None else project.target,
+        word_order=options.word_order if _given(ctx, "word_order") else project.word_order,
+        temps=temp_vars if _given(ctx, "temp_vars") or project.temp_vars is None
         else project.temp_vars,
         allow_outside_includes=allow_outside_includes
-        if given("allow_outside_includes") or project.allow_outside_includes is None
+        if _given(ctx, "allow_outside_includes") or project.allow_outside_includes is None
         else project.allow_outside_includes,
-        pins=project.pins,
+        pins=pins,
         var_pool=options.var_pool if project.var_pool is None else project.var_pool)
-    werror = werror if given("werror") or project.werror is None else project.werror
+    werror = werror if _given(ctx, "werror") or project.werror is None else project.werror
     return BuildSetup(paths, options, werror, project,
-                      given("target") or project.target is not None, given("word_order"))
+                      _given(ctx, "target") or project.target is not None,
+                      _given(ctx, "word_order"))

@@ -181,7 +181,7 @@ def build_checked(selection: Selection, setup: BuildSetup) -> FamilyBuild:
     """Build; diagnostics to standard error, and exit 1 on errors (or warnings with
     --werror)."""
     build = selection.build(setup.options)
-    code = report(build, setup.werror)
+    code = report(build, setup.werror, setup.ignore)
     if code:
         sys.exit(code)
     return build

@@ -29,6 +29,7 @@ from mplang.ir.lower import ProgramLowerer, Scope
 from mplang.ir.macro import LoweredProgram, MacroLine, Operand, ProgramRef, VarRef
 from mplang.ir.unit import Options, configuration_blocks
 from mplang.lang.diagnostics import Diagnostic, DiagnosticSink, Span, suppressed
+from mplang.lang.followon import settle_includes
 from mplang.lang.sources import load_sources
 from mplang.lang.structure import build_unit
 
@@ -554,7 +555,8 @@ def compile_mp(paths: list[Path], options: Options, target: str, *,
     sources = sorted({p.source for p in lowered})
     name = ordered[0].name if ordered and ordered[0].name else (
         Path(paths[0]).stem if paths else "program")
-    diagnostics = [d for d in sink.sorted() if not suppressed(d, source_lines)]
+    diagnostics = settle_includes(
+        [d for d in sink.sorted() if not suppressed(d, source_lines)], source_lines)
     build = FamilyBuild(diagnostics)
     if lowered:
         build.programs.append(CsimProgram(name, str(paths[0]) if paths else "", script, origins,

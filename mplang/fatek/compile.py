@@ -41,6 +41,7 @@ from mplang.ir.macro import LoweredProgram, MacroLine
 from mplang.ir.unit import Options, configuration_blocks
 from mplang.lang import ast
 from mplang.lang.diagnostics import DiagnosticSink, Span, suppressed
+from mplang.lang.followon import settle_includes
 from mplang.lang.sources import load_sources
 from mplang.lang.structure import build_unit
 
@@ -148,8 +149,8 @@ def compile_mp(paths: list[Path], options: Options, target: str, *,
     if not any(not d.code.startswith("E6") for d in sink.errors):  # the .mp itself is sound
         tables = _tables(lowered, catalogue, profile, sink, fun)
         Checker(profile, sink).check(tables, SimSetup())
-    diagnostics = [d for d in sink.sorted() if not suppressed(d, lines)
-                   and d.code not in M8194H_ONLY_WARNINGS]
+    diagnostics = settle_includes([d for d in sink.sorted() if not suppressed(d, lines)
+                                   and d.code not in M8194H_ONLY_WARNINGS], lines)
     return FamilyBuild(diagnostics, tables, SimSetup(), target, lines)
 
 

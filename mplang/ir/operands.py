@@ -139,12 +139,36 @@ class OperandLowerer:
         self.lower_into(expr, temp)
         return temp
 
-    def unknown_name(self, expr: ast.Name) -> None:
+    def unknown_name(self, expr: ast.Name,
+                     accepted: tuple[list[str], str] | None = None) -> None:
+        """E202; for an argument that takes names of its own (`accepted`: the names and
+        the sentence listing them), the message lists them and the hint picks among them."""
+        if accepted is not None:
+            names, listing = accepted
+            hint = did_you_mean(expr.name, names) or (
+                "write one of the names listed, or a CONST that holds one of the values"
+                if names else "write one of these numbers, or a CONST that holds one")
+            self.sink.add("E202", expr.span, f"unknown name {expr.name!r}; {listing}",
+                          hint=hint)
+            return
         names = [*self.scope.const_exprs, *self.scope.aliases]
         hint = did_you_mean(expr.name, names) or "declare it with CONST or ALIAS"
         if self.profile.axis_code(expr.name) is not None:
             hint = "axis names are arguments of motion commands, not values"
         self.sink.add("E202", expr.span, f"unknown name {expr.name!r}", hint=hint)
+
+    def accepted(self, param: Param, where: str) -> tuple[list[str], str] | None:
+        """The names and values an enumerated argument takes (from the catalogue), or None
+        for an argument that takes numbers in general."""
+        if param.kind == "cmp_op":
+            names = sorted(self.profile.cmp_symbols)
+            return names, f"{where} takes one of {', '.join(names)}"
+        if param.kind != "enum" and not param.symbols:
+            return None
+        by_value = {v: k for k, v in param.symbols.items()}
+        values = param.values or sorted(by_value)
+        listed = ", ".join(f"{by_value[v]} ({v})" if v in by_value else str(v) for v in values)
+        return list(param.symbols), f"{where} takes one of {listed}"
 
     def lower_into(self, expr: ast.Expr, dest: VarRef) -> None:
         """Compute `expr` into variable `dest` with SET_VAR / VAR_CALCULATE lines."""
@@ -322,7 +346,7 @@ class OperandLowerer:
             return None
         if value is None:
             if isinstance(arg, ast.Name):
-                self.unknown_name(arg)
+                self.unknown_name(arg, self.accepted(param, where))
             else:
                 self.sink.add("E416", arg.span, f"{where} needs a constant or a variable, not "
                               "an expression", hint="compute it into a VAR first")

@@ -93,3 +93,12 @@ def suppressed(diagnostic: Diagnostic, sources: dict[str, list[str]]) -> bool:
         return False
     codes = match.group(1)
     return codes is None or diagnostic.code in {c.strip().upper() for c in codes.split(",")}
+
+
+def without_ignored(diagnostics: list[Diagnostic], ignore: frozenset[str]) -> list[Diagnostic]:
+    """The diagnostics a project's `[lint] ignore` leaves: its warning codes are dropped in
+    every file, as a `# mpc: ignore[CODE]` on every line would; errors always stay."""
+    if not ignore:
+        return diagnostics
+    return [d for d in diagnostics
+            if d.severity is not Severity.WARNING or d.code not in ignore]

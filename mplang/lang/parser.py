@@ -24,6 +24,7 @@ from mplang.lang.limits import (
     number_too_long,
     too_deep,
 )
+from mplang.lang.syntax_hints import character_hint, token_hint
 
 # What the user sees instead of lark's terminal names.
 TOKEN_WORDS = {
@@ -256,8 +257,9 @@ def _report(err: UnexpectedInput, file: str, line_no: int, text: str,
     span = Span(file, line_no, col, end)
     if isinstance(err, UnexpectedCharacters):
         char = text[col - 1] if 0 < col <= len(text) else "?"
-        sink.add("E101", span, f"unexpected character {char!r}",
-                 hint="remove it, or write a comment with '#' or '//'")
+        message, hint = character_hint(text, col) or (
+            f"unexpected character {char!r}", "remove it, or write a comment with '#' or '//'")
+        sink.add("E101", span, message, hint=hint)
         return
     if isinstance(err, UnexpectedToken):
         token = err.token
@@ -277,7 +279,9 @@ def _report(err: UnexpectedInput, file: str, line_no: int, text: str,
                 "separate arguments with ','" if "COMMA" in accepted and token.type in
                 ("NAME", "INT", "STRING") else
                 "one statement per line; see docs/language.md for the statement forms")
-        sink.add("E101", span, f"unexpected {found}; expected {expected}", hint=hint)
+        message, hint = token_hint(text, str(token)) or (
+            f"unexpected {found}; expected {expected}", hint)
+        sink.add("E101", span, message, hint=hint)
         return
     sink.add("E101", span, "syntax error")
 

@@ -16,6 +16,7 @@ from mplang.ir.macro import ProgramRef
 from mplang.ir.unit import DEFAULT_TEMPS, Options, lower_unit
 from mplang.lang import ast
 from mplang.lang.diagnostics import DiagnosticSink, suppressed
+from mplang.lang.followon import settle_includes
 from mplang.lang.sources import load_sources
 from mplang.lang.structure import build_unit
 from mplang.m8194h.encode import Encoder
@@ -47,7 +48,8 @@ def compile_paths(paths: list[Path], options: Options = Options(), *,
         first = paths[0].resolve()
         result.first_source = next((s for s in result.sources if Path(s).resolve() == first),
                                    None)
-    result.diagnostics = [d for d in result.diagnostics if not suppressed(d, result.sources)]
+    result.diagnostics = settle_includes(
+        [d for d in result.diagnostics if not suppressed(d, result.sources)], result.sources)
     return result
 
 

@@ -43,7 +43,6 @@ from mplang.m8194h.compiler import DEFAULT_TEMPS, BuildResult, Options, compile_
 from mplang.m8194h.encode import EncodeError, Encoder
 from mplang.m8194h.flash import FlashImage, FlashProgram, load_image
 
-COMMENT_COLUMN = 44
 CHECK_NAME = "<disasm>.mp"
 
 
@@ -431,9 +430,11 @@ def lift(items: Sequence[Item], writer: Writer, temps: range, level: str,
 
 # ------------------------------------------------------------------------------ rendering
 def _with_comment(text: str, comment: str) -> str:
+    """A line with its source comment two spaces after it, as `mpc fmt` lays comments out,
+    so the disassembly is already in the canonical layout."""
     if not comment:
         return text
-    return f"{text:<{COMMENT_COLUMN - 2}}  # {comment}"
+    return f"{text}  # {comment}"
 
 
 def _body_lines(body: Sequence[Statement], temps: range, indent: int = 4) -> list[
@@ -445,7 +446,8 @@ def _body_lines(body: Sequence[Statement], temps: range, indent: int = 4) -> lis
     for statement in body:
         if statement.role in ("close", "middle"):
             depth = max(0, depth - 1)
-        pad = " " * (indent + 4 * depth)
+        # labels stand at the program's edge, as `mpc fmt` lays them out
+        pad = "" if statement.text.startswith("LABEL ") else " " * (indent + 4 * depth)
         if previous is not None and statement.line is not None and statement.line > previous + 1:
             out.append(("", statement))
         notes: list[str] = []

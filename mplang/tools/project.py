@@ -32,7 +32,8 @@ MODBUS_ONLY_KEYS = ("unit", "word-order", "image", "retries")
 """[targets.NAME] keys that only an M8194H (a Modbus device taking image frames) uses."""
 """The other controller families (issue 7). Each package names its own targets (`TARGETS`)
 and source suffixes (`SUFFIXES`); nothing here repeats them."""
-SECTIONS = frozenset({"project", "slots", "targets", "flash", "fmt"})
+SECTIONS = frozenset({"project", "slots", "targets", "flash", "fmt", "lint"})
+LINT_KEYS = frozenset({"ignore"})
 PROJECT_KEYS = frozenset({"sources", "target", "word-order", "temp-vars", "var-pool",
                           "allow-outside-includes", "werror"})
 FLASH_KEYS = frozenset({"record", "timeout", "retries", "set-word-order", "identity"})
@@ -98,6 +99,9 @@ class Project:
     targets: dict[str, Target] = field(default_factory=dict)
     flash: FlashSettings = field(default_factory=lambda: FlashSettings(Path(DEFAULT_RECORD)))
     fmt: Mapping[str, Any] = field(default_factory=dict)
+    ignore: frozenset[str] = frozenset()
+    """`[lint] ignore`: warning codes silenced in every file of the project, as a
+    `# mpc: ignore[CODE]` on each line would."""
 
     sources_line: int = 1  # the line of [project] sources, for messages about them
 
@@ -327,6 +331,9 @@ def parse_temps(text: str) -> range:
         low, high = int(low_text), int(high_text)
     except ValueError:
         raise ValueError("write the pool as FIRST-LAST, e.g. 496-511") from None
+    if low > high and high >= 0 and low <= 511:
+        raise ValueError(f"{text}: the range is reversed (FIRST after LAST): write "
+                         f"{high}-{low}")
     if not 0 <= low <= high <= 511:
         raise ValueError("the pool must lie within VAR0..VAR511")
     return range(low, high + 1)
@@ -546,7 +553,32 @@ def load_project(path: Path) -> Project:
                                  "set-word-order", where),
             identity=identity,
             identity_where=f"{path}:{where.line('flash', 'identity')}: [flash] identity"),
-        fmt=dict(fmt))
+        fmt=dict(fmt), ignore=_ignore(data, where))
+
+
+def _ignore(data: Mapping[str, Any], where: _Locator) -> frozenset[str]:
+    """`[lint] ignore = ["W102", ...]`: known warning codes. Errors cannot be ignored (the
+    device would refuse the program), as with `# mpc: ignore` on a line."""
+    from mplang.lang.rules import RULES
+    from mplang.lang.severity import Severity
+
+    table = _table(data, "lint", where)
+    _check_keys(table, LINT_KEYS, "lint", where)
+    value = table.get("ignore", [])
+    if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+        raise where.error("lint", "ignore", "must be a list of warning codes, e.g. "
+                          "[\"W102\", \"W107\"]")
+    codes = frozenset(v.strip().upper() for v in value)
+    for code in sorted(codes):
+        rule = RULES.get(code)
+        if rule is None:
+            warnings = sorted(c for c, r in RULES.items() if r.severity is Severity.WARNING)
+            raise where.error("lint", "ignore", f"{code!r} is no check code; the warnings "
+                              f"are {', '.join(warnings)} (docs/checks/)")
+        if rule.severity is not Severity.WARNING:
+            raise where.error("lint", "ignore", f"{code} is an error, and errors cannot be "
+                              "ignored (the controller would refuse the program): fix it")
+    return codes
 
 
 def load_fleet(path: Path) -> list[Target]:

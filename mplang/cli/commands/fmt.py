@@ -30,7 +30,9 @@ from mplang.cli.common import (
     InputError,
     expand_inputs,
     guarded,
+    isolated,
     load_project_file,
+    nearest_projects,
     project_option,
 )
 from mplang.cli.shell import complete_paths
@@ -39,6 +41,7 @@ from mplang.tools.project import find_project
 
 if TYPE_CHECKING:
     from mplang.tools.fmt import FormatOptions
+    from mplang.tools.project import Project
 
 STDIN = "-"
 STDIN_NAME = "<stdin>"
@@ -198,6 +201,18 @@ def _format_stdin(options: FormatOptions, check: bool, show_diff: bool) -> int:
     return EXIT_OK
 
 
+def _fmt_table(project: Project | None) -> FormatOptions | None:
+    """The project file's [fmt] settings, or None for the formatter's defaults."""
+    from mplang.tools.fmt import FormatOptions, FormatOptionsError
+
+    if project is None:
+        return None
+    try:
+        return FormatOptions.from_mapping(project.fmt, where=f"{project.path} [fmt]")
+    except FormatOptionsError as exc:
+        raise InputError(str(exc)) from None
+
+
 @click.command("fmt", short_help="Lay out .mp sources in the canonical format.")
 @click.argument("files", nargs=-1, shell_complete=complete_paths)
 @click.option("--check", is_flag=True,
@@ -215,17 +230,13 @@ def command(files: tuple[str, ...], check: bool, show_diff: bool, indent: int | 
     """Format FILE... (files, directories or globs; without them, the sources of mpc.toml)
     in place; '-' formats standard input to standard output. Comments, blank-line groups and
     every token are kept; files with syntax errors are left untouched (exit 1). The [fmt]
-    table of mpc.toml (here or above) sets the defaults."""
-    from mplang.tools.fmt import FormatOptions, FormatOptionsError
-
-    found = project_file or find_project(Path.cwd())
+    table of the nearest mpc.toml above each FILE (above here for standard input) sets its
+    defaults."""
+    if project_file is not None and isolated():
+        raise click.UsageError("give --project FILE or --isolated, not both")
+    here = not isolated() and (not files or STDIN in files)  # FILEs find their own
+    found = project_file or (find_project(Path.cwd()) if here else None)
     project = load_project_file(found) if found is not None else None
-    base = None
-    if project is not None:
-        try:
-            base = FormatOptions.from_mapping(project.fmt, where=f"{project.path} [fmt]")
-        except FormatOptionsError as exc:
-            raise InputError(str(exc)) from None
     if not files:
         if project is None or not project.sources:
             raise click.UsageError("give FILE... (.mp sources), or run where an mpc.toml "
@@ -239,14 +250,22 @@ def command(files: tuple[str, ...], check: bool, show_diff: bool, indent: int | 
                     f"({os.path.relpath(project.root)}), and mpc fmt rewrites only files "
                     "inside it: name the file on the command line to format it")
         files = tuple(os.path.relpath(p) for p in project.sources)
-    options = _options(indent, keyword_case, base)
     if STDIN in files:
         if len(files) > 1:
             raise click.UsageError("'-' (standard input) cannot be combined with files")
-        sys.exit(_format_stdin(options, check, show_diff))
+        sys.exit(_format_stdin(_options(indent, keyword_case, _fmt_table(project)), check,
+                               show_diff))
     tally = _Tally()
-    for path in expand_inputs(files):
-        _format_file(path, options, check, show_diff, tally)
+    paths = expand_inputs(files)
+    if project_file is not None or isolated():
+        groups = [(project, paths)]
+    else:  # each file laid out by the [fmt] table of the nearest mpc.toml above it
+        groups = [(None if near is None else load_project_file(Path(os.path.relpath(near))),
+                   group) for near, group in nearest_projects(paths)]
+    for owner, group in groups:
+        options = _options(indent, keyword_case, _fmt_table(owner))
+        for path in group:
+            _format_file(path, options, check, show_diff, tally)
     verb = "would be reformatted" if check or show_diff else "reformatted"
     summary = [f"{_plural(len(tally.changed), 'file')} {verb}", f"{tally.unchanged} unchanged"]
     if tally.with_errors:

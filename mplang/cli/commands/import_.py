@@ -34,7 +34,8 @@ def command(file: str, output: str | None, encoding: str | None, check: bool) ->
 
     Comments and blank lines are kept; host code around the programs is kept as `# C:`
     comments. Whatever cannot be converted is named on standard error as
-    `FILE.c:LINE: cannot convert ...` and the exit code is 13.
+    `FILE.c:LINE: cannot convert ...` and the exit code is 13. A file that calls no
+    vendor function is not such a program: exit 3.
     """
     import codecs
 
@@ -60,6 +61,12 @@ def command(file: str, output: str | None, encoding: str | None, check: bool) ->
     if encoding is None and used != "utf-8":
         click.echo(f"{file}: note: not UTF-8; read as {used} (use --encoding to choose)",
                    err=True)
+    if not _has_vendor_calls(text):
+        style.error(f"{file}: no call of the vendor API (RSM_... or ETM_... functions): "
+                    "nothing to convert; mpc import reads C programs that download macro "
+                    "programs with RSM_MP_CREATE, RSM_MACRO_... and RSM_MACRO_MP_CLOSE (or "
+                    "the ETM_ names)")
+        sys.exit(EXIT_NO_INPUT)
     result = convert(text, source_name=path.name)
     write_output(result.text, output)
     for warning in result.warnings:
@@ -72,6 +79,14 @@ def command(file: str, output: str | None, encoding: str | None, check: bool) ->
     if result.warnings:
         style.error(f"{len(result.warnings)} construct(s) not converted")
         sys.exit(EXIT_OMISSIONS)
+
+
+def _has_vendor_calls(text: str) -> bool:
+    """Whether the C text calls an RSM_/ETM_ function outside comments and strings."""
+    import re
+
+    code = re.sub(r'/\*.*?\*/|//[^\n]*|"(?:\\.|[^"\\\n])*"', " ", text, flags=re.DOTALL)
+    return re.search(r"\b(?:RSM|ETM)_\w+\s*\(", code) is not None
 
 
 def _check(text: str, line_map: list[int | None], target: str, file: str,

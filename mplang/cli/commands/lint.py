@@ -13,7 +13,7 @@ import click
 from mplang.cli import style
 from mplang.cli.common import (
     EXIT_SOURCE_ERRORS,
-    build_setup,
+    build_setups,
     guarded,
     project_option,
     with_common,
@@ -21,7 +21,7 @@ from mplang.cli.common import (
 )
 from mplang.cli.families import choose
 from mplang.cli.shell import complete_paths
-from mplang.lang.diagnostics import Diagnostic, Severity
+from mplang.lang.diagnostics import Diagnostic, Severity, without_ignored
 
 
 @click.command("lint", short_help="Run every check without producing an image.")
@@ -40,15 +40,20 @@ def command(ctx: click.Context, files: tuple[str, ...], fmt: str, output: str | 
             project_file: Path | None, target: str, word_order: str | None, temp_vars: range,
             allow_outside_includes: bool, werror: bool) -> None:
     """Check FILE... (without them, the sources of mpc.toml) without producing an image:
-    .mp sources for --target, or FATEK .fbs / CSIM .csim listings. Exit 1 if any error is
-    found."""
+    .mp sources for --target, or FATEK .fbs / CSIM .csim listings. Each FILE is checked with
+    the nearest mpc.toml above it (files of one project together, as one build). Exit 1 if
+    any error is found (or a warning, where werror is set)."""
     from mplang.tools import report as render
 
-    setup = build_setup(ctx, files, project_file, target, word_order, temp_vars,
-                        allow_outside_includes, werror)
-    werror = setup.werror
-    selection = choose(setup)
-    diagnostics = selection.build(setup.options).diagnostics
+    diagnostics: list[Diagnostic] = []
+    failed = False
+    for setup in build_setups(ctx, files, project_file, target, word_order, temp_vars,
+                              allow_outside_includes, werror):
+        selection = choose(setup)
+        found = without_ignored(selection.build(setup.options).diagnostics, setup.ignore)
+        diagnostics += found
+        failed = failed or any(d.severity is Severity.ERROR for d in found) \
+            or (setup.werror and bool(found))
     if fmt == "text":
         _report_text(diagnostics, output)
     else:
@@ -56,8 +61,7 @@ def command(ctx: click.Context, files: tuple[str, ...], fmt: str, output: str | 
                     "gitlab": render.render_gitlab}.get(fmt)
         write_output(render.render_diagnostics_json(diagnostics) if renderer is None
                      else renderer(diagnostics), output)
-    errors = sum(1 for d in diagnostics if d.severity is Severity.ERROR)
-    if errors or (werror and diagnostics):
+    if failed:
         sys.exit(EXIT_SOURCE_ERRORS)
 
 

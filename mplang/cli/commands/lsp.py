@@ -9,6 +9,7 @@ import click
 
 from mplang.cli import style
 from mplang.cli.common import (
+    EXIT_MISSING_EXTRA,
     EXIT_TRANSPORT,
     EXIT_USAGE,
     guarded,
@@ -29,6 +30,23 @@ class _OneLineFormatter(logging.Formatter):
             error = record.exc_info[1]
             text += f": {type(error).__name__}: {error}"
         return text
+
+
+class MissingExtra(click.ClickException):
+    exit_code = EXIT_MISSING_EXTRA
+
+
+def require_pygls() -> None:
+    """pygls is the optional `lsp` extra: say how to get it, instead of an import error."""
+    import importlib
+
+    try:
+        importlib.import_module("pygls")
+        importlib.import_module("lsprotocol")
+    except ImportError as exc:
+        raise MissingExtra(
+            f"mpc lsp needs pygls, which cannot be imported ({exc}); install mplang with its "
+            "lsp extra: pip install 'mplang[lsp]'") from None
 
 
 def _parse_pool(ctx: click.Context, param: click.Parameter, value: str | None
@@ -61,6 +79,7 @@ def command(listen: tuple[str, int] | None, stdio: bool, target: str | None,
     input/output (`--stdio`, the default)."""
     if stdio and listen is not None:
         raise click.UsageError("--stdio and --tcp exclude each other: choose one transport")
+    require_pygls()
     from mplang.tools.lsp.server import create_server
     from mplang.tools.lsp.workspace import Overrides
 

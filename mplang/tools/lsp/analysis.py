@@ -22,7 +22,13 @@ from mplang.ir.catalogue import Catalogue
 from mplang.ir.lower import Scope
 from mplang.ir.unit import Options, lower_unit
 from mplang.lang import ast
-from mplang.lang.diagnostics import Diagnostic, DiagnosticSink, Severity, Span
+from mplang.lang.diagnostics import (
+    Diagnostic,
+    DiagnosticSink,
+    Severity,
+    Span,
+    without_ignored,
+)
 from mplang.lang.sources import SourceFile, SourceSet, load_sources
 from mplang.lang.structure import build_unit
 from mplang.m8194h.compiler import compile_paths
@@ -30,9 +36,8 @@ from mplang.m8194h.link import Placement, link
 from mplang.tools.lsp.positions import Location, Range, line_range, span_range, split_lines
 from mplang.tools.lsp.tokens import Token, lex_line
 from mplang.tools.lsp.workspace import LIMIT_TEXT, BuildContext, RefusedFile, read_text
+from mplang.tools.report import check_page
 
-# docs/checks/<CODE>.md of a source checkout; absent from an installed wheel.
-CHECK_DOCS = Path(__file__).resolve().parents[3] / "docs" / "checks"
 _VAR_USE = re.compile(r"\bVAR(\d+)\b", re.IGNORECASE)
 logger = logging.getLogger("mplang.tools.lsp")
 
@@ -255,7 +260,8 @@ def _analyse(path: Path, text: str, context: BuildContext, open_texts: Mapping[P
     scratch = DiagnosticSink()  # the compiler's own run above reports; this one is discarded
     sources = load_sources(paths, scratch, allow_outside=options.allow_outside_includes,
                            texts=texts)
-    diagnostics = [*diagnostics, *_refusals(sources.files, paths, texts.refused)]
+    diagnostics = [*without_ignored(diagnostics, context.ignore),
+                   *_refusals(sources.files, paths, texts.refused)]
     by_display: dict[str, SourceText] = {}
     for source in sources.files:
         if source.path.resolve() in texts.refused:
@@ -481,7 +487,7 @@ def _place_diagnostic(analysis: Analysis, diagnostic: Diagnostic,
     project is left to that document."""
     related = tuple((_span_location(span, by_display[span.file]), note)
                     for span, note in diagnostic.related if span.file in by_display)
-    docs = CHECK_DOCS / f"{diagnostic.code}.md"
+    docs = check_page(diagnostic.code)  # shipped in the package, or the checkout's docs/
     entry = by_display.get(diagnostic.span.file)
     message = diagnostic.message
     if entry is not None and entry.path == analysis.path:
@@ -497,5 +503,5 @@ def _place_diagnostic(analysis: Analysis, diagnostic: Diagnostic,
                 return None
             where = through.range
     return EditorDiagnostic(where, diagnostic.severity.value, diagnostic.code, message,
-                            diagnostic.hint, related, docs if docs.is_file() else None,
+                            diagnostic.hint, related, docs,
                             elsewhere=entry is None or entry.path != analysis.path)

@@ -100,6 +100,7 @@ class BuildContext:
     options: Options
     project_file: Path | None = None
     problem: str = ""  # why the project file could not be used ("" if it could)
+    ignore: frozenset[str] = frozenset()  # the project's [lint] ignore, as mpc lint reads it
 
 
 def _defaults(overrides: Overrides) -> Options:
@@ -143,7 +144,8 @@ def context_for(document: Path, overrides: Overrides | None = None) -> BuildCont
         # Pins name programs of the project's sources: only that build can satisfy them.
         pins=project.pins if in_project else (),
         var_pool=project.var_pool if project.var_pool is not None else base.var_pool)
-    return BuildContext(sources if in_project else alone, options, found)
+    return BuildContext(sources if in_project else alone, options, found,
+                        ignore=project.ignore)
 
 
 def format_options_for(document: Path) -> FormatOptions:

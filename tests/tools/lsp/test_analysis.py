@@ -8,8 +8,9 @@ from pathlib import Path
 import pytest
 
 from mplang.m8194h.compiler import compile_paths
-from mplang.tools.lsp.analysis import CHECK_DOCS, analyse
+from mplang.tools.lsp.analysis import analyse
 from mplang.tools.lsp.positions import Pos, line_range
+from mplang.tools.report import check_page
 
 DATA = Path(__file__).resolve().parents[2] / "data" / "checks"
 MAIN = """INCLUDE "common.mp"
@@ -44,7 +45,8 @@ def test_diagnostics_keep_code_severity_hint_and_0_based_range(project: Path) ->
     assert unknown.range == line_range(5, 4, 13)
     assert unknown.severity == "error"
     assert unknown.hint == "did you mean FIXED_MOVE?"
-    assert unknown.docs == CHECK_DOCS / "E201.md"
+    assert unknown.docs == check_page("E201") and unknown.docs is not None
+    assert unknown.docs.name == "E201.md" and unknown.docs.is_file()
     warning = next(d for d in analysis.diagnostics if d.code == "W103")
     assert warning.severity == "warning"
 
