@@ -33,6 +33,9 @@ status_device = None
 """No `mpc status`: see docs/cli.md (the CSIM's query commands are not read yet)."""
 disassemble = None
 """No image format to read back: a CSIM lists its program itself (ULP)."""
+watch = None
+"""No live view (`mpc monitor`): the dashboard polls Modbus registers, and a CSIM speaks its
+RS232 ASCII command set (docs/monitor.md)."""
 
 __all__ = [
     "BUILD_OPTIONS",
@@ -61,4 +64,5 @@ __all__ = [
     "run_build",
     "serve",
     "status_device",
+    "watch",
 ]

@@ -35,6 +35,9 @@ status_device = None  # no status reads: see docs/cli.md (mpc status)
 """Nothing to flash into (`NO_TRANSPORT`; `FLASH_INSTEAD` says what to do)."""
 disassemble = None
 """No image to read back: the listing is the program."""
+watch = None
+"""No live view (`mpc monitor`): nothing can reach a FATEK positioning table
+(`NO_TRANSPORT`)."""
 
 __all__ = [
     "BUILD_OPTIONS",
@@ -63,4 +66,5 @@ __all__ = [
     "run_build",
     "serve",
     "status_device",
+    "watch",
 ]

@@ -25,6 +25,7 @@ from mplang.family.face import (
     ServeRequest,
     StatusJob,
     StatusUI,
+    WatchJob,
 )
 from mplang.ir.unit import Options
 from mplang.m8194h.compiler import compile_paths
@@ -33,6 +34,7 @@ from mplang.m8194h.run import RunReport, run_family
 
 if TYPE_CHECKING:
     from mplang.m8194h.disasm import Disassembly
+    from mplang.m8194h.live import Watcher
 
 TITLE = "M8194H"
 TARGETS = ("et", "rs")
@@ -83,6 +85,7 @@ __all__ = [
     "run_build",
     "serve",
     "status_device",
+    "watch",
 ]
 
 
@@ -132,3 +135,11 @@ def status_device(job: StatusJob, ui: StatusUI) -> str:
     from mplang.m8194h import status
 
     return status.status(job, ui)
+
+
+def watch(job: WatchJob) -> Watcher:
+    """A live view of one device for `mpc monitor` (`mplang.m8194h.live`), imported when
+    called, as `serve`."""
+    from mplang.m8194h import live
+
+    return live.watch(job)
