@@ -54,7 +54,8 @@ class Monitor:
         self.title = title
         self.lock = asyncio.Lock()  # one request at a time on the device's link
         self.state: dict[str, Any] = {"connected": False, "error": "connecting",
-                                      "seq": 0, "updated": None}
+                                      "seq": 0, "updated": None, "write": allow_write,
+                                      "title": title, "path_points": 0}
         self.path: list[list[int]] = []  # [x, y, z] logic positions, in order
         self.path_base = 0  # the absolute index of path[0]
         self.tick = asyncio.Event()
