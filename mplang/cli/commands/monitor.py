@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import contextlib
 import sys
-import webbrowser
 from collections.abc import AsyncIterator
 from pathlib import Path
 
@@ -78,6 +77,8 @@ def dashboard(family: Family, build: FamilyBuild | None, port: int) -> Companion
 
 
 def _open(url: str) -> None:
+    import webbrowser
+
     if not webbrowser.open(url):
         click.echo(f"mpc monitor: no browser to open; open {url} yourself", err=True)
 

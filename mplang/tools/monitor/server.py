@@ -75,6 +75,13 @@ class Monitor:
                 self.publish(None, f"device unreachable: {exc}; reconnecting")
                 await asyncio.sleep(RETRY_S)
                 continue
+            except Exception as exc:  # a fault of the reader: shown, and the poll goes on
+                self.failures += 1
+                self.device.close()
+                self.publish(None, f"cannot read the device (an mpc fault, please report "
+                             f"it): {exc!r}; reconnecting")
+                await asyncio.sleep(RETRY_S)
+                continue
             self.publish(data, None)
             await asyncio.sleep(max(0.0, self.period - (loop.time() - started)))
 
