@@ -32,8 +32,13 @@ MP 41 square
     STOP_WAIT Y
     laps = laps + 1
 END MP
+
+MP 42 divide
+    laps = laps / target
+END MP
 """
 SQUARE_LINE = 4  # where `MP 41 square` is declared in JOB
+DIVIDE_LINE = 22  # `laps = laps / target`: division by zero while target is 0
 
 
 def mpc(cwd: Path, *args: str) -> subprocess.CompletedProcess[str]:

@@ -13,7 +13,17 @@ import sys
 from pathlib import Path
 
 import aiohttp
-from monitorproc import JOB, SQUARE_LINE, get, mpc, post, start_monitor, state_until, stop
+from monitorproc import (
+    DIVIDE_LINE,
+    JOB,
+    SQUARE_LINE,
+    get,
+    mpc,
+    post,
+    start_monitor,
+    state_until,
+    stop,
+)
 from simproc import start_sim
 
 from mplang.cli.common import EXIT_OK, EXIT_TRANSPORT, EXIT_USAGE
@@ -54,8 +64,9 @@ def test_manual_12_1_api_state_over_http_read_only(tmp_path: Path) -> None:
             assert len(state["frnet_di"]) == 8
             assert {(v["name"], v["var"]) for v in state["variables"]} == {
                 ("laps", 400), ("target", 20)}
-            assert state["programs"] == [{"slot": "MP41", "name": "square",
-                                          "source": f"job.mp:{SQUARE_LINE}"}]
+            assert state["programs"] == [
+                {"slot": "MP41", "name": "square", "source": f"job.mp:{SQUARE_LINE}"},
+                {"slot": "MP42", "name": "divide", "source": f"job.mp:{DIVIDE_LINE - 1}"}]
             assert state["running"] == {"mp": 0, "top": 0, "program": None, "source": None}
             assert state["execution_error"]["error"] == 0
             status, page = get(url)
@@ -113,6 +124,14 @@ def test_manual_12_3_writes_with_allow_write(tmp_path: Path) -> None:
             missing = post(url + "api/call", {"program": "MP999"})
             assert missing[0] == 400 and "no MP 'MP999'" in missing[1]["error"]
             assert post(url + "api/stop", "stop", "text/plain")[0] == 415
+            assert post(url + "api/var", {"name": "target", "value": 0})[0] == 200
+            state_until(url, lambda s: s["variables"][0]["value"] == 0)
+            assert post(url + "api/call", {"program": "MP42"})[0] == 200
+            failed = state_until(url, lambda s: s["execution_error"]["error"] != 0)
+            error = failed["execution_error"]
+            assert (error["mp"], error["error"]) == (42, 0x03)
+            assert error["text"] == "division by zero in VAR_CALCULATE"
+            assert error["source"] == f"job.mp:{DIVIDE_LINE}"
         finally:
             stop(monitor)
     finally:

@@ -106,6 +106,12 @@ def test_read_only_dashboard_hides_the_write_buttons(tmp_path: Path) -> None:
                     for button in ("#call", "#stop", "#estop", "#clear-estop"):
                         assert not page.is_visible(button)
                     assert page.is_visible("#no-vars")
+                    assert not page.is_visible("#error")
+                    stop(sim)  # the device goes away: the page says so
+                    page.wait_for_selector("body[data-connected=false]")
+                    banner = page.inner_text("#error")
+                    assert banner.startswith("device unreachable: ") and "reconnecting" in banner
+                    assert page.inner_text("#connection") == "not connected"
                 finally:
                     browser.close()
         finally:
