@@ -283,3 +283,24 @@ def test_manual_12_1_monitor_over_modbus_rtu(tmp_path: Path) -> None:
             stop(monitor)
     finally:
         stop(proc)
+
+
+def test_monitor_to_a_project_target_names_its_variables(tmp_path: Path) -> None:
+    """`mpc monitor --to NAME` in a project: the device of `[targets.NAME]`, the names of
+    the project's sources."""
+    work = folder(tmp_path / "w")
+    sim, port = start_sim("--duration", "60")
+    try:
+        (work / "mpc.toml").write_text(f'[project]\nsources = ["job.mp"]\n\n[targets.cell]\n'
+                                       f'tcp = "127.0.0.1:{port}"\n')
+        monitor, url = start_monitor(work, "--to", "cell")
+        try:
+            state = state_until(url, lambda s: s["connected"])
+            assert state["title"] == "cell" and f"127.0.0.1:{port}" in state["device"]
+            assert [v["name"] for v in state["variables"]] == ["target", "laps"]
+        finally:
+            stop(monitor)
+        unknown = mpc(work, "monitor", "--to", "nosuch")
+        assert unknown.returncode == EXIT_USAGE and "no [targets.nosuch]" in unknown.stderr
+    finally:
+        stop(sim)
