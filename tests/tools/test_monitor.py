@@ -10,6 +10,8 @@ import asyncio
 import socket
 import subprocess
 import sys
+import urllib.error
+import urllib.request
 from pathlib import Path
 
 import aiohttp
@@ -74,6 +76,14 @@ def test_manual_12_1_api_state_over_http_read_only(tmp_path: Path) -> None:
             status, script = get(url + "assets/monitor.js")
             assert status == 200 and "WebSocket" in script
             assert get(url + "assets/nothing.js")[0] == 404
+            rebound = urllib.request.Request(url + "api/state",
+                                             headers={"Host": "evil.example"})
+            try:
+                urllib.request.urlopen(rebound, timeout=10)
+                raise AssertionError("a request for another host name was answered")
+            except urllib.error.HTTPError as err:
+                assert err.code == 403 and "evil.example" in err.read().decode()
+            assert get(url.replace("127.0.0.1", "localhost") + "api/state")[0] == 200
             for endpoint, body in (("call", {"program": "square"}), ("stop", {}),
                                    ("var", {"name": "laps", "value": 3}),
                                    ("emergency-stop", {}), ("clear-emergency", {})):

@@ -7,7 +7,8 @@ without it they answer 403. A device that cannot be read is a state like any oth
 
 Writes must be JSON (`Content-Type: application/json`), which a page of another origin can
 only send after a CORS preflight this server never grants, and an `Origin` header, when
-sent, must be this server's own.
+sent, must be this server's own. Served on loopback, it answers only requests that name a
+loopback host.
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ import contextlib
 import errno
 import json
 import time
-from collections.abc import AsyncIterator, Callable
+from collections.abc import AsyncIterator, Awaitable, Callable
 from importlib import resources
 from typing import Any
 
@@ -47,11 +48,12 @@ class Monitor:
     """The polled state of one device, its tool path, and the clients watching it."""
 
     def __init__(self, device: LiveDevice, *, allow_write: bool, period: float = PERIOD_S,
-                 title: str = "") -> None:
+                 title: str = "", local_names_only: bool = True) -> None:
         self.device = device
         self.allow_write = allow_write
         self.period = period
         self.title = title
+        self.local_names_only = local_names_only  # served on loopback: see `_local`
         self.lock = asyncio.Lock()  # one request at a time on the device's link
         self.state: dict[str, Any] = {"connected": False, "error": "connecting",
                                       "seq": 0, "updated": None, "write": allow_write,
@@ -187,8 +189,20 @@ class Monitor:
             return web.json_response({"error": f"device unreachable: {exc}"}, status=503)
         return web.json_response({"ok": True, "done": done})
 
+    @web.middleware
+    async def _local(self, request: web.Request,
+                     handler: Callable[[web.Request], Awaitable[web.StreamResponse]]
+                     ) -> web.StreamResponse:
+        """On loopback, answer only requests that name this machine (Host: 127.0.0.1,
+        localhost, [::1]): a page of another site whose name was made to point here (DNS
+        rebinding) names its own."""
+        if self.local_names_only and not is_loopback(request.url.host or ""):
+            return web.json_response({"error": f"refused: the dashboard is served to "
+                                      f"this machine, not to {request.host}"}, status=403)
+        return await handler(request)
+
     def app(self) -> web.Application:
-        app = web.Application()
+        app = web.Application(middlewares=[self._local])
         app.router.add_get("/", self.page)
         app.router.add_get("/assets/{name}", self.asset)
         app.router.add_get("/api/state", self.api_state)
@@ -203,7 +217,8 @@ async def serving(device: LiveDevice, host: str, port: int, *, allow_write: bool
                       tuple[Monitor, str]]:
     """Serve the dashboard of `device` on host:port (0: any free port) while the block
     runs; yields the monitor and its URL. MonitorError when it cannot listen."""
-    monitor = Monitor(device, allow_write=allow_write, period=period, title=title)
+    monitor = Monitor(device, allow_write=allow_write, period=period, title=title,
+                      local_names_only=is_loopback(host))
     runner = web.AppRunner(monitor.app(), access_log=None, handle_signals=False)
     await runner.setup()
     try:
