@@ -6,7 +6,8 @@ STAMP := $(VENV)/.installed
 
 .PHONY: demo test lint docs bench clean tools
 
-# Debian packages the tests use: mbpoll, an independent Modbus client (libmodbus).
+# Debian packages the tests use: mbpoll, an independent Modbus client (libmodbus), and
+# chromium, the browser the mpc monitor test drives (playwright, pointed at /usr/bin/chromium).
 SUDO := $(shell [ "$$(id -u)" != 0 ] && command -v sudo >/dev/null 2>&1 && echo sudo)
 
 $(STAMP): pyproject.toml
@@ -41,6 +42,9 @@ tools:
 	@command -v npm >/dev/null 2>&1 || $(SUDO) apt-get install -y -q nodejs npm >/dev/null 2>&1 \
 	  || { $(SUDO) apt-get update -q >/dev/null 2>&1 && $(SUDO) apt-get install -y -q nodejs npm >/dev/null; } \
 	  || echo "make: could not install nodejs and npm; the editor tests will fail"
+	@command -v chromium >/dev/null 2>&1 || $(SUDO) apt-get install -y -q chromium >/dev/null 2>&1 \
+	  || { $(SUDO) apt-get update -q >/dev/null 2>&1 && $(SUDO) apt-get install -y -q chromium >/dev/null; } \
+	  || echo "make: could not install chromium; the mpc monitor browser test will fail"
 	@[ $(VSCODE_EXT)/node_modules/.package-lock.json -nt $(VSCODE_EXT)/package-lock.json ] \
 	  || npm ci --prefix $(VSCODE_EXT) --no-audit --no-fund --loglevel=error >/dev/null \
 	  || echo "make: npm ci in $(VSCODE_EXT) failed; the editor tests will fail"

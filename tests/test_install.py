@@ -30,6 +30,8 @@ def test_wheel_contains_grammar_and_stdlib(wheel: Path) -> None:
     assert "mplang/grammar/mplang.lark" in names
     assert "mplang/stdlib/m8194h/commands.toml" in names
     assert "mplang/stdlib/m8194h/device.toml" in names
+    for asset in ("index.html", "monitor.js", "monitor.css"):  # mpc monitor serves them
+        assert f"mplang/tools/monitor/assets/{asset}" in names
 
 
 def test_wheel_carries_every_module(wheel: Path) -> None:

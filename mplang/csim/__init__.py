@@ -37,6 +37,9 @@ debug = None
 """No `mpc dap`: the virtual CSIM runs its command lines with no place to stop (`NO_DEBUG`)."""
 NO_DEBUG = ("the virtual CSIM runs its command lines with no place to stop at a source "
             "line; debug the same .mp sources with target et (the virtual M8194H)")
+watch = None
+"""No live view (`mpc monitor`): the dashboard polls Modbus registers, and a CSIM speaks its
+RS232 ASCII command set (docs/monitor.md)."""
 
 __all__ = [
     "BUILD_OPTIONS",
@@ -67,4 +70,5 @@ __all__ = [
     "run_build",
     "serve",
     "status_device",
+    "watch",
 ]

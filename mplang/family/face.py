@@ -17,6 +17,7 @@ types), and the registry (`mplang.family.registry`) finds them by name.
 from __future__ import annotations
 
 from collections.abc import Awaitable, Callable, Mapping, Sequence
+from contextlib import AbstractAsyncContextManager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Protocol, TypeVar
@@ -64,6 +65,12 @@ class ServiceError(Exception):
         self.kind = kind
 
 
+Companion = Callable[[str, int], AbstractAsyncContextManager[None]]
+"""Something served beside a virtual device for as long as it runs (`mpc sim --monitor`):
+given the host and port its Modbus TCP service listens on; raises `ServiceError` when it
+cannot start."""
+
+
 @dataclass(frozen=True)
 class ServeRequest:
     """What `mpc sim` asks of a family's virtual device. Options a family has no use for are
@@ -81,6 +88,7 @@ class ServeRequest:
     verbose: bool
     word_order: int | None
     describe: str  # the family (and target) in words, for messages
+    companion: Companion | None = None  # started once Modbus TCP listens (`mpc sim --monitor`)
 
 
 class CommandError(Exception):
@@ -174,6 +182,37 @@ class StatusJob:
     retries: int
     identity: str | bool | None = None  # as FlashJob.identity
     identity_where: str | None = None
+
+
+class DeviceUnreachable(Exception):
+    """A live device cannot be read just now (no connection, no answer, a refused read):
+    the watcher shows it and tries again."""
+
+
+@dataclass(frozen=True)
+class WatchJob:
+    """What `mpc monitor` (and `mpc sim --monitor`) asks of a family: one device to watch
+    live, and the build it holds if the sources are known (for declared names and source
+    lines)."""
+
+    device: FlashTarget
+    build: FamilyBuild | None
+    timeout: float
+    retries: int
+
+
+class LiveDevice(Protocol):
+    """One device watched live: `read` gives the state as JSON-ready data (the fields of
+    docs/monitor.md) or raises `DeviceUnreachable`; `act` carries out one write ("call",
+    "set_var", "stop", "emergency_stop", "clear_emergency") and says what it did, raising
+    `CommandError` for a request that cannot be carried out and `DeviceUnreachable` when
+    the device does not answer."""
+
+    async def read(self) -> dict[str, Any]: ...
+
+    async def act(self, action: str, args: Mapping[str, Any]) -> str: ...
+
+    def close(self) -> None: ...
 
 
 class StatusUI(Protocol):
@@ -358,6 +397,12 @@ class Family(Protocol):
     def status_device(self) -> Callable[[StatusJob, StatusUI], str] | None:
         """`mpc status`: read one device (and compare it with a build), print it, and say
         "in-sync", "out-of-sync" or "no-device"; None where the family has no status."""
+        ...
+
+    @property
+    def watch(self) -> Callable[[WatchJob], LiveDevice] | None:
+        """`mpc monitor`: a live view of one device (`LiveDevice`), None where the family
+        has none (`NO_TRANSPORT` or its `status_device` being None say why)."""
         ...
 
     @property

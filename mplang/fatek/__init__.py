@@ -40,6 +40,9 @@ debug = None
 to stop between steps (`NO_DEBUG`)."""
 NO_DEBUG = ("the virtual FATEK PLC runs whole positioning-table steps and cannot stop at a "
             "source line; debug the same .mp sources with target et (the virtual M8194H)")
+watch = None
+"""No live view (`mpc monitor`): nothing can reach a FATEK positioning table
+(`NO_TRANSPORT`)."""
 
 __all__ = [
     "BUILD_OPTIONS",
@@ -70,4 +73,5 @@ __all__ = [
     "run_build",
     "serve",
     "status_device",
+    "watch",
 ]

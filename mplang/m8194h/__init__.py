@@ -25,6 +25,7 @@ from mplang.family.face import (
     ServeRequest,
     StatusJob,
     StatusUI,
+    WatchJob,
 )
 from mplang.ir.unit import Options
 from mplang.m8194h.compiler import compile_paths
@@ -34,6 +35,7 @@ from mplang.m8194h.run import RunReport, run_family
 if TYPE_CHECKING:
     from mplang.m8194h.debugger import Session
     from mplang.m8194h.disasm import Disassembly
+    from mplang.m8194h.live import Watcher
 
 TITLE = "M8194H"
 TARGETS = ("et", "rs")
@@ -87,6 +89,7 @@ __all__ = [
     "run_build",
     "serve",
     "status_device",
+    "watch",
 ]
 
 
@@ -144,3 +147,11 @@ def debug(build: object, call: str | None, machine: Path | None, max_time: float
     from mplang.m8194h import debugger
 
     return debugger.start(build, call, machine, max_time)
+
+
+def watch(job: WatchJob) -> Watcher:
+    """A live view of one device for `mpc monitor` (`mplang.m8194h.live`), imported when
+    called, as `serve`."""
+    from mplang.m8194h import live
+
+    return live.watch(job)

@@ -765,3 +765,13 @@ class DeviceLink:
             lambda c: c.write_registers(address, registers, device_id=unit),
             WRITE_REGISTERS, address,
             lambda r: r.address == address and r.count == len(registers))
+
+    async def write_once(self, address: int, values: list[int]) -> None:
+        """FC16 to holding registers whose write acts (register 8: a call), sent once: an
+        unanswered one may have been carried out, so it is never repeated here."""
+        registers = self._registers(values)
+        unit = self.endpoint.unit
+        await self._exchange(
+            lambda c: c.write_registers(address, registers, device_id=unit),
+            WRITE_REGISTERS, address,
+            lambda r: r.address == address and r.count == len(registers))

@@ -38,7 +38,7 @@ def serve(build: FamilyBuild | None, request: ServeRequest, say: Say) -> None:
         tcp=request.tcp if request.tcp is not None or request.serial is not None
         else DEFAULT_TCP, serial=request.serial, unit=request.unit, baudrate=request.baud,
         parity=request.parity, stopbits=request.stopbits, speed=request.speed, memory=memory,
-        duration=request.duration, verbose=request.verbose)
+        duration=request.duration, verbose=request.verbose, companion=request.companion)
 
     async def main_task() -> None:
         stop_event = asyncio.Event()

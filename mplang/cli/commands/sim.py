@@ -3,12 +3,14 @@ over Modbus TCP and/or RTU, a CSIM on a serial line; a family without one says w
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 from pathlib import Path
 
 import click
 
 from mplang.cli import style
+from mplang.cli.commands.monitor import DEFAULT_PORT, dashboard, refuse_family
 from mplang.cli.common import (
     EXIT_NO_INPUT,
     EXIT_RUN_FAILED,
@@ -44,12 +46,17 @@ from mplang.cli.shell import complete_paths
 @click.option("--duration", type=click.FloatRange(min=0), default=None,
               help="Stop after this many seconds [default: run until interrupted].")
 @click.option("-v", "--verbose", is_flag=True, help="Print what the device does.")
+@click.option("--monitor", "monitor_port", type=click.IntRange(0, 65535), default=None,
+              is_flag=False, flag_value=DEFAULT_PORT, metavar="[P]",
+              help=f"Serve the live dashboard of the device on http://127.0.0.1:P/ "
+              f"[P: {DEFAULT_PORT}] (docs/monitor.md); it watches over Modbus TCP.")
 @with_common
 @click.pass_context
 @guarded
 def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | None,
             serial: str | None, unit: int, baud: int, parity: str, stopbits: str, speed: float,
-            memory: Path | None, duration: float | None, verbose: bool, target: str,
+            memory: Path | None, duration: float | None, verbose: bool,
+            monitor_port: int | None, target: str,
             word_order: str | None, temp_vars: range, allow_outside_includes: bool,
             werror: bool) -> None:
     """Serve a virtual M8194H over Modbus TCP and/or RTU (FILE...: programs to preload).
@@ -83,6 +90,13 @@ def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | N
         setup = BuildSetup(selection.paths, build_options(
             target, word_order, temp_vars, allow_outside_includes), werror, None)
         build = build_checked(selection, setup)
+    if monitor_port is not None:
+        if family.watch is None:
+            refuse_family(family, "mpc sim --monitor")
+        if serial is not None and tcp is None:
+            raise click.UsageError("--monitor watches the device over Modbus TCP: give --tcp "
+                                   "as well as --serial")
+        request = dataclasses.replace(request, companion=dashboard(family, build, monitor_port))
     try:
         family.serve(build, request, lambda text: click.echo(f"mpc sim: {text}"))
     except ServiceError as exc:

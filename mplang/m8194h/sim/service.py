@@ -15,6 +15,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+from mplang.family.face import Companion
 from mplang.family.ptylink import PtyLink
 from mplang.lang.limits import load_json
 from mplang.m8194h.modbus import DeviceFace, Server, SimClock, serve_rtu, serve_tcp, stop
@@ -35,6 +36,7 @@ class SimOptions:
     memory: Path | None = None
     duration: float | None = None  # stop by itself after this many wall seconds
     verbose: bool = False
+    companion: Companion | None = None  # served beside the device once TCP listens
 
 
 @dataclass
@@ -70,6 +72,7 @@ async def serve(options: SimOptions, controller: VirtualController,
     servers: list[Server] = []
     link: PtyLink | None = None
     saved = controller.memory_version
+    companions = contextlib.AsyncExitStack()
     try:
         if options.tcp is not None:
             host, port = options.tcp
@@ -80,6 +83,8 @@ async def serve(options: SimOptions, controller: VirtualController,
             servers.append(tcp_server)
             endpoints.tcp = (host, bound)
             announce(f"Modbus TCP on {host}:{bound} (any unit id)")
+            if options.companion is not None:
+                await companions.enter_async_context(options.companion(host, bound))
         if options.serial is not None:
             port_name = options.serial
             if port_name == "pty":
@@ -112,6 +117,7 @@ async def serve(options: SimOptions, controller: VirtualController,
         if options.verbose:  # what the device did since the last tick, before it stops
             while controller.log:
                 announce(controller.log.popleft())
+        await companions.aclose()
         for server in servers:
             await stop(server)
         if link is not None:
