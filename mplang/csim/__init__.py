@@ -32,6 +32,10 @@ from mplang.csim.service import serve
 status_device = None
 """No `mpc status`: see docs/cli.md (the CSIM's query commands are not read yet)."""
 disassemble = None
+load_machine = None
+NO_MACHINE = ("the virtual CSIM has no limit or home switches to place, and its inputs 1-8 "
+              "hold one state for a whole run (docs/csim.md)")
+"""No `--machine`: why not, for the command line's refusal."""
 """No image format to read back: a CSIM lists its program itself (ULP)."""
 
 __all__ = [
@@ -41,6 +45,7 @@ __all__ = [
     "FLASH_INSTEAD",
     "FLASH_OPTIONS",
     "FORMATS",
+    "NO_MACHINE",
     "NO_TRANSPORT",
     "POSITION_UNIT",
     "PROTOCOL",
@@ -58,6 +63,7 @@ __all__ = [
     "compile_mp",
     "disassemble",
     "flash_devices",
+    "load_machine",
     "run_build",
     "serve",
     "status_device",

@@ -34,6 +34,10 @@ flash_devices = None
 status_device = None  # no status reads: see docs/cli.md (mpc status)
 """Nothing to flash into (`NO_TRANSPORT`; `FLASH_INSTEAD` says what to do)."""
 disassemble = None
+load_machine = None
+NO_MACHINE = ("a FATEK table describes its machine in the listing itself: SIM lines drive the "
+              "DOG, limit and PG0 inputs and timed contacts (docs/fatek.md)")
+"""No `--machine`: why not, for the command line's refusal."""
 """No image to read back: the listing is the program."""
 
 __all__ = [
@@ -43,6 +47,7 @@ __all__ = [
     "FLASH_INSTEAD",
     "FLASH_OPTIONS",
     "FORMATS",
+    "NO_MACHINE",
     "NO_TRANSPORT",
     "POSITION_UNIT",
     "PROTOCOL",
@@ -60,6 +65,7 @@ __all__ = [
     "compile_mp",
     "disassemble",
     "flash_devices",
+    "load_machine",
     "run_build",
     "serve",
     "status_device",

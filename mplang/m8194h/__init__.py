@@ -27,8 +27,10 @@ from mplang.family.face import (
     StatusUI,
 )
 from mplang.ir.unit import Options
+from mplang.m8194h import machine as machine_module
 from mplang.m8194h.compiler import compile_paths
 from mplang.m8194h.image import DEFAULT_FORMAT, FORMATS, BuildResult
+from mplang.m8194h.machine import MachineSetup
 from mplang.m8194h.run import RunReport, run_family
 
 if TYPE_CHECKING:
@@ -50,6 +52,8 @@ FLASH_OPTIONS = frozenset({"--unit", "--word-order", "--set-word-order", "--reco
 build manifest in machine data."""
 FLASHES_FLEETS = True
 FLASH_INSTEAD = ""
+NO_MACHINE = ""
+"""`--machine` applies: the virtual controller's sensors and inputs (docs/machine.md)."""
 SERVE_OPTIONS = frozenset({"--unit", "--memory", "--word-order"})
 """`mpc sim` options beyond the common ones: the RTU address, the macro memory file and the
 word order of the virtual controller."""
@@ -64,6 +68,7 @@ __all__ = [
     "FLASH_INSTEAD",
     "FLASH_OPTIONS",
     "FORMATS",
+    "NO_MACHINE",
     "NO_TRANSPORT",
     "POSITION_UNIT",
     "PROTOCOL",
@@ -80,6 +85,7 @@ __all__ = [
     "compile_mp",
     "disassemble",
     "flash_devices",
+    "load_machine",
     "run_build",
     "serve",
     "status_device",
@@ -97,9 +103,16 @@ def check_native(paths: list[Path], target: str | None = None) -> BuildResult:
 
 
 def run_build(build: BuildResult, call: str | None, max_time: float, *,
-              sample_period: float | None = None) -> RunReport:
-    """Run one MP of the build on a fresh virtual controller (`mplang.m8194h.run`)."""
-    return run_family(build, call, max_time, sample_period=sample_period)
+              sample_period: float | None = None, machine: object | None = None) -> RunReport:
+    """Run one MP of the build on a fresh virtual controller (`mplang.m8194h.run`), on the
+    machine `load_machine` read, if given."""
+    return run_family(build, call, max_time, sample_period=sample_period, machine=machine)
+
+
+def load_machine(path: Path, project: bool = False) -> MachineSetup:
+    """The simulated machine of a machine file, or of an mpc.toml's `[machine]` table with
+    `project` (`mplang.m8194h.machine`; docs/machine.md)."""
+    return machine_module.load_machine(path, project=project)
 
 
 def serve(build: AnyBuild | None, request: ServeRequest, say: Say) -> None:

@@ -32,7 +32,9 @@ MODBUS_ONLY_KEYS = ("unit", "word-order", "image", "retries")
 """[targets.NAME] keys that only an M8194H (a Modbus device taking image frames) uses."""
 """The other controller families (issue 7). Each package names its own targets (`TARGETS`)
 and source suffixes (`SUFFIXES`); nothing here repeats them."""
-SECTIONS = frozenset({"project", "slots", "targets", "flash", "fmt"})
+SECTIONS = frozenset({"project", "slots", "targets", "flash", "fmt", "machine"})
+"""`[machine]` is the simulated machine: the family that runs the build reads and checks it
+(`Family.load_machine`, docs/machine.md)."""
 PROJECT_KEYS = frozenset({"sources", "target", "word-order", "temp-vars", "var-pool",
                           "allow-outside-includes", "werror"})
 FLASH_KEYS = frozenset({"record", "timeout", "retries", "set-word-order", "identity"})
@@ -98,6 +100,7 @@ class Project:
     targets: dict[str, Target] = field(default_factory=dict)
     flash: FlashSettings = field(default_factory=lambda: FlashSettings(Path(DEFAULT_RECORD)))
     fmt: Mapping[str, Any] = field(default_factory=dict)
+    machine: bool = False  # the file has a [machine] table (read by the family)
 
     sources_line: int = 1  # the line of [project] sources, for messages about them
 
@@ -546,7 +549,7 @@ def load_project(path: Path) -> Project:
                                  "set-word-order", where),
             identity=identity,
             identity_where=f"{path}:{where.line('flash', 'identity')}: [flash] identity"),
-        fmt=dict(fmt))
+        fmt=dict(fmt), machine="machine" in data)
 
 
 def load_fleet(path: Path) -> list[Target]:
