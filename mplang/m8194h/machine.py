@@ -119,8 +119,12 @@ def load_machine(path: Path, *, project: bool = False) -> MachineSetup:
                            "[machine]")
     for key in table:
         if key not in MACHINE_KEYS:
-            raise where.error("machine", key, "unknown key; expected emg, events or an axis "
-                              "table [machine.X], [machine.Y], [machine.Z], [machine.U]")
+            expected = ("expected emg, events or an axis table [machine.X], [machine.Y], "
+                        "[machine.Z], [machine.U]")
+            if isinstance(table[key], dict):  # [machine.W]: at its own header
+                raise MachineError(f"{path}:{where.line(f'machine.{key}')}: [machine.{key}]: "
+                                   f"unknown axis or table; {expected}")
+            raise where.error("machine", key, f"unknown key; {expected}")
     axes = {AXES.index(name): _axis(table[name], f"machine.{name}", where)
             for name in AXES if name in table}
     emg = table.get("emg", False)
