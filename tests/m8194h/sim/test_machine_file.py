@@ -149,7 +149,8 @@ def test_4_2_the_encoder_offset_is_ep_minus_lp(tmp_path: Path) -> None:
 
 def test_7_5_10_the_emg_input_stops_all_axes(tmp_path: Path) -> None:
     source = ("MP 100 emg\n" + PROFILE.format(axes="XYZU") +
-              "    FIXED_MOVE X, 100000\n    FIXED_MOVE Y, -100000\n    CONTINUE_MOVE Z, 10000\n"
+              "    FIXED_MOVE X, 100000\n    FIXED_MOVE Y, -100000\n"
+              "    CONTINUE_MOVE Z, 10000\n"
               "    STOP_WAIT X\n    STOP_WAIT Y\n    STOP_WAIT Z\n    VAR1 = GET_ERROR_CODE(X)\n    VAR2 = GET_ERROR_CODE(U)\n"
               "    FIXED_MOVE U, 500\n    STOP_WAIT U\nEND MP\n")
     summary = run_json(tmp_path, source, '[machine]\nevents = ["at 1 s EMG = 1"]\n')
@@ -162,8 +163,8 @@ def test_7_5_10_the_emg_input_stops_all_axes(tmp_path: Path) -> None:
 
 def test_3_12_an_alarm_stops_its_axis_when_enabled(tmp_path: Path) -> None:
     source = ("MP 100 alarm\n" + PROFILE.format(axes="XY") + "    SET_ALARM X, 1, 0\n"
-              "    FIXED_MOVE XY, 100000\n    STOP_WAIT X\n    STOP_WAIT Y\n    VAR1 = GET_ERROR_CODE(X)\n"
-              "    VAR2 = GET_DI_SIGNAL(Y, 7)\nEND MP\n")
+              "    FIXED_MOVE XY, 100000\n    STOP_WAIT X\n    STOP_WAIT Y\n"
+              "    VAR1 = GET_ERROR_CODE(X)\n    VAR2 = GET_DI_SIGNAL(Y, 7)\nEND MP\n")
     machine = ('[machine]\nevents = ["at 1 s X.ALARM = 1, Y.ALARM = 1"]\n')
     summary = run_json(tmp_path, source, machine)
     assert lp(summary, "X") < 25000 and var(summary, "VAR1") == 16
@@ -171,7 +172,8 @@ def test_3_12_an_alarm_stops_its_axis_when_enabled(tmp_path: Path) -> None:
 
 
 def test_3_13_inpos_follows_the_machine_file(tmp_path: Path) -> None:
-    source = "MP 100 inpos\n    VAR1 = GET_DI_SIGNAL(X, 6)\n    VAR2 = GET_DI_SIGNAL(Y, 6)\nEND MP\n"
+    source = ("MP 100 inpos\n    VAR1 = GET_DI_SIGNAL(X, 6)\n    VAR2 = GET_DI_SIGNAL(Y, 6)\n"
+              "END MP\n")
     summary = run_json(tmp_path, source, "[machine.X]\ninpos = true\n")
     assert var(summary, "VAR1") == 1  # forced on; Y: the servo is off, so no INPOS
     assert var(summary, "VAR2") == 0
