@@ -151,7 +151,8 @@ def test_7_5_10_the_emg_input_stops_all_axes(tmp_path: Path) -> None:
     source = ("MP 100 emg\n" + PROFILE.format(axes="XYZU") +
               "    FIXED_MOVE X, 100000\n    FIXED_MOVE Y, -100000\n"
               "    CONTINUE_MOVE Z, 10000\n"
-              "    STOP_WAIT X\n    STOP_WAIT Y\n    STOP_WAIT Z\n    VAR1 = GET_ERROR_CODE(X)\n    VAR2 = GET_ERROR_CODE(U)\n"
+              "    STOP_WAIT X\n    STOP_WAIT Y\n    STOP_WAIT Z\n"
+              "    VAR1 = GET_ERROR_CODE(X)\n    VAR2 = GET_ERROR_CODE(U)\n"
               "    FIXED_MOVE U, 500\n    STOP_WAIT U\nEND MP\n")
     summary = run_json(tmp_path, source, '[machine]\nevents = ["at 1 s EMG = 1"]\n')
     # at 1 s all three run at full speed (the ramps end at 0.095 s): stopped at once
