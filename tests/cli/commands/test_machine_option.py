@@ -139,3 +139,16 @@ def test_mpc_sim_serves_the_machine_over_modbus(tmp_path: Path) -> None:
         proc.wait()
         if proc.stdout is not None:
             proc.stdout.close()
+
+
+def test_a_project_machine_is_noted_for_a_family_without_one(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    (tmp_path / "go.mp").write_text("MP 100 go\n    FIXED_MOVE X, 1000\n    STOP_WAIT X\n"
+                                    "END MP\n")
+    (tmp_path / "mpc.toml").write_text('[project]\nsources = "go.mp"\ntarget = "csim"\n\n'
+                                       '[machine]\nemg = true\n')
+    monkeypatch.chdir(tmp_path)
+    code, out, err = run("run")
+    assert code == EXIT_OK, err
+    assert "mpc: note: mpc.toml: [machine] does not apply: the virtual CSIM has no limit" in err
+    assert "finished" in out
