@@ -23,6 +23,7 @@ from typing import Any
 from mplang.family.face import MachineError
 from mplang.m8194h.sim.axes import AXES
 from mplang.m8194h.sim.controller import VirtualController
+from mplang.m8194h.sim.motion import MotionModel
 from mplang.m8194h.sim.scripted import AXIS_INPUTS, InputChange, TimedChange, Watch
 from mplang.m8194h.sim.signals import AxisSensors
 
@@ -331,13 +332,17 @@ def _bit(name: str, text: str, value: int) -> int:
 def apply_machine(controller: VirtualController, setup: MachineSetup) -> None:
     """Put the machine into `controller` (after its programs are loaded): switches, power-on
     positions, encoder offsets, ALARM, INPOS and EMG, then the script from the present clock.
-    The controller keeps it across RESET_CARD, as a machine keeps its switches."""
+    The controller keeps it across RESET_CARD, as a machine keeps its switches: applied again
+    to the new motion chip, each axis stays where it was on the machine and the inputs take
+    the state the script has given them so far."""
+    chips: list[MotionModel] = []  # the motion model it was applied to last
 
     def apply(vc: VirtualController) -> None:
         io, model, now = vc.motion.io, vc.motion, vc.clock
         for i, axis in setup.axes.items():
+            where = chips[0].io.machine_position(i, now) if chips else axis.start
             io.set_sensors(i, axis.sensors, now)
-            io.status[i].mach_off = axis.start - model.lp(1 << i, now)
+            io.status[i].mach_off = where - model.lp(1 << i, now)
             model.set_ep(1 << i, model.lp(1 << i, now) + axis.encoder_offset, now)
             io.inpos_forced[i] = axis.inpos
             if axis.alarm:
@@ -346,6 +351,7 @@ def apply_machine(controller: VirtualController, setup: MachineSetup) -> None:
             io.set_emg_input(True, now)
         io.load_script(list(setup.timed), list(setup.watches), now)
         vc.touch()
+        chips[:] = [model]
 
     apply(controller)
     controller.machine = apply

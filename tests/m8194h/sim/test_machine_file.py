@@ -193,3 +193,23 @@ def test_a_machine_file_read_as_the_library_reads_it(tmp_path: Path) -> None:
     watch = setup.watches[0]
     assert (watch.axis, watch.threshold, watch.above) == (1, -4, False)
     assert watch.changes[0].group == 15 and watch.changes[0].mask == 0x8000
+
+
+def test_7_5_reset_card_keeps_the_machine_and_where_the_axes_stand(tmp_path: Path) -> None:
+    """RESET_CARD restarts the motion chip (LP = EP = 0) but not the machine: the switches
+    stay, and each axis stays where it stood on them."""
+    path = tmp_path / "machine.toml"
+    path.write_text("[machine.X]\nstart = 1000\nlimit-plus = 10000\n")
+    build = compile_source("MP 100 out\n" + PROFILE.format(axes="X") +
+                           "    FIXED_MOVE X, 5000\n    STOP_WAIT X\nEND MP\n"
+                           "MP 101 again\n" + PROFILE.format(axes="X") +
+                           "    FIXED_MOVE X, 8000\n    STOP_WAIT X\nEND MP\n")
+    report = run_build(build, "out", machine=load_machine(path))
+    vc = report.controller
+    vc.reset()
+    vc.advance(vc.clock + 0.01)  # the initial table loads again
+    assert vc.motion.io.machine_position(0, vc.clock) == 6000
+    vc.call(101)
+    assert vc.run().finished
+    assert vc.motion.lp(1, vc.clock) == 4000  # stopped on LIMIT+ at machine 10000
+    assert vc.motion.io.error_code(1, vc.clock) == 4
