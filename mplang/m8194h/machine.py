@@ -156,6 +156,8 @@ def _read(path: Path) -> tuple[dict[str, Any], _Where]:
         raise MachineError(f"{path}: cannot read: {exc.strerror or exc}") from None
     except UnicodeDecodeError:
         raise MachineError(f"{path}: not UTF-8 text") from None
+    except ValueError as exc:  # a name the system cannot take (a NUL)
+        raise MachineError(f"{str(path)!r}: cannot read: {exc}") from None
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:

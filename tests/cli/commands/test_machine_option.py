@@ -84,6 +84,8 @@ def test_a_machine_file_that_cannot_be_read_exits_17(program: Path, tmp_path: Pa
     (tmp_path / "bin.toml").write_bytes(b"\xff\xfe[machine]")
     code, _out, err = run("run", "--machine", tmp_path / "bin.toml", program)
     assert code == EXIT_BAD_MACHINE and "not UTF-8" in err
+    code, _out, err = run("run", "--machine", "x" * 5000 + ".toml", program)
+    assert code == EXIT_BAD_MACHINE and "cannot read" in err
 
 
 def test_the_project_machine_table_is_used_and_checked(tmp_path: Path,
