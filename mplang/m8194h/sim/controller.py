@@ -284,7 +284,7 @@ class VirtualController:
                 self._finish_loading()
                 continue
             due = self.motion.io.script_due(self.clock) if self.machine else math.inf
-            if self.motion.io.di_changes:
+            if self.machine and self.motion.io.di_changes:
                 self.take_inputs()  # the machine file changed FRnet inputs
                 continue
             if fifo and fifo[0].due <= self.clock and loading is None:
