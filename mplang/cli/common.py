@@ -39,6 +39,7 @@ EXIT_OMISSIONS = 13
 EXIT_NOT_EXACT = 14
 EXIT_MISSING_EXTRA = 15
 EXIT_OUT_OF_SYNC = 16
+EXIT_BAD_MACHINE = 17
 EXIT_INTERNAL = 70
 SERVER_PORT = 1502
 """`mpc sim --tcp HOST`'s port (502 needs privileges; 1502 is the usual unprivileged one)."""
@@ -56,6 +57,12 @@ class InputError(click.ClickException):
 
 class OutputError(click.ClickException):
     exit_code = EXIT_OUTPUT
+
+
+class BadMachine(click.ClickException):
+    """A machine file (`--machine`, an mpc.toml's `[machine]`) that cannot be used."""
+
+    exit_code = EXIT_BAD_MACHINE
 
 
 def guarded(func: F) -> F:
@@ -321,6 +328,10 @@ def isolated(ctx: click.Context | None = None) -> bool:
     """Whether `--isolated` was given to the current command."""
     ctx = ctx or click.get_current_context(silent=True)
     return bool(ctx is not None and ctx.meta.get(ISOLATED))
+machine_option = click.option(
+    "--machine", "machine_file", type=click.Path(dir_okay=False, path_type=Path), default=None,
+    help="The simulated machine: a TOML file with a [machine] table (switches, start "
+    "positions, inputs over time; docs/machine.md) [default: the project's [machine]].")
 
 
 @dataclass(frozen=True)

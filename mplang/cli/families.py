@@ -12,7 +12,7 @@ included, is reached through one face (`mplang.family.face.Family`) found in one
 from __future__ import annotations
 
 import sys
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -46,6 +46,7 @@ __all__ = [
     "choose",
     "click_error",
     "identity_choice",
+    "machine_for",
     "refuse_options",
     "select",
 ]
@@ -187,14 +188,48 @@ def build_checked(selection: Selection, setup: BuildSetup) -> FamilyBuild:
     return build
 
 
+def machine_for(selection: Selection, machine_file: Path | None,
+                project: project_module.Project | None) -> object | None:
+    """The simulated machine of a run or a `mpc sim`: `--machine FILE`, else the project's
+    `[machine]` table, read by the family (docs/machine.md). A bad file exits 17 at its
+    line; `--machine` for a family without one is a usage error with the family's reason,
+    a project's `[machine]` a note."""
+    from mplang.cli.common import BadMachine
+    from mplang.family.face import MachineError
+
+    family = selection.family
+    if machine_file is None and (project is None or not project.machine):
+        return None  # (asked only now: a family may predate the machine face)
+    load: Callable[[Path, bool], object] | None = getattr(family, "load_machine", None)
+    if load is None:
+        reason = getattr(family, "NO_MACHINE", "") or "its virtual device has no machine"
+        if machine_file is not None:
+            raise click.UsageError(f"--machine: {selection.describe} runs take no machine "
+                                   f"file: {reason}")
+        assert project is not None
+        click.echo(f"mpc: note: {project.path}: [machine] does not apply: {reason}", err=True)
+        return None
+    try:
+        if machine_file is not None:
+            return load(machine_file, False)
+        assert project is not None
+        return load(project.path, True)
+    except MachineError as exc:
+        raise BadMachine(str(exc)) from None
+
+
 def build_and_run(selection: Selection, setup: BuildSetup, call: str | None, max_time: float,
-                  sample_period: float | None) -> FamilyRun:
-    """`mpc run` / `mpc plot`: build, then run on the family's virtual controller. An
-    unknown --call is a usage error, a build that cannot run exits 5."""
+                  sample_period: float | None, machine: object | None = None) -> FamilyRun:
+    """`mpc run` / `mpc plot`: build, then run on the family's virtual controller (on
+    `machine`, from `machine_for`). An unknown --call is a usage error, a build that cannot
+    run exits 5."""
     family = selection.family
     build = build_checked(selection, setup)
     try:
-        run = family.run_build(build, call, max_time, sample_period=sample_period)
+        run = family.run_build(build, call, max_time, sample_period=sample_period) \
+            if machine is None else family.run_build(build, call, max_time,
+                                                     sample_period=sample_period,
+                                                     machine=machine)
     except family.NoSuchProgram as exc:
         raise click.BadParameter(str(exc), param_hint="--call") from None
     except family.RunSetupError as exc:

@@ -32,6 +32,10 @@ from mplang.csim.service import serve
 status_device = None
 """No `mpc status`: see docs/cli.md (the CSIM's query commands are not read yet)."""
 disassemble = None
+load_machine = None
+NO_MACHINE = ("the virtual CSIM has no limit or home switches to place, and its inputs 1-8 "
+              "hold one state for a whole run (docs/csim.md)")
+"""No `--machine`: why not, for the command line's refusal."""
 """No image format to read back: a CSIM lists its program itself (ULP)."""
 debug = None
 """No `mpc dap`: the virtual CSIM runs its command lines with no place to stop (`NO_DEBUG`)."""
@@ -49,6 +53,7 @@ __all__ = [
     "FLASH_OPTIONS",
     "FORMATS",
     "NO_DEBUG",
+    "NO_MACHINE",
     "NO_TRANSPORT",
     "POSITION_UNIT",
     "PROTOCOL",
@@ -67,6 +72,7 @@ __all__ = [
     "debug",
     "disassemble",
     "flash_devices",
+    "load_machine",
     "run_build",
     "serve",
     "status_device",

@@ -111,11 +111,14 @@ def _callable(programs: list[CsimProgram]) -> str:
 
 def run_build(build: FamilyBuild, call: str | None, max_time: float, *,
               inputs: dict[int, bool] | None = None,
-              sample_period: float | None = DEFAULT_SAMPLE_PERIOD) -> FamilyRun:
+              sample_period: float | None = DEFAULT_SAMPLE_PERIOD,
+              machine: object | None = None) -> FamilyRun:
     """Load a program into a fresh virtual CSIM, run it from `call` until it ends, fails or
     `max_time` seconds of simulated time pass. `inputs` sets inputs 1..8 for the whole run.
     Samples: every `sample_period` of simulated time while anything moves, plus every
     segment end."""
+    if machine is not None:  # the face's `load_machine` is None: nothing to place
+        raise RunSetupError("the virtual CSIM takes no machine file")
     if not build.ok:
         raise RunSetupError("the build has errors; fix them before running it")
     program, address, called = pick_entry(build, call)

@@ -43,6 +43,11 @@ class BadImage(ValueError):
     """An image file a family cannot read back; the message starts with the place."""
 
 
+class MachineError(ValueError):
+    """A machine file (`--machine FILE`, an mpc.toml's `[machine]`) that cannot be used;
+    the message starts with file:line."""
+
+
 class Disassembled(Protocol):
     """What `disassemble` returns: `.mp` source, and what could not be carried over
     exactly (empty when the source rebuilds to the very same frames)."""
@@ -89,6 +94,7 @@ class ServeRequest:
     word_order: int | None
     describe: str  # the family (and target) in words, for messages
     companion: Companion | None = None  # started once Modbus TCP listens (`mpc sim --monitor`)
+    machine: object | None = None  # what the family's `load_machine` returned, if given
 
 
 class CommandError(Exception):
@@ -434,9 +440,23 @@ class Family(Protocol):
         """Why the family cannot be debugged; "" for a family that can."""
         ...
 
+    @property
+    def load_machine(self) -> Callable[[Path, bool], object] | None:
+        """The simulated machine: read and check the `[machine]` table of a file (a
+        machine file, or with the flag an mpc.toml), raising `MachineError`; what it returns
+        goes to `run_build` and `ServeRequest.machine`. None where the family's virtual
+        device has no machine to describe (`NO_MACHINE` says why)."""
+        ...
+
+    @property
+    def NO_MACHINE(self) -> str:
+        """Why `--machine` does not apply to this family; "" where it does."""
+        ...
+
     def check_native(self, paths: list[Path], target: str | None = None) -> FamilyBuild: ...
 
     def compile_mp(self, paths: list[Path], options: Options, target: str) -> FamilyBuild: ...
 
     def run_build(self, build: Any, call: str | None, max_time: float, *,
-                  sample_period: float | None = ...) -> FamilyRun: ...
+                  sample_period: float | None = ..., machine: object | None = ...
+                  ) -> FamilyRun: ...

@@ -34,6 +34,10 @@ flash_devices = None
 status_device = None  # no status reads: see docs/cli.md (mpc status)
 """Nothing to flash into (`NO_TRANSPORT`; `FLASH_INSTEAD` says what to do)."""
 disassemble = None
+load_machine = None
+NO_MACHINE = ("a FATEK table describes its machine in the listing itself: SIM lines drive the "
+              "DOG, limit and PG0 inputs and timed contacts (docs/fatek.md)")
+"""No `--machine`: why not, for the command line's refusal."""
 """No image to read back: the listing is the program."""
 debug = None
 """No `mpc dap`: the virtual FBs-PLC runs a positioning table a step at a time with no place
@@ -52,6 +56,7 @@ __all__ = [
     "FLASH_OPTIONS",
     "FORMATS",
     "NO_DEBUG",
+    "NO_MACHINE",
     "NO_TRANSPORT",
     "POSITION_UNIT",
     "PROTOCOL",
@@ -70,6 +75,7 @@ __all__ = [
     "debug",
     "disassemble",
     "flash_devices",
+    "load_machine",
     "run_build",
     "serve",
     "status_device",

@@ -123,13 +123,16 @@ def pick_table(build: FamilyBuild, call: str | None) -> tuple[PositioningTable, 
 
 
 def run_build(build: FamilyBuild, call: str | None = None, max_time: float = 3600.0, *,
-              sample_period: float | None = SAMPLE_PERIOD) -> FamilyRun:
+              sample_period: float | None = SAMPLE_PERIOD,
+              machine: object | None = None) -> FamilyRun:
     """Run one table of the build (see `pick_table`) on a fresh virtual PLC until MEND, an
     error, a wait that never ends, or `max_time` seconds of simulated time. `sample_period`
     is the grid of `FamilyRun.samples` (None: motion starts and ends only); the samples are
     computed from the recorded legs when asked for, so the run itself is the same."""
     if sample_period is not None and not sample_period > 0:
         raise ValueError(f"the sampling period must be positive, got {sample_period}")
+    if machine is not None:  # the face's `load_machine` is None: SIM lines describe it
+        raise RunSetupError("a FATEK table takes no machine file: SIM lines describe its inputs")
     if not build.ok:
         raise RunSetupError("the build has errors; the virtual PLC runs only checked tables")
     table, entry = pick_table(build, call)

@@ -28,8 +28,10 @@ from mplang.family.face import (
     WatchJob,
 )
 from mplang.ir.unit import Options
+from mplang.m8194h import machine as machine_module
 from mplang.m8194h.compiler import compile_paths
 from mplang.m8194h.image import DEFAULT_FORMAT, FORMATS, BuildResult
+from mplang.m8194h.machine import MachineSetup
 from mplang.m8194h.run import RunReport, run_family
 
 if TYPE_CHECKING:
@@ -54,6 +56,8 @@ build manifest in machine data."""
 FLASHES_FLEETS = True
 FLASH_INSTEAD = ""
 NO_DEBUG = ""
+NO_MACHINE = ""
+"""`--machine` applies: the virtual controller's sensors and inputs (docs/machine.md)."""
 SERVE_OPTIONS = frozenset({"--unit", "--memory", "--word-order"})
 """`mpc sim` options beyond the common ones: the RTU address, the macro memory file and the
 word order of the virtual controller."""
@@ -69,6 +73,7 @@ __all__ = [
     "FLASH_OPTIONS",
     "FORMATS",
     "NO_DEBUG",
+    "NO_MACHINE",
     "NO_TRANSPORT",
     "POSITION_UNIT",
     "PROTOCOL",
@@ -86,6 +91,7 @@ __all__ = [
     "debug",
     "disassemble",
     "flash_devices",
+    "load_machine",
     "run_build",
     "serve",
     "status_device",
@@ -104,9 +110,16 @@ def check_native(paths: list[Path], target: str | None = None) -> BuildResult:
 
 
 def run_build(build: BuildResult, call: str | None, max_time: float, *,
-              sample_period: float | None = None) -> RunReport:
-    """Run one MP of the build on a fresh virtual controller (`mplang.m8194h.run`)."""
-    return run_family(build, call, max_time, sample_period=sample_period)
+              sample_period: float | None = None, machine: object | None = None) -> RunReport:
+    """Run one MP of the build on a fresh virtual controller (`mplang.m8194h.run`), on the
+    machine `load_machine` read, if given."""
+    return run_family(build, call, max_time, sample_period=sample_period, machine=machine)
+
+
+def load_machine(path: Path, project: bool = False) -> MachineSetup:
+    """The simulated machine of a machine file, or of an mpc.toml's `[machine]` table with
+    `project` (`mplang.m8194h.machine`; docs/machine.md)."""
+    return machine_module.load_machine(path, project=project)
 
 
 def serve(build: AnyBuild | None, request: ServeRequest, say: Say) -> None:

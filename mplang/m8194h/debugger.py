@@ -24,6 +24,8 @@ from mplang.family.run_error import RunError, SourcePlace
 from mplang.ir.macro import BVarRef, VarRef
 from mplang.lang.sources import LIBRARY_PREFIX, library_files
 from mplang.m8194h.image import BuildResult
+from mplang.m8194h.machine import MachineError, load_machine
+from mplang.m8194h.machine import apply_machine as install_machine
 from mplang.m8194h.run import RunReport, pick_program, program_title
 from mplang.m8194h.sim.controller import AXIS_NAMES, Frame, RunResult, VirtualController
 from mplang.m8194h.sim.failure import Place
@@ -47,16 +49,19 @@ class _Line:
 
 
 def apply_machine(controller: VirtualController, machine: Path | None) -> None:
-    """Set up the simulated machine (sensors, limits, scripted inputs) from a machine file.
-    The `[machine]` description is not part of this build of mpc yet: a file given is
-    refused with the reason, so a launch never runs on a machine other than the one asked."""
+    """Set up the simulated machine (sensors, limits, scripted inputs) from a machine file,
+    or from the `[machine]` table of an mpc.toml, as `mpc run --machine` does. A file that
+    cannot be used fails the launch with its reason (at its line), so a session never runs on
+    a machine other than the one asked for."""
     if machine is None:
         return
     if not machine.is_file():
         raise DebugSetupError(f"machine file {machine}: no such file")
-    raise DebugSetupError(f"machine file {machine}: machine descriptions are not supported "
-                          f"by this mpc yet; leave 'machine' out to run on the default "
-                          f"virtual machine (no sensors engaged)")
+    try:
+        setup = load_machine(machine, project=machine.name == "mpc.toml")
+    except MachineError as exc:
+        raise DebugSetupError(str(exc)) from None
+    install_machine(controller, setup)
 
 
 def start(build: object, call: str | None, machine: Path | None,

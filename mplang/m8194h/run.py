@@ -5,11 +5,13 @@ from __future__ import annotations
 import dataclasses
 import re
 from dataclasses import dataclass
+from pathlib import Path
 
 from mplang.family.face import NoSuchProgram, RunSetupError
 from mplang.family.run_error import RunError, SourcePlace
 from mplang.family.trace import Trace
 from mplang.m8194h.image import BuildResult, ProgramImage
+from mplang.m8194h.machine import MachineSetup, apply_machine
 from mplang.m8194h.sim.controller import RunResult, VirtualController
 from mplang.m8194h.sim.failure import Failure, Place
 from mplang.m8194h.sim.preload import ServiceError, preload
@@ -28,6 +30,7 @@ class RunReport:
     trace: Trace | None = None
     title: str = ""  # the called program in words: `MP131 home (samples/home.mp)`
     build: BuildResult | None = None  # for the source lines of `warnings`
+    machine: Path | None = None  # the machine file the run used (`--json`: "machine")
 
     @property
     def warnings(self) -> list[str]:
@@ -130,9 +133,13 @@ class RunReport:
         snapshot = self.controller.snapshot()
         named, numbers = self.named_vars()
         failure = self.failure
-        return {"called": self.called, "vars": named, "names": numbers,
-                "axes": snapshot["axes"], "time_ms": round(self.result.time_s * 1000, 3),
-                "error": failure.to_json() if failure is not None else None}
+        summary: dict[str, object] = {
+            "called": self.called, "vars": named, "names": numbers, "axes": snapshot["axes"],
+            "time_ms": round(self.result.time_s * 1000, 3),
+            "error": failure.to_json() if failure is not None else None}
+        if self.machine is not None:
+            summary["machine"] = str(self.machine)
+        return summary
 
 
 def pick_program(build: BuildResult, call: str | None, first_file: str | None) -> int:
@@ -165,15 +172,19 @@ def _callable(mps: list[ProgramImage]) -> str:
 
 
 def run_build(build: BuildResult, call: str | None = None, first_file: str | None = None,
-              max_time: float = 3600.0, trace_period: float | None = None) -> RunReport:
-    """Load the build into a fresh virtual controller and run one MP to its end. With
-    `trace_period` (seconds) every axis is also sampled over the run (`RunReport.trace`);
-    the run itself comes out the same either way."""
+              max_time: float = 3600.0, trace_period: float | None = None,
+              machine: MachineSetup | None = None) -> RunReport:
+    """Load the build into a fresh virtual controller and run one MP to its end, on
+    `machine` if given (`mplang.m8194h.machine`). With `trace_period` (seconds) every axis
+    is also sampled over the run (`RunReport.trace`); the run itself comes out the same
+    either way."""
     controller = VirtualController(word_order=build.word_order)
     try:  # the programs, then the INIT table (loaded) and the TRIGGERS table, as flashed
         preload(controller, build)
     except ServiceError as exc:
         raise RunSetupError(str(exc)) from None
+    if machine is not None:
+        apply_machine(controller, machine)
     slot = pick_program(build, call, first_file)
     controller.call(slot)
     if trace_period is None:
@@ -184,11 +195,15 @@ def run_build(build: BuildResult, call: str | None = None, first_file: str | Non
 
 
 def run_family(build: BuildResult, call: str | None, max_time: float, *,
-               sample_period: float | None = None) -> RunReport:
+               sample_period: float | None = None, machine: object | None = None
+               ) -> RunReport:
     """`run_build` as the family face calls it: the default program is the first MP of the
-    first file given to the compiler."""
+    first file given to the compiler; `machine` is what the face's `load_machine` read."""
+    if machine is not None and not isinstance(machine, MachineSetup):
+        raise RunSetupError(f"not an M8194H machine: {machine!r}")
     report = run_build(build, call, build.first_source, max_time=max_time,
-                       trace_period=sample_period)
+                       trace_period=sample_period, machine=machine)
+    report.machine = machine.path if machine is not None else None
     report.title = program_title(build, report.called)
     return report
 

@@ -9,6 +9,7 @@ import signal
 
 from mplang.family.face import FamilyBuild, Say, ServeRequest, ServiceError
 from mplang.m8194h.image import BuildResult
+from mplang.m8194h.machine import MachineSetup, apply_machine
 from mplang.m8194h.sim import service
 from mplang.m8194h.sim.controller import VirtualController
 
@@ -32,6 +33,10 @@ def serve(build: FamilyBuild | None, request: ServeRequest, say: Say) -> None:
             say(f"{len(build.programs)} program(s) downloaded")
             if memory is not None:
                 service.save_memory(controller, memory)
+        if request.machine is not None:  # what `load_machine` read (docs/machine.md)
+            assert isinstance(request.machine, MachineSetup)
+            apply_machine(controller, request.machine)
+            say(f"machine {request.machine.path}")
     except service.ServiceError as exc:
         raise ServiceError("memory" if exc.kind == "memory" else "refused", str(exc)) from None
     options = service.SimOptions(

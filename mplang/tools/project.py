@@ -32,8 +32,10 @@ MODBUS_ONLY_KEYS = ("unit", "word-order", "image", "retries")
 """[targets.NAME] keys that only an M8194H (a Modbus device taking image frames) uses."""
 """The other controller families (issue 7). Each package names its own targets (`TARGETS`)
 and source suffixes (`SUFFIXES`); nothing here repeats them."""
-SECTIONS = frozenset({"project", "slots", "targets", "flash", "fmt", "lint"})
+SECTIONS = frozenset({"project", "slots", "targets", "flash", "fmt", "lint", "machine"})
 LINT_KEYS = frozenset({"ignore"})
+"""`[machine]` is the simulated machine: the family that runs the build reads and checks it
+(`Family.load_machine`, docs/machine.md)."""
 PROJECT_KEYS = frozenset({"sources", "target", "word-order", "temp-vars", "var-pool",
                           "allow-outside-includes", "werror"})
 FLASH_KEYS = frozenset({"record", "timeout", "retries", "set-word-order", "identity"})
@@ -102,6 +104,7 @@ class Project:
     ignore: frozenset[str] = frozenset()
     """`[lint] ignore`: warning codes silenced in every file of the project, as a
     `# mpc: ignore[CODE]` on each line would."""
+    machine: bool = False  # the file has a [machine] table (read by the family)
 
     sources_line: int = 1  # the line of [project] sources, for messages about them
 
@@ -553,7 +556,7 @@ def load_project(path: Path) -> Project:
                                  "set-word-order", where),
             identity=identity,
             identity_where=f"{path}:{where.line('flash', 'identity')}: [flash] identity"),
-        fmt=dict(fmt), ignore=_ignore(data, where))
+        fmt=dict(fmt), ignore=_ignore(data, where), machine="machine" in data)
 
 
 def _ignore(data: Mapping[str, Any], where: _Locator) -> frozenset[str]:

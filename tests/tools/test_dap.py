@@ -327,6 +327,49 @@ def test_launch_an_mpc_toml_project(dap: DapClient, project: Path) -> None:
     dap.event("terminated")
 
 
+HOME_Z = """\
+CONST STD_HOME_LIMIT_DIR    = 2
+CONST STD_HOME_LIMIT_HV     = 5000
+CONST STD_HOME_LIMIT_OFFSET = 1000
+INCLUDE "std:home_limit.mp"
+
+MP 100 home_z
+    SET_MAX_V Z, 80000
+    SET_SV Z, 1000
+    SET_V Z, 20000
+    SET_A Z, 200000
+    std_home_limit_axes = 4
+    CALL std_home_limit
+END MP
+"""
+HOMING_MACHINE = ROOT / "docs" / "machines" / "homing.toml"
+
+
+@pytest.mark.parametrize("given", ["file", "project"])
+def test_launch_machine_homes_on_the_machine_s_limit_switch(dap: DapClient, project: Path,
+                                                             given: str) -> None:
+    """docs/stdlib.md's home_limit example: on the default machine it waits for ever; on
+    docs/machines/homing.toml (a machine file, or the [machine] of the project launched)
+    the Z axis finds LIMIT- and the routine ends with error 0."""
+    (project / "home_z.mp").write_text(HOME_Z)
+    if given == "file":
+        launch(dap, program="home_z.mp", machine=str(HOMING_MACHINE))
+    else:
+        (project / "mpc.toml").write_text('[project]\nsources = ["home_z.mp"]\n\n'
+                                          + HOMING_MACHINE.read_text())
+        launch(dap, program="mpc.toml")
+    line = next(n for n, text in enumerate(HOME_LIMIT.read_text().splitlines(), 1)
+                if "std_home_limit_error = 0" in text)
+    ok(dap.request("setBreakpoints", {"source": {"path": str(HOME_LIMIT)},
+                                      "breakpoints": [{"line": line}]}))
+    ok(dap.request("configurationDone"))
+    assert dap.event("stopped")["body"]["reason"] == "breakpoint"
+    ok(dap.request("setBreakpoints", {"source": {"path": str(HOME_LIMIT)}, "breakpoints": []}))
+    ok(dap.request("continue", {"threadId": 1}))
+    assert dap.event("exited")["body"]["exitCode"] == 0
+    dap.event("terminated")
+
+
 def test_launch_with_an_empty_call_runs_the_first_mp_of_the_first_file(dap: DapClient) -> None:
     launch(dap, program="rows.mp", call="  ", stopOnEntry=True)
     ok(dap.request("configurationDone"))
@@ -341,7 +384,7 @@ def test_launch_with_an_empty_call_runs_the_first_mp_of_the_first_file(dap: DapC
     ({"program": "rows.mp", "call": "nosuch"}, "no MP named 'nosuch'"),
     ({"program": "rows.mp", "stopOnEntry": "yes"}, "'stopOnEntry' must be true or false"),
     ({"program": "rows.mp", "machine": "nosuch.toml"}, "no such file"),
-    ({"program": "rows.mp", "machine": "divide.mp"}, "not supported by this mpc yet"),
+    ({"program": "rows.mp", "machine": "divide.mp"}, "divide.mp:1:"),
     ({"program": "rows.mp", "target": "fbs-fun140"}, "FATEK"),
     ({"program": "rows.mp", "maxTime": -1}, "'maxTime' must be a number"),
 ])

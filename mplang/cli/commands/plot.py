@@ -17,10 +17,11 @@ from mplang.cli.common import (
     OutputError,
     build_setup,
     guarded,
+    machine_option,
     project_option,
     with_common,
 )
-from mplang.cli.families import build_and_run, choose
+from mplang.cli.families import build_and_run, choose, machine_for
 from mplang.cli.shell import complete_paths
 
 if TYPE_CHECKING:
@@ -79,14 +80,16 @@ def check_output_place(output: Path) -> None:
               help="Sample the axes this often (simulated time; motion ends are sampled too).")
 @click.option("--max-time", type=click.FloatRange(min=0.001), default=3600.0, show_default=True,
               help="Give up after this much simulated time (seconds).")
+@machine_option
 @project_option
 @with_common
 @click.pass_context
 @guarded
 def command(ctx: click.Context, files: tuple[str, ...], call: str | None, output: str,
             width: int, height: int, trace_period: float, max_time: float,
-            project_file: Path | None, target: str, word_order: str | None,
-            temp_vars: range, allow_outside_includes: bool, werror: bool) -> None:
+            machine_file: Path | None, project_file: Path | None, target: str,
+            word_order: str | None, temp_vars: range, allow_outside_includes: bool,
+            werror: bool) -> None:
     """Build FILE..., run one program on a fresh virtual controller and plot what the axes
     did: the XY path (XZ and YZ too when Z moves) and position and velocity against time.
     A program that fails or does not finish is plotted up to that point, and exits 5."""
@@ -96,7 +99,8 @@ def command(ctx: click.Context, files: tuple[str, ...], call: str | None, output
                         allow_outside_includes, werror)
     selection = choose(setup)
     check_output_place(Path(output))
-    run = build_and_run(selection, setup, call, max_time, trace_period)
+    machine = machine_for(selection, machine_file, setup.project)
+    run = build_and_run(selection, setup, call, max_time, trace_period, machine)
     trace = run.trace
     assert trace is not None  # asked for with trace_period
     sources = ", ".join(str(p) for p in setup.paths)

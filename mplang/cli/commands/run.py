@@ -16,10 +16,11 @@ from mplang.cli.common import (
     OutputError,
     build_setup,
     guarded,
+    machine_option,
     project_option,
     with_common,
 )
-from mplang.cli.families import build_and_run, choose
+from mplang.cli.families import build_and_run, choose, machine_for
 from mplang.cli.shell import complete_paths
 
 if TYPE_CHECKING:
@@ -54,14 +55,16 @@ def check_trace_place(trace_file: str) -> None:
 @click.option("--trace-period", type=click.FloatRange(min=0.00001), default=None,
               metavar="SECONDS", help="Sampling period of --trace in simulated time "
               "[default: 0.001; motion ends are sampled too].")
+@machine_option
 @project_option
 @with_common
 @click.pass_context
 @guarded
 def command(ctx: click.Context, files: tuple[str, ...], call: str | None, as_json: bool,
             max_time: float, trace_file: str | None, trace_period: float | None,
-            project_file: Path | None, target: str, word_order: str | None,
-            temp_vars: range, allow_outside_includes: bool, werror: bool) -> None:
+            machine_file: Path | None, project_file: Path | None, target: str,
+            word_order: str | None, temp_vars: range, allow_outside_includes: bool,
+            werror: bool) -> None:
     """Build FILE..., load every program into a fresh virtual controller and run one."""
 
     from mplang.family.trace import DEFAULT_PERIOD
@@ -75,7 +78,8 @@ def command(ctx: click.Context, files: tuple[str, ...], call: str | None, as_jso
         check_trace_place(trace_file)
     period = None if trace_file is None \
         else DEFAULT_PERIOD if trace_period is None else trace_period
-    run = build_and_run(selection, setup, call, max_time, period)
+    machine = machine_for(selection, machine_file, setup.project)
+    run = build_and_run(selection, setup, call, max_time, period, machine)
     trace = run.trace
     if trace_file is not None and trace is not None:
         _write_trace(trace, trace_file)

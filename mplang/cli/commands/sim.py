@@ -19,11 +19,12 @@ from mplang.cli.common import (
     build_options,
     expand_inputs,
     guarded,
+    machine_option,
     parse_host_port,
     with_common,
     with_serial_line,
 )
-from mplang.cli.families import build_checked, refuse_options, select
+from mplang.cli.families import build_checked, machine_for, refuse_options, select
 from mplang.cli.shell import complete_paths
 
 
@@ -50,13 +51,14 @@ from mplang.cli.shell import complete_paths
               is_flag=False, flag_value=DEFAULT_PORT, metavar="[P]",
               help=f"Serve the live dashboard of the device on http://127.0.0.1:P/ "
               f"[P: {DEFAULT_PORT}] (docs/monitor.md); it watches over Modbus TCP.")
+@machine_option
 @with_common
 @click.pass_context
 @guarded
 def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | None,
             serial: str | None, unit: int, baud: int, parity: str, stopbits: str, speed: float,
             memory: Path | None, duration: float | None, verbose: bool,
-            monitor_port: int | None, target: str,
+            monitor_port: int | None, machine_file: Path | None, target: str,
             word_order: str | None, temp_vars: range, allow_outside_includes: bool,
             werror: bool) -> None:
     """Serve a virtual M8194H over Modbus TCP and/or RTU (FILE...: programs to preload).
@@ -84,7 +86,7 @@ def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | N
         tcp=tcp, serial=serial, unit=unit, baud=baud, parity=parity, stopbits=int(stopbits),
         speed=speed, memory=memory, duration=duration, verbose=verbose,
         word_order=int(word_order) if word_order is not None else None,
-        describe=selection.describe)
+        describe=selection.describe, machine=machine_for(selection, machine_file, None))
     build = None
     if files:
         setup = BuildSetup(selection.paths, build_options(

@@ -69,10 +69,8 @@ from __future__ import annotations
 
 import math
 
-from mplang.m8194h.sim.axes import AXES
 from mplang.m8194h.sim.builders import _Motion
 from mplang.m8194h.sim.crossings import _crossing
-from mplang.m8194h.sim.homing import _HomeSearch
 
 # the codes AxisIO takes and returns, and its records: callers import them from here
 from mplang.m8194h.sim.io_state import ERR_ALARM as ERR_ALARM
@@ -111,12 +109,13 @@ from mplang.m8194h.sim.io_state import SYNC_P_LT_CMINUS as SYNC_P_LT_CMINUS
 from mplang.m8194h.sim.io_state import SYNC_P_LT_CPLUS as SYNC_P_LT_CPLUS
 from mplang.m8194h.sim.io_state import AxisReport as AxisReport
 from mplang.m8194h.sim.io_state import _axes, _Event, _one_axis
+from mplang.m8194h.sim.scripted import _Scripted
 from mplang.m8194h.sim.signals import AxisSensors as AxisSensors
 
 _INF = math.inf
 
 
-class AxisIO(_HomeSearch):
+class AxisIO(_Scripted):
     """Per-axis inputs, error state, home search, compare/sync and interrupts of one model."""
 
     # ------------------------------------------------------------- the machine
@@ -141,20 +140,13 @@ class AxisIO(_HomeSearch):
     def set_emg_input(self, asserted: bool, now: float) -> None:
         """The EMG input (common to the four axes) is asserted or released."""
         self.model.settle(now)
-        self.emg_input = asserted
-        if asserted:
-            for i in range(len(AXES)):
-                self.status[i].errors |= ERR_EMERGENCY
-            self._halt_all(now, sudden=True)
+        self._emg(asserted, now)
         self.model._recompute()
 
     def set_in3(self, axis_index: int, level: int, now: float) -> None:
         """Drive the IN3 input of an axis to an electrical level (0 low = on, 1 high)."""
         self.model.settle(now)
-        st = self.status[axis_index]
-        old, st.in3_level = st.in3_level, 1 if level else 0
-        if old != st.in3_level:
-            self._sync(axis_index, SYNC_IN3_UP if st.in3_level else SYNC_IN3_DOWN, now)
+        self._in3(axis_index, level, now)
         self.model._recompute()
 
     # -------------------------------------------------------- input settings (3.5-3.13)
@@ -266,7 +258,7 @@ class AxisIO(_HomeSearch):
         nhome = self._signal(i, "nhome").active(phys)
         index = self._signal(i, "index").active(phys)
         alarm_raw = self._alarm_signal(i)
-        inpos = st.servo_on and not driving
+        inpos = self.inpos_signal(i, driving)
         status = (int(driving) | int(lmt_p) << 1 | int(lmt_m) << 2 | int(self.emg_input) << 3
                   | int(alarm_raw and self.cfg[i].alarm_enabled) << 4 | int(not home) << 5
                   | int(not nhome) << 6 | st.in3_level << 7 | int(not inpos) << 8
@@ -355,6 +347,7 @@ class AxisIO(_HomeSearch):
         events: list[_Event] = []
         for m in self.model._motions():
             self._plan(m, events)
+        self._plan_script(events)
         events.sort()
         self._events = events
         self._next = events[0].time if events else _INF
@@ -429,10 +422,14 @@ class AxisIO(_HomeSearch):
                         if t is not None:
                             out.append(_Event(t, 1, "slimit", i, -1, m))
             self._plan_compare(m, k, i, now, out)
+            if self.watches:
+                self._plan_watches(m, k, i, mach, out)
 
     def _watched(self, i: int, exempt: bool) -> bool:
         """Could a motion of axis i meet any I/O event? (The common answer is no.)"""
         cfg, sensors = self.cfg[i], self.sensors[i]
+        if self.watches and self._watches_axis(i):
+            return True
         if not exempt and (cfg.slmt or sensors.wiring is not None
                            or sensors.limit_plus is not None
                            or sensors.limit_minus is not None):
@@ -481,6 +478,8 @@ class AxisIO(_HomeSearch):
             self._interrupt(i, INT_PULSE, t)
         elif e.kind == "cruise":
             self._interrupt(i, e.arg, t)
+        elif e.kind in ("at", "watch"):
+            self._script_event(e, t)
 
     def _on_limit(self, i: int, sign: int, m: _Motion, t: float) -> None:
         run = self.status[i].home

@@ -145,6 +145,7 @@ class VirtualController:
         self.md = MachineData(self)  # MD0..MD2047 (3.19), non-volatile
         self.before_line: Callable[[Frame], bool] | None = None  # `mpc dap`: True stops
         # `advance` before the frame's line at `frame.pc` (or its closing line) runs
+        self.machine: Callable[[VirtualController], None] | None = None  # re-applies it
         self.load_initial_now()  # "directly after power on" (RS 9738)
 
     @property
@@ -285,6 +286,10 @@ class VirtualController:
             if loading is not None and loading <= self.clock:
                 self._finish_loading()
                 continue
+            due = self.motion.io.script_due(self.clock) if self.machine else math.inf
+            if self.machine and self.motion.io.di_changes:
+                self.take_inputs()  # the machine file changed FRnet inputs
+                continue
             if fifo and fifo[0].due <= self.clock and loading is None:
                 self._run_rtc(fifo.popleft())
                 continue
@@ -301,6 +306,7 @@ class VirtualController:
                 horizon = min(until, loading)
             else:
                 horizon = until if not fifo or fifo[0].due > until else fifo[0].due
+            horizon = min(horizon, due)
             # the chip's requests wait in its flags while an ISR runs (ISRs do not nest)
             interrupt = None if isr_running else self.motion.next_interrupt(self.clock)
             if interrupt is not None:  # (RESET_CARD replaces the motion model)
@@ -504,6 +510,8 @@ class VirtualController:
         self.unmodelled = [self.initial_table.config.factory] * 4
         self.loading_until = None
         self.chip_state = 3
+        if self.machine is not None:  # the machine keeps its switches and script
+            self.machine(self)
         if self.initial_table.config.reset_card_reloads:
             self._begin_loading()
 
@@ -558,6 +566,14 @@ class VirtualController:
         self.frnet[group] = new
         if old != new:
             self.triggers.di_changed(group, old, new)
+
+    def take_inputs(self) -> None:
+        """Apply the FRnet DI changes the machine file's script made (`scripted`)."""
+        for t, group, mask, value in self.motion.io.di_changes:
+            self.set_di_group(group, (self.frnet[group] & ~mask) | (value & mask))
+            self.log.append(f"{t:.4f} s: machine: DI group {group} = {self.frnet[group]:#06x}")
+        self.motion.io.di_changes.clear()
+        self.touch()
 
     def terminate_programs(self, why: str) -> None:
         """End every running MP and ISR level now, as MP_TERMINATE does; motion goes on."""

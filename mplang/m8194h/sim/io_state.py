@@ -29,6 +29,7 @@ from mplang.m8194h.sim.signals import AxisSensors, _Intervals, _Periodic, _Signa
 
 if TYPE_CHECKING:
     from mplang.m8194h.sim.motion import MotionModel
+    from mplang.m8194h.sim.scripted import TimedChange, Watch
 
 _INF = math.inf
 
@@ -194,6 +195,13 @@ class _IOBase:
         self._exempt: list[_Motion] = []  # motions already stopping on a limit
         self._version = 0
         self._prediction: tuple[int, float | None] | None = None
+        # the machine file's script (`scripted`): timed changes, position conditions
+        self.script: list[TimedChange] = []
+        self.script_next = 0
+        self.watches: list[Watch] = []
+        self.watch_above: list[bool] = []
+        self.inpos_forced: list[bool | None] = [None] * len(AXES)
+        self.di_changes: list[tuple[float, int, int, int]] = []  # (t, group, mask, value)
 
     def _configure(self, axis_mask: int, now: float, **values: object) -> None:
         self.model.settle(now)

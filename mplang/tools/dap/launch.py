@@ -87,7 +87,10 @@ def read_arguments(args: Mapping[str, Any]) -> Launch:
     target = _string(args, "target")
     options = Options(target=target or DEFAULT_TARGET)
     if len(paths) == 1 and paths[0].suffix == ".toml":
-        paths, options = _project(paths[0], target)
+        project_file = paths[0]
+        paths, options = _project(project_file, target)
+        if "machine" not in args and _has_machine(project_file):
+            args = {**args, "machine": str(project_file.resolve())}  # its [machine] table
     for path in paths:
         if not path.is_file():
             raise LaunchError(f"{path}: no such file" if not path.exists()
@@ -106,6 +109,11 @@ def read_arguments(args: Mapping[str, Any]) -> Launch:
         call = None  # an empty answer to an editor's prompt: the default program
     return Launch(paths, options, _string({"call": call}, "call"), stop,
                   None if machine is None else base / machine, float(max_time))
+
+
+def _has_machine(path: Path) -> bool:
+    """Whether an mpc.toml (already read by `_project`) has a `[machine]` table."""
+    return project_module.load_project(path).machine
 
 
 def _project(path: Path, target: str | None) -> tuple[list[Path], Options]:
