@@ -19,6 +19,10 @@ from mplang.csim import profile as profile_module
 from mplang.csim.build import CsimProgram
 from mplang.family.linkfail import serial_reason
 
+UNSOLICITED_LIMIT = 1000
+"""Lines a running program may print (OUT) before the echo of a query, before the query
+counts as unanswered: a program printing without pause must not hold a host for ever."""
+
 
 class DownloadError(Exception):
     """The download failed. kind: port, no-answer, echo, device-error, reply, mismatch,
@@ -72,6 +76,7 @@ class SerialLine:
         self.echo = bool(protocol["echo"])
         self.ok = str(protocol["ok"])
         self.error_prefix = str(protocol["error_prefix"]) + " "
+        self.unsolicited: list[str] = []  # lines a running program sent before an echo
 
     def read_line(self, after: str) -> str:
         raw = self.port.read_until(self.end_out)
@@ -86,11 +91,17 @@ class SerialLine:
 
     def send(self, text: str, answers: bool = False) -> list[str]:
         """Send one line; check the echo; return the data lines once the status is OK (only
-        ULP, and a line sent with `answers` (a query), may have data lines)."""
+        ULP, and a line sent with `answers` (a query), may have data lines). With `answers`
+        the lines a running program prints before the echo are set aside (`unsolicited`)."""
         self.port.write(text.encode("ascii") + self.end_in)
         self.port.flush()
         if self.echo:
             echoed = self.read_line(text)
+            skipped = 0
+            while echoed != text and answers and skipped < UNSOLICITED_LIMIT:
+                self.unsolicited.append(echoed)  # what a running program printed (OUT)
+                skipped += 1
+                echoed = self.read_line(text)
             if echoed != text:
                 raise DownloadError("echo", f"wrong echo: sent {text!r}, the device echoed "
                                     f"{echoed!r}")

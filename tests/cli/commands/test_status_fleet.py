@@ -1,0 +1,117 @@
+"""`mpc status --fleet FILE` (issue 17 item 3): every `[targets.NAME]` device of a fleet file
+read concurrently, one row each (reachable, firmware, the manifest's build id and flash
+time, the running program, the verdict against the build), against three `mpc sim`
+processes over real loopback Modbus TCP and a fourth address where nothing listens."""
+
+from __future__ import annotations
+
+import json
+import socket
+import subprocess
+import sys
+from pathlib import Path
+
+from simproc import start_sim
+
+from mplang.cli.common import EXIT_NO_DEVICE, EXIT_OK, EXIT_OUT_OF_SYNC
+from mplang.m8194h.status_fleet import verdict
+
+JOB = "MP 3 first\n    SET_V X, 1000\n    FIXED_MOVE X, 100\nEND MP\n" \
+      "MP 4 second\n    VAR1 = 7\nEND MP\n"
+OTHER = JOB.replace("VAR1 = 7", "VAR1 = 8")
+
+
+def mpc(cwd: Path, *args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, "-m", "mplang", *args], capture_output=True,
+                          text=True, timeout=120, cwd=cwd)
+
+
+def closed_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return int(probe.getsockname()[1])
+
+
+def fleet_file(path: Path, ports: dict[str, int]) -> Path:
+    text = ""
+    for name, port in ports.items():
+        text += f'\n[targets.{name}]\ntcp = "127.0.0.1:{port}"\n'
+    path.write_text(text)
+    return path
+
+
+def test_manual_3_19_fleet_status_table_json_and_exit_codes(tmp_path: Path) -> None:
+    (tmp_path / "job.mp").write_text(JOB)
+    (tmp_path / "other.mp").write_text(OTHER)
+    sims = [start_sim("--duration", "90") for _ in range(3)]
+    try:
+        ports = {"cell1": sims[0][1], "cell2": sims[1][1], "cell3": sims[2][1],
+                 "cell4": closed_port()}
+        for name, source in (("cell1", "job.mp"), ("cell2", "other.mp")):
+            flashed = mpc(tmp_path, "flash", source, "--tcp", f"127.0.0.1:{ports[name]}",
+                          "--record", "r.json")
+            assert flashed.returncode == EXIT_OK, flashed.stderr
+        everything = fleet_file(tmp_path / "fleet.toml", ports)
+        table = mpc(tmp_path, "status", "job.mp", "--fleet", str(everything), "--jobs",
+                    "2")
+        assert table.returncode == EXIT_NO_DEVICE, table.stdout + table.stderr
+        lines = table.stdout.splitlines()
+        assert lines[0].split() == ["DEVICE", "ADDRESS", "REACHABLE", "FIRMWARE", "BUILD",
+                                    "FLASHED", "RUNNING", "SYNC"]
+        rows = {line.split()[0]: line for line in lines[1:5]}
+        assert rows["cell1"].endswith("in sync") and " yes " in rows["cell1"]
+        assert "0x01000000" in rows["cell1"]
+        assert rows["cell2"].endswith("differs (1 slot)")
+        assert rows["cell3"].endswith("missing")
+        assert rows["cell4"].split()[2:] == ["no", "-", "-", "-", "-", "unreachable"]
+        assert lines[5] == (f"cell4: cannot connect to 127.0.0.1:{ports['cell4']} (Modbus "
+                            "TCP): connection refused (nothing listens on that port)")
+
+        listed = mpc(tmp_path, "status", "job.mp", "--fleet", str(everything), "--json")
+        assert listed.returncode == EXIT_NO_DEVICE
+        data = {row["device"]: row for row in json.loads(listed.stdout)}
+        assert list(data) == ["cell1", "cell2", "cell3", "cell4"]
+        assert data["cell1"]["sync"] == "in sync" and data["cell1"]["reachable"]
+        assert data["cell1"]["build_id"] and data["cell1"]["flashed"]
+        assert data["cell1"]["address"] == f"tcp://127.0.0.1:{ports['cell1']}/1"
+        assert data["cell2"]["build_id"] != data["cell1"]["build_id"]
+        assert {s["slot"]: s["status"] for s in data["cell2"]["slots"]} == {
+            "MP3": "in sync", "MP4": "differs"}
+        assert data["cell3"]["build_id"] is None and "no manifest" in \
+            data["cell3"]["manifest_error"]
+        assert not data["cell4"]["reachable"] and "connection refused" in data["cell4"]["error"]
+
+        reachable = fleet_file(tmp_path / "up.toml", {k: v for k, v in ports.items()
+                                                      if k != "cell4"})
+        assert mpc(tmp_path, "status", "job.mp", "--fleet", str(reachable)).returncode \
+            == EXIT_OUT_OF_SYNC
+        synced = fleet_file(tmp_path / "one.toml", {"cell1": ports["cell1"]})
+        assert mpc(tmp_path, "status", "job.mp", "--fleet", str(synced), "--jobs",
+                   "1").returncode \
+            == EXIT_OK
+        project = tmp_path / "project"  # the project's own mpc.toml: its sources, its targets
+        project.mkdir()
+        (project / "job.mp").write_text(JOB)
+        (project / "mpc.toml").write_text('[project]\nsources = ["job.mp"]\n\n[targets.cell1]\n'
+                                          f'tcp = "127.0.0.1:{ports["cell1"]}"\n')
+        own = mpc(project, "status", "--fleet", "mpc.toml")
+        assert own.returncode == EXIT_OK and own.stdout.splitlines()[1].endswith("in sync")
+    finally:
+        for proc, _port in sims:
+            proc.terminate()
+            proc.wait(10)
+
+
+def test_fleet_verdicts_by_slot() -> None:
+    """A device's verdict follows its slot rows and its manifest."""
+    def data(*statuses: str, manifest: dict[str, object] | None = None,
+             in_sync: bool = False) -> dict[str, object]:
+        return {"slots": [{"status": s} for s in statuses], "in_sync": in_sync,
+                "manifest": manifest if manifest is not None else {"build_id": "x"}}
+
+    assert verdict({"manifest": None}) is None  # nothing to compare with
+    assert verdict(data("in sync", in_sync=True)) == "in sync"
+    assert verdict(data("missing", manifest={"error": "no manifest"})) == "missing"
+    assert verdict(data("in sync", "differs", "missing")) == "differs (2 slots)"
+    assert verdict(data("in sync", "extra")) == "extra (1 slot)"
+    assert verdict(data("in sync")) == "differs (downloaded since the manifest)"
