@@ -20,7 +20,6 @@ import logging
 import time
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
-from typing import Any
 
 from pymodbus.client import AsyncModbusSerialClient, AsyncModbusTcpClient
 from pymodbus.constants import ExcCodes
@@ -31,6 +30,7 @@ from pymodbus.server import ModbusSerialServer, ModbusTcpServer
 from pymodbus.simulator import DataType, SimData, SimDevice
 
 from mplang.family.linkfail import connect_reason, listen_reason, serial_reason
+from mplang.m8194h.openfail import OpenFailure, recording
 from mplang.m8194h.sim.controller import VirtualController
 from mplang.m8194h.sim.registers import (
     COIL_SPAN,
@@ -256,33 +256,6 @@ class RtuSilence:
         return data
 
 
-class OpenFailure(OSError):
-    """A server could not listen, or a client could not connect: `reason` says why in words
-    (`mplang.family.linkfail`)."""
-
-    def __init__(self, reason: str) -> None:
-        super().__init__(reason)
-        self.reason = reason
-
-
-def _recording(protocol: Any) -> list[BaseException]:
-    """pymodbus logs why a connect or listen failed and returns False: keep the exception
-    its transport met (the last one) for the message. `call_create` is the one place where
-    pymodbus 3.16 opens a socket or serial port."""
-    failures: list[BaseException] = []
-    create = protocol.call_create
-
-    async def recorded() -> Any:
-        try:
-            return await create()
-        except BaseException as exc:
-            failures.append(exc)
-            raise
-
-    protocol.call_create = recorded
-    return failures
-
-
 async def _listen(server: Server, failures: list[BaseException], serial: bool) -> None:
     """Start a server; OpenFailure with the reason if it cannot listen."""
     try:
@@ -300,7 +273,7 @@ async def serve_tcp(face: DeviceFace, host: str, port: int,
     server = ModbusTcpServer(face.device(0), address=(host, port), trace_packet=trace_packet)
     server.decoder = DeviceDecoder(face)  # before any connection: each framer takes it
     face.registers.connections = lambda: len(server.active_connections)
-    await _listen(server, _recording(server), serial=False)
+    await _listen(server, recording(server), serial=False)
     sockets = getattr(server.transport, "sockets", None) or []
     bound = sockets[0].getsockname()[1] if sockets else port
     return server, int(bound)
@@ -324,7 +297,7 @@ async def serve_rtu(face: DeviceFace, port: str, unit: int = 1, baudrate: int = 
                                 baudrate=baudrate, parity=parity, stopbits=stopbits,
                                 bytesize=8, broadcast_enable=True, trace_packet=hook)
     server.decoder = DeviceDecoder(face, unit)
-    await _listen(server, _recording(server), serial=True)
+    await _listen(server, recording(server), serial=True)
     return server
 
 
@@ -547,7 +520,7 @@ class DeviceLink:
         lost = asyncio.Event()
         client = self._make_client(lost)
         self._outstanding, self._received, self._line_outstanding = set(), b"", 0
-        failures = _recording(client.ctx)
+        failures = recording(client.ctx)
         try:
             connected = await client.connect()
         except (OSError, ModbusException, ValueError) as exc:
