@@ -5,25 +5,38 @@ processes over real loopback Modbus TCP and a fourth address where nothing liste
 
 from __future__ import annotations
 
+import asyncio
 import json
 import socket
 import subprocess
 import sys
 from pathlib import Path
 
+from pymodbus.client import AsyncModbusTcpClient
 from simproc import start_sim
 
 from mplang.cli.common import EXIT_NO_DEVICE, EXIT_OK, EXIT_OUT_OF_SYNC
 from mplang.m8194h.status_fleet import verdict
 
 JOB = "MP 3 first\n    SET_V X, 1000\n    FIXED_MOVE X, 100\nEND MP\n" \
-      "MP 4 second\n    VAR1 = 7\nEND MP\n"
+      "MP 4 second\n    VAR1 = 7\nEND MP\n" \
+      "MP 5 spin\nLABEL top\n    VAR2 = 1\n    GOTO top\nEND MP\n"
 OTHER = JOB.replace("VAR1 = 7", "VAR1 = 8")
 
 
 def mpc(cwd: Path, *args: str) -> subprocess.CompletedProcess[str]:
     return subprocess.run([sys.executable, "-m", "mplang", *args], capture_output=True,
                           text=True, timeout=120, cwd=cwd)
+
+
+async def call(port: int, mp: int) -> None:
+    """Call MPn as a host does: holding register 8 (RS 11439-11446)."""
+    client = AsyncModbusTcpClient("127.0.0.1", port=port)
+    try:
+        assert await client.connect()
+        assert not (await client.write_register(8, mp, device_id=1)).isError()
+    finally:
+        client.close()
 
 
 def closed_port() -> int:
@@ -51,6 +64,7 @@ def test_manual_3_19_fleet_status_table_json_and_exit_codes(tmp_path: Path) -> N
             flashed = mpc(tmp_path, "flash", source, "--tcp", f"127.0.0.1:{ports[name]}",
                           "--record", "r.json")
             assert flashed.returncode == EXIT_OK, flashed.stderr
+        asyncio.run(call(ports["cell1"], 5))  # MP5 runs for ever: the RUNNING column
         everything = fleet_file(tmp_path / "fleet.toml", ports)
         table = mpc(tmp_path, "status", "job.mp", "--fleet", str(everything), "--jobs",
                     "2")
@@ -59,7 +73,7 @@ def test_manual_3_19_fleet_status_table_json_and_exit_codes(tmp_path: Path) -> N
         assert lines[0].split() == ["DEVICE", "ADDRESS", "REACHABLE", "FIRMWARE", "BUILD",
                                     "FLASHED", "RUNNING", "SYNC"]
         rows = {line.split()[0]: line for line in lines[1:5]}
-        assert rows["cell1"].endswith("in sync") and " yes " in rows["cell1"]
+        assert rows["cell1"].endswith("MP5      in sync") and " yes " in rows["cell1"]
         assert "0x01000000" in rows["cell1"]
         assert rows["cell2"].endswith("differs (1 slot)")
         assert rows["cell3"].endswith("missing")
@@ -72,11 +86,12 @@ def test_manual_3_19_fleet_status_table_json_and_exit_codes(tmp_path: Path) -> N
         data = {row["device"]: row for row in json.loads(listed.stdout)}
         assert list(data) == ["cell1", "cell2", "cell3", "cell4"]
         assert data["cell1"]["sync"] == "in sync" and data["cell1"]["reachable"]
+        assert data["cell1"]["running"] == "MP5" and data["cell2"]["running"] is None
         assert data["cell1"]["build_id"] and data["cell1"]["flashed"]
         assert data["cell1"]["address"] == f"tcp://127.0.0.1:{ports['cell1']}/1"
         assert data["cell2"]["build_id"] != data["cell1"]["build_id"]
         assert {s["slot"]: s["status"] for s in data["cell2"]["slots"]} == {
-            "MP3": "in sync", "MP4": "differs"}
+            "MP3": "in sync", "MP4": "differs", "MP5": "in sync"}
         assert data["cell3"]["build_id"] is None and "no manifest" in \
             data["cell3"]["manifest_error"]
         assert not data["cell4"]["reachable"] and "connection refused" in data["cell4"]["error"]
