@@ -38,7 +38,7 @@ STATUS_EXIT = {"in-sync": EXIT_OK, "out-of-sync": EXIT_OUT_OF_SYNC, "no-device":
 @click.option("--tcp", callback=parse_device_address, default=None, metavar="HOST[:PORT]",
               help="The device's Modbus TCP address (ET-M8194H) [default port: 502].")
 @click.option("--serial", default=None, metavar="PORT",
-              help="The serial port of a Modbus RTU device (RS-M8194H).")
+              help="The serial port of a Modbus RTU device (RS-M8194H), or of a CSIM.")
 @click.option("--unit", type=click.IntRange(1, 247), default=1, show_default=True,
               help="Modbus unit id: the RTU slave address (the ET-M8194H answers as 1).")
 @with_serial_line
