@@ -97,3 +97,8 @@ def test_status_of_a_csim_without_a_device_or_over_tcp(tmp_path: Path) -> None:
         "serial device" in gone.stderr
     tcp = mpc(tmp_path, "status", "--tcp", "127.0.0.1:9", "p.csim")
     assert tcp.returncode == EXIT_USAGE and "over its RS232 line" in tcp.stderr
+    unit = mpc(tmp_path, "status", "--serial", "/dev/does-not-exist", "p.csim", "--unit", "3",
+               "--no-identity")
+    assert unit.returncode == EXIT_USAGE
+    assert "--unit, --no-identity: M8194H option(s); a CSIM device has no such setting" \
+        in unit.stderr

@@ -118,6 +118,12 @@ def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | N
     if family.status_device is None:
         raise click.UsageError(f"there is no {family.TITLE} device to read: "
                                f"{family.NO_TRANSPORT}")
+    wrong = [option for option, name in STATUS_OPTIONS
+             if option not in family.FLASH_OPTIONS and ctx.get_parameter_source(name)
+             not in (None, click.core.ParameterSource.DEFAULT)]
+    if wrong:
+        raise click.UsageError(f"{', '.join(wrong)}: M8194H option(s); a {family.TITLE} "
+                               "device has no such setting")
     settings = project.flash if project is not None else None
     manifest_range, manifest_where = identity_choice(identity, no_identity, settings)
     job = StatusJob(
@@ -132,6 +138,12 @@ def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | N
     except CommandError as exc:
         raise click_error(exc) from None
     sys.exit(STATUS_EXIT[outcome])
+
+
+STATUS_OPTIONS = (("--unit", "unit"), ("--word-order", "word_order"), ("--retries", "retries"),
+                  ("--identity", "identity"), ("--no-identity", "no_identity"))
+"""Options of `mpc status` that only families taking them in `mpc flash` (their
+`FLASH_OPTIONS`) accept: Modbus, the image's word order, the build manifest."""
 
 
 def _family(setup: BuildSetup, device: Target) -> Family:
