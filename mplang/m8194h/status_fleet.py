@@ -37,7 +37,7 @@ def status(job: StatusJob, ui: StatusUI) -> str:
     logging.getLogger("pymodbus").setLevel(logging.CRITICAL)
     identity = identity_range(job.identity, job.identity_where)
     builds = Builds(job, ui)
-    results = asyncio.run(_read_all(job, identity, builds))
+    results = asyncio.run(read_all(job, identity, builds))
     rows = [row(device, data) for device, data in zip(job.devices, results, strict=True)]
     ui.out(json.dumps(rows, indent=1) + "\n" if job.as_json else table(rows))
     if any(not r["reachable"] for r in rows):
@@ -47,8 +47,10 @@ def status(job: StatusJob, ui: StatusUI) -> str:
     return "in-sync"
 
 
-async def _read_all(job: StatusJob, identity: mf.MdRange | None, builds: Builds
-                    ) -> list[dict[str, Any] | str]:
+async def read_all(job: StatusJob, identity: mf.MdRange | None, builds: Builds
+                   ) -> list[dict[str, Any] | str]:
+    """Every device of the job read (`status.probe`), at most `job.jobs` at once, devices of
+    one serial port one after another; in the job's order."""
     gate = asyncio.Semaphore(max(1, job.jobs))
     buses: dict[str, asyncio.Lock] = {}
 

@@ -6,6 +6,7 @@ processes over real loopback Modbus TCP and a fourth address where nothing liste
 from __future__ import annotations
 
 import asyncio
+import itertools
 import json
 import socket
 import subprocess
@@ -16,7 +17,13 @@ from pymodbus.client import AsyncModbusTcpClient
 from simproc import start_sim
 
 from mplang.cli.common import EXIT_NO_DEVICE, EXIT_OK, EXIT_OUT_OF_SYNC
-from mplang.m8194h.status_fleet import verdict
+from mplang.family.face import FamilyBuild, StatusJob
+from mplang.ir.unit import Options
+from mplang.m8194h.modbus import DeviceFace, Interpose, SimClock, serve_tcp, stop
+from mplang.m8194h.sim.controller import VirtualController
+from mplang.m8194h.status import Builds
+from mplang.m8194h.status_fleet import read_all, verdict
+from mplang.tools.project import Target
 
 JOB = "MP 3 first\n    SET_V X, 1000\n    FIXED_MOVE X, 100\nEND MP\n" \
       "MP 4 second\n    VAR1 = 7\nEND MP\n" \
@@ -130,3 +137,56 @@ def test_fleet_verdicts_by_slot() -> None:
     assert verdict(data("in sync", "differs", "missing")) == "differs (2 slots)"
     assert verdict(data("in sync", "extra")) == "extra (1 slot)"
     assert verdict(data("in sync")) == "differs (downloaded since the manifest)"
+
+
+class Collected:
+    """Where the fleet status prints, kept (a StatusUI)."""
+
+    def __init__(self) -> None:
+        self.lines: list[str] = []
+
+    def say(self, text: str) -> None:
+        self.lines.append(text)
+
+    def out(self, text: str) -> None:
+        self.lines.append(text)
+
+    def checked(self, build: FamilyBuild) -> None:
+        assert build.ok
+
+
+def test_fleet_reads_at_most_jobs_devices_at_once() -> None:
+    """Five virtual controllers in this process, over real loopback Modbus TCP, read with
+    --jobs 2: every request a device serves is numbered in one sequence (one event loop
+    orders them, no clock involved), and no more than two devices are ever between their
+    first and last request."""
+    async def scenario() -> list[tuple[int, int]]:
+        order = itertools.count()
+        spans: dict[int, list[int]] = {}
+
+        def watcher(n: int) -> Interpose:
+            def seen(_fc: int, _address: int, _values: list[int] | None) -> None:
+                spans.setdefault(n, []).append(next(order))
+            return seen
+
+        servers = []
+        for n in range(5):
+            face = DeviceFace(VirtualController(), SimClock(1.0), interpose=watcher(n))
+            servers.append(await serve_tcp(face, "127.0.0.1", 0))
+        try:
+            devices = [Target(f"d{n}", host="127.0.0.1", port=port)
+                       for n, (_server, port) in enumerate(servers)]
+            job = StatusJob(device=devices[0], paths=[], options=Options(),
+                            word_order_fixed=False, as_json=True, timeout=1.0, retries=0,
+                            fleet=True, devices=devices, jobs=2)
+            results = await read_all(job, None, Builds(job, Collected()))
+            assert all(isinstance(r, dict) for r in results), results
+        finally:
+            for server, _port in servers:
+                await stop(server)
+        return [(min(seen), max(seen)) for seen in spans.values()]
+
+    intervals = asyncio.run(scenario())
+    assert len(intervals) == 5
+    for _first, last in intervals:  # how many devices are mid-read at each last request
+        assert sum(1 for a, b in intervals if a <= last <= b) <= 2
