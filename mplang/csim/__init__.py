@@ -28,9 +28,8 @@ from mplang.csim.compile import compile_mp
 from mplang.csim.flashing import flash as flash_devices
 from mplang.csim.run import FamilyRun, NoSuchProgram, RunSetupError, run_build
 from mplang.csim.service import serve
+from mplang.csim.status import status as status_device
 
-status_device = None
-"""No `mpc status`: see docs/cli.md (the CSIM's query commands are not read yet)."""
 disassemble = None
 load_machine = None
 NO_MACHINE = ("the virtual CSIM has no limit or home switches to place, and its inputs 1-8 "

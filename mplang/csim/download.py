@@ -17,6 +17,11 @@ import serial  # type: ignore[import-untyped]  # pyserial ships no type hints
 
 from mplang.csim import profile as profile_module
 from mplang.csim.build import CsimProgram
+from mplang.family.linkfail import serial_reason
+
+UNSOLICITED_LIMIT = 1000
+"""Lines a running program may print (OUT) before the echo of a query, before the query
+counts as unanswered: a program printing without pause must not hold a host for ever."""
 
 
 class DownloadError(Exception):
@@ -45,8 +50,22 @@ class DownloadReport:
                 "saved": self.saved, "elapsed_s": round(self.elapsed_s, 3)}
 
 
-class _Line:
-    """One serial port speaking the CSIM protocol."""
+def open_port(port: str, baud: int, parity: str, stopbits: int, timeout: float
+              ) -> serial.Serial:
+    """Open the CSIM's serial line: the one place where a CSIM host opens it, so every
+    failure says why (no such serial device, permission denied, in use: see
+    `mplang.family.linkfail`) as DownloadError "port"."""
+    try:
+        return serial.serial_for_url(port, baudrate=baud, parity=parity, stopbits=stopbits,
+                                     timeout=timeout, write_timeout=timeout)
+    except (serial.SerialException, OSError, ValueError) as exc:
+        raise DownloadError("port", f"cannot open serial port {port} (CSIM RS232, {baud} "
+                            f"8{parity}{stopbits}): {serial_reason(exc)}") from None
+
+
+class SerialLine:
+    """One serial port speaking the CSIM protocol: a line sent, its echo checked, the data
+    lines until OK (DownloadError for ERR, silence or a reply of another shape)."""
 
     def __init__(self, port: serial.Serial, name: str) -> None:
         self.port = port
@@ -57,6 +76,7 @@ class _Line:
         self.echo = bool(protocol["echo"])
         self.ok = str(protocol["ok"])
         self.error_prefix = str(protocol["error_prefix"]) + " "
+        self.unsolicited: list[str] = []  # lines a running program sent before an echo
 
     def read_line(self, after: str) -> str:
         raw = self.port.read_until(self.end_out)
@@ -69,12 +89,19 @@ class _Line:
         except UnicodeDecodeError:
             raise DownloadError("reply", f"garbled reply to {after!r}: {raw!r}") from None
 
-    def send(self, text: str) -> list[str]:
-        """Send one line; check the echo; return the data lines once the status is OK."""
+    def send(self, text: str, answers: bool = False) -> list[str]:
+        """Send one line; check the echo; return the data lines once the status is OK (only
+        ULP, and a line sent with `answers` (a query), may have data lines). With `answers`
+        the lines a running program prints before the echo are set aside (`unsolicited`)."""
         self.port.write(text.encode("ascii") + self.end_in)
         self.port.flush()
         if self.echo:
             echoed = self.read_line(text)
+            skipped = 0
+            while echoed != text and answers and skipped < UNSOLICITED_LIMIT:
+                self.unsolicited.append(echoed)  # what a running program printed (OUT)
+                skipped += 1
+                echoed = self.read_line(text)
             if echoed != text:
                 raise DownloadError("echo", f"wrong echo: sent {text!r}, the device echoed "
                                     f"{echoed!r}")
@@ -85,7 +112,7 @@ class _Line:
                 return data
             if reply.startswith(self.error_prefix):
                 raise DownloadError("device-error", f"the device refused {text!r}: {reply}")
-            if text != "ULP":
+            if text != "ULP" and not answers:
                 raise DownloadError("reply", f"unexpected reply to {text!r}: {reply!r} "
                                     f"(expected {self.ok} or {self.error_prefix.strip()} ...)")
             data.append(reply)
@@ -103,14 +130,10 @@ def download(program: CsimProgram | list[str], port: str, baud: int = 9600,
             raise DownloadError("program", f"line {number} {text!r} cannot be sent: program "
                                 "lines are non-empty single lines of ASCII text", number)
     started = time.monotonic()
-    try:
-        link = serial.serial_for_url(port, baudrate=baud, parity=parity, stopbits=stopbits,
-                                     timeout=timeout, write_timeout=timeout)
-    except (serial.SerialException, OSError, ValueError) as exc:
-        raise DownloadError("port", f"cannot open {port}: {exc}") from None
+    link = open_port(port, baud, parity, stopbits, timeout)
     try:
         link.reset_input_buffer()
-        line = _Line(link, port)
+        line = SerialLine(link, port)
         try:
             line.send("DLP")
             for number, text in enumerate(lines):

@@ -6,11 +6,14 @@ with DLP, listed back with ULP and compared, then saved with SAVE P
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
+from pathlib import Path
 
 from mplang.csim.build import TARGETS, CsimProgram, FamilyBuild, check_native
 from mplang.csim.compile import compile_mp
 from mplang.csim.download import DownloadError, download
 from mplang.family.face import CommandError, FlashJob, FlashTarget, FlashUI
+from mplang.ir.unit import Options
 
 DEFAULT_TIMEOUT = 1.0
 DOWNLOAD_OUTCOME = {"port": "no-port", "no-answer": "no-device", "device-error": "rejected",
@@ -37,17 +40,7 @@ def flash(job: FlashJob, ui: FlashUI) -> str:
     if not paths:
         raise CommandError("usage", "nothing to flash: give FILE..., or list sources in "
                            "mpc.toml ([project] sources or the target's own)")
-    native = all(p.suffix.lower() == ".csim" for p in paths)
-    build: FamilyBuild = check_native(paths) if native \
-        else compile_mp(paths, job.options, TARGETS[0])
-    ui.checked(build)
-    programs = [p for p in build.programs if isinstance(p, CsimProgram)]
-    if len(programs) != 1:
-        names = ", ".join(f"{p.name} ({p.source})" for p in programs)
-        raise CommandError("usage", f"a CSIM holds one program, and these sources make "
-                           f"{len(programs)} ({names}): flash one .csim listing, or .mp "
-                           "sources (they compile to one program)")
-    program = programs[0]
+    program = build_program(paths, job.options, ui.checked, "flash")
     if job.dry_run:
         _dry_run(program, job.as_json, ui)
         return "verified"
@@ -57,6 +50,24 @@ def flash(job: FlashJob, ui: FlashUI) -> str:
     timeout = job.timeout if job.timeout is not None \
         else device.timeout or job.settings_timeout or DEFAULT_TIMEOUT
     return _download(program, device, timeout, job.as_json, ui)
+
+
+def build_program(paths: list[Path], options: Options,
+                  checked: Callable[[FamilyBuild], None], verb: str) -> CsimProgram:
+    """The one program a CSIM holds, built from a .csim listing or .mp sources (`checked`
+    reports the diagnostics and ends the command on errors); `verb` names the command in
+    the refusal of sources that make several."""
+    native = all(p.suffix.lower() == ".csim" for p in paths)
+    build: FamilyBuild = check_native(paths) if native \
+        else compile_mp(paths, options, TARGETS[0])
+    checked(build)
+    programs = [p for p in build.programs if isinstance(p, CsimProgram)]
+    if len(programs) != 1:
+        names = ", ".join(f"{p.name} ({p.source})" for p in programs)
+        raise CommandError("usage", f"a CSIM holds one program, and these sources make "
+                           f"{len(programs)} ({names}): {verb} one .csim listing, or .mp "
+                           "sources (they compile to one program)")
+    return programs[0]
 
 
 def _dry_run(program: CsimProgram, as_json: bool, ui: FlashUI) -> None:

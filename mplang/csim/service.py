@@ -17,6 +17,7 @@ import serial  # type: ignore[import-untyped]  # pyserial ships no type hints
 from mplang.csim.build import CsimProgram
 from mplang.csim.device import CsimServer, Reply, VirtualCsim
 from mplang.family.face import FamilyBuild, Say, ServeRequest, ServiceError
+from mplang.family.linkfail import serial_reason
 from mplang.family.ptylink import PtyLink
 
 
@@ -66,7 +67,8 @@ def _serve(device: VirtualCsim, request: ServeRequest, say: Say) -> None:
         try:
             server.start()
         except (serial.SerialException, OSError, ValueError) as exc:
-            raise ServiceError("transport", f"cannot open serial port {port}: {exc}") from None
+            raise ServiceError("transport", f"cannot open serial port {port}: "
+                               f"{serial_reason(exc)}") from None
         shown = link.client_end if link is not None else port
         say(f"CSIM RS232 on {shown} ({request.baud} 8{request.parity}{request.stopbits})")
         failure = _wait(server, request.duration)

@@ -188,6 +188,9 @@ class StatusJob:
     retries: int
     identity: str | bool | None = None  # as FlashJob.identity
     identity_where: str | None = None
+    fleet: bool = False  # --fleet: every device of `devices`, a table at the end
+    devices: Sequence[FlashTarget] = ()  # the fleet (`device` is its first)
+    jobs: int = 8  # devices read at once in a fleet
 
 
 class DeviceUnreachable(Exception):

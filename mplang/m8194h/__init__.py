@@ -149,8 +149,10 @@ def flash_devices(job: FlashJob, ui: FlashUI) -> str:
 def status_device(job: StatusJob, ui: StatusUI) -> str:
     """Read one device and compare it with a build (`mplang.m8194h.status`), imported when
     called, as `serve`."""
-    from mplang.m8194h import status
+    from mplang.m8194h import status, status_fleet
 
+    if job.fleet:
+        return status_fleet.status(job, ui)
     return status.status(job, ui)
 
 

@@ -29,6 +29,8 @@ from pymodbus.pdu import DecodePDU, ExceptionResponse, ModbusPDU
 from pymodbus.server import ModbusSerialServer, ModbusTcpServer
 from pymodbus.simulator import DataType, SimData, SimDevice
 
+from mplang.family.linkfail import connect_reason, listen_reason, serial_reason
+from mplang.m8194h.openfail import OpenFailure, recording
 from mplang.m8194h.sim.controller import VirtualController
 from mplang.m8194h.sim.registers import (
     COIL_SPAN,
@@ -254,14 +256,24 @@ class RtuSilence:
         return data
 
 
+async def _listen(server: Server, failures: list[BaseException], serial: bool) -> None:
+    """Start a server; OpenFailure with the reason if it cannot listen."""
+    try:
+        await server.serve_forever(background=True)
+    except (OSError, RuntimeError) as exc:
+        cause = failures[-1] if failures else exc
+        raise OpenFailure(serial_reason(cause) if serial else listen_reason(cause)) from None
+
+
 async def serve_tcp(face: DeviceFace, host: str, port: int,
                     trace_packet: PacketHook | None = None) -> tuple[ModbusTcpServer, int]:
     """Listen for Modbus TCP on host:port (port 0: any free port); return the server and the
-    port it listens on. Every unit id is answered: the ET-M8194H is the only device there."""
+    port it listens on. Every unit id is answered: the ET-M8194H is the only device there.
+    OpenFailure says why it cannot listen (port in use, no such host, ...)."""
     server = ModbusTcpServer(face.device(0), address=(host, port), trace_packet=trace_packet)
     server.decoder = DeviceDecoder(face)  # before any connection: each framer takes it
     face.registers.connections = lambda: len(server.active_connections)
-    await server.serve_forever(background=True)
+    await _listen(server, recording(server), serial=False)
     sockets = getattr(server.transport, "sockets", None) or []
     bound = sockets[0].getsockname()[1] if sockets else port
     return server, int(bound)
@@ -285,7 +297,7 @@ async def serve_rtu(face: DeviceFace, port: str, unit: int = 1, baudrate: int = 
                                 baudrate=baudrate, parity=parity, stopbits=stopbits,
                                 bytesize=8, broadcast_enable=True, trace_packet=hook)
     server.decoder = DeviceDecoder(face, unit)
-    await server.serve_forever(background=True)
+    await _listen(server, recording(server), serial=True)
     return server
 
 
@@ -508,15 +520,15 @@ class DeviceLink:
         lost = asyncio.Event()
         client = self._make_client(lost)
         self._outstanding, self._received, self._line_outstanding = set(), b"", 0
+        failures = recording(client.ctx)
         try:
             connected = await client.connect()
         except (OSError, ModbusException, ValueError) as exc:
-            client.close()
-            raise LinkUnavailable(f"cannot connect to {self.endpoint.describe()}: {exc}"
-                                  ) from None
+            failures.append(exc)
+            connected = False
         if not connected:
             client.close()
-            raise LinkUnavailable(f"cannot connect to {self.endpoint.describe()}")
+            raise LinkUnavailable(self._unavailable(failures[-1] if failures else None))
         protocol = client.ctx
         received = protocol.data_received
         watch = self._tee if self.endpoint.host is not None else self._tee_rtu
@@ -528,6 +540,14 @@ class DeviceLink:
         protocol.data_received = tee  # type: ignore[method-assign]
         self._client, self._lost, self._stale = client, lost, False
         self.opened = True
+
+    def _unavailable(self, exc: BaseException | None) -> str:
+        """The one-line reason a connection or port could not be opened."""
+        ep = self.endpoint
+        if ep.host is not None:
+            return f"cannot connect to {ep.host}:{ep.port} (Modbus TCP): {connect_reason(exc)}"
+        return (f"cannot open serial port {ep.serial} (Modbus RTU, {ep.baudrate} "
+                f"8{ep.parity}{ep.stopbits}): {serial_reason(exc)}")
 
     def close(self) -> None:
         if self._client is not None:

@@ -15,12 +15,14 @@ from __future__ import annotations
 import asyncio
 import json
 import logging
+from collections.abc import Callable
 from dataclasses import replace
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
-from mplang.family.face import CommandError, StatusJob, StatusUI
+from mplang.family.face import CommandError, FlashTarget, StatusJob, StatusUI
+from mplang.ir import catalogue as catalogue_module
 from mplang.ir.catalogue import Catalogue
 from mplang.ir.scope import Variable
 from mplang.m8194h import flash as flashing
@@ -42,8 +44,24 @@ from mplang.m8194h.modbus import DeviceException, DeviceLink, Endpoint, LinkErro
 AXES = ("X", "Y", "Z", "U")
 AXIS_FIRST, AXIS_COUNT = 16, 46  # input 16-19 DI status, 20-23 error code, 24 running,
 # 25 emergency, 26-33 LP, 34-41 EP, 42-49 CV, 50-57 CA, 58-61 stop status (1 stopped)
+SIGNAL_FIRST = 88  # input 88-91: the DI signal word of each axis (appendix table 10)
 VAR_BASE = 300  # holding register of VAR0 (300 + 2n)
 OUTCOMES = ("in-sync", "out-of-sync", "no-device")
+LAMP_LETTERS = {"limit_plus": "L+", "limit_minus": "L-", "near_home": "NH", "home": "HM",
+                "index": "IX", "alarm": "AL", "inpos": "IP", "emg": "EMG"}
+"""The lamps `mpc status` prints per axis, and their short names (the profile's [lamps])."""
+
+
+def lamp_bits(catalogue: Catalogue) -> dict[str, tuple[int, int]]:
+    """The profile's [lamps]: name -> (bit of the DI status word, the value that means on)."""
+    table = catalogue.profile.raw["lamps"]
+    return {name: (int(value[0]), int(value[1])) for name, value in table.items()
+            if isinstance(value, list)}
+
+
+def lamps(word: int, bits: dict[str, tuple[int, int]]) -> dict[str, bool]:
+    """Which inputs of one axis are on, from its DI status word (input 16 + axis)."""
+    return {name: (word >> bit & 1) == on for name, (bit, on) in bits.items()}
 
 
 async def read_status(link: DeviceLink, identity: mf.MdRange | None,
@@ -57,7 +75,10 @@ async def read_status(link: DeviceLink, identity: mf.MdRange | None,
     span = await link.read_input(STATE_REGISTER, STATE_SPAN)
     (running,) = await link.read_holding(CALL_REGISTER, 1)
     axes_regs = await link.read_input(AXIS_FIRST, AXIS_COUNT)
-    profile = catalogue.profile if catalogue is not None else None
+    signals = await link.read_input(SIGNAL_FIRST, len(AXES))
+    catalogue = catalogue or catalogue_module.load()
+    profile = catalogue.profile
+    bits = lamp_bits(catalogue)
     download, execution = span[10:15], span[15:20]
     out: dict[str, Any] = {
         "device": link.endpoint.describe(),
@@ -69,9 +90,9 @@ async def read_status(link: DeviceLink, identity: mf.MdRange | None,
         "download_status": _five(download),
         "running": {"mp": running, "top": axes_regs[24 - AXIS_FIRST]},
         "execution_error": {**_five(execution), "text": None if not execution[4] else
-                            (profile.raw.get("execution_errors", {}) if profile else {}).get(
-                                f"0x{execution[4]:02X}", "unknown execution error")},
-        "axes": [_axis(axes_regs, n, order) for n in range(len(AXES))],
+                            _execution_text(profile.raw.get("execution_errors", {}),
+                                            execution[4])},
+        "axes": [_axis(axes_regs, signals, n, order, bits) for n in range(len(AXES))],
     }
     manifest: mf.Manifest | None = None
     if identity is None:
@@ -102,14 +123,27 @@ def _five(values: list[int]) -> dict[str, int]:
     return {"mp": mp_no, "isr": isr_no, "command": command, "line": line, "error": error}
 
 
-def _axis(regs: list[int], n: int, order: int) -> dict[str, Any]:
+def _execution_text(table: dict[str, Any], code: int) -> str:
+    """The profile's words for an execution error code (its keys are written 0x01 ...)."""
+    for key, text in table.items():
+        try:
+            if int(key, 0) == code:
+                return str(text)
+        except ValueError:
+            continue
+    return "unknown execution error"
+
+
+def _axis(regs: list[int], signals: list[int], n: int, order: int,
+          bits: dict[str, tuple[int, int]]) -> dict[str, Any]:
     def pair(first: int) -> int:
         at = first - AXIS_FIRST + 2 * n
         return join32(regs[at:at + 2], order)
     stopped = regs[58 - AXIS_FIRST + n] == 1
     return {"axis": AXES[n], "lp": pair(26), "ep": pair(34), "cv": pair(42),
             "state": "stopped" if stopped else "moving", "di_status": regs[n],
-            "error_code": regs[4 + n]}
+            "di_signal": signals[n], "error_code": regs[4 + n],
+            "lamps": lamps(regs[n], bits)}
 
 
 def compare(manifest: mf.Manifest | None, image: flashing.FlashImage) -> list[dict[str, Any]]:
@@ -155,15 +189,22 @@ def render(data: dict[str, Any]) -> str:
         for row in data["slots"]:
             name = row["name"] or row["device_name"] or ""
             lines.append(f"  {row['status']:<9} {row['slot']:<6} {name}".rstrip())
-    lines.append("axes")
+    lines.append("axes        lamps: L+/L- limits, NH near home, HM home, IX index, AL alarm, "
+                 "IP in position, EMG emergency")
     for axis in data["axes"]:
         lines.append(f"  {axis['axis']}  LP {axis['lp']:>11}  EP {axis['ep']:>11}  CV "
-                     f"{axis['cv']:>8}  {axis['state']}")
+                     f"{axis['cv']:>8}  {axis['state']:<7}  {_lamp_text(axis['lamps'])}")
     if data.get("variables"):
         lines.append("variables")
         for var in data["variables"]:
             lines.append(f"  {var['name']} (VAR{var['var']}) = {var['value']}")
     return "\n".join(lines) + "\n"
+
+
+def _lamp_text(on: dict[str, bool]) -> str:
+    """The lamps of one axis that are on, by short name ('-' for none)."""
+    lit = [short for name, short in LAMP_LETTERS.items() if on.get(name)]
+    return " ".join(lit) or "-"
 
 
 def _render_manifest(manifest: dict[str, Any] | None) -> list[str]:
@@ -181,28 +222,43 @@ def _render_manifest(manifest: dict[str, Any] | None) -> list[str]:
     return lines
 
 
-def status(job: StatusJob, ui: StatusUI) -> str:
-    """The family face's `status_device`: read the device, compare with the build if one is
-    given, print it; one of `OUTCOMES`."""
-    identity = identity_range(job.identity, job.identity_where)
-    device = job.device
-    endpoint = Endpoint(host=device.host, port=device.port, serial=device.serial,
-                        baudrate=device.baud, parity=device.parity, stopbits=device.stopbits,
-                        unit=device.unit, timeout=job.timeout, retries=job.retries)
-    logging.getLogger("pymodbus").setLevel(logging.CRITICAL)
+def endpoint_of(device: FlashTarget, timeout: float, retries: int) -> Endpoint:
+    """Where a status read goes: the device's address and line, the job's patience."""
+    return Endpoint(host=device.host, port=device.port, serial=device.serial,
+                    baudrate=device.baud, parity=device.parity, stopbits=device.stopbits,
+                    unit=device.unit, timeout=timeout, retries=retries)
 
-    async def main() -> dict[str, Any] | str:
-        link = DeviceLink(endpoint)
-        try:
-            await link.open()
-            (order,) = await link.read_holding(WORD_ORDER_REGISTER, 1)
-            image, variables = _build(job, ui, order)
-            return await read_status(link, identity, image, variables)
-        except (LinkError, DeviceException) as exc:
-            return f"{endpoint.describe()}: {exc}"
-        finally:
-            link.close()
-    data = asyncio.run(main())
+
+Builder = Callable[[int], tuple[flashing.FlashImage | None, list[Variable]]]
+"""Given the device's word order, what `mpc flash` would write there and its variables."""
+
+
+async def probe(endpoint: Endpoint, identity: mf.MdRange | None, build: Builder
+                ) -> dict[str, Any] | str:
+    """Read one device (`read_status`, compared with `build`'s image); the reason in one line
+    when it cannot be reached or read."""
+    link = DeviceLink(endpoint)
+    try:
+        await link.open()
+        (order,) = await link.read_holding(WORD_ORDER_REGISTER, 1)
+        image, variables = build(order)
+        return await read_status(link, identity, image, variables)
+    except LinkError as exc:
+        return str(exc)
+    except DeviceException as exc:
+        return f"{endpoint.describe()}: {exc}"
+    finally:
+        link.close()
+
+
+def status(job: StatusJob, ui: StatusUI) -> str:
+    """The family face's `status_device` for one device: read it, compare it with the build
+    if one is given, print it; one of `OUTCOMES`."""
+    identity = identity_range(job.identity, job.identity_where)
+    logging.getLogger("pymodbus").setLevel(logging.CRITICAL)
+    endpoint = endpoint_of(job.device, job.timeout, job.retries)
+    builds = Builds(job, ui)
+    data = asyncio.run(probe(endpoint, identity, lambda order: builds.get(job.device, order)))
     if isinstance(data, str):
         ui.say(f"error: no device: {data}")
         return "no-device"
@@ -212,25 +268,43 @@ def status(job: StatusJob, ui: StatusUI) -> str:
     return "in-sync"
 
 
-def _build(job: StatusJob, ui: StatusUI, order: int
-           ) -> tuple[flashing.FlashImage | None, list[Variable]]:
-    """What `mpc flash` would write (built for the device's word order unless one was
-    chosen), and the build's declared variables; nothing without sources."""
-    paths = [job.device.image] if job.device.image is not None else \
-        list(job.device.sources) or job.paths
-    if not paths:
-        return None, []
-    images = [p for p in paths if p.suffix.lower() == ".json"]
-    if images:
-        if len(paths) != 1:
-            raise CommandError("usage", "give one image JSON, or .mp sources, not both")
-        return _load(images[0]), []
-    options = job.options if job.word_order_fixed else replace(job.options, word_order=order)
-    if job.device.target is not None:
-        options = replace(options, target=job.device.target)
-    result = compile_paths(paths, options)
-    ui.checked(result)
-    return flashing.image_from_build(result), list(result.variables)
+class Builds:
+    """What `mpc flash` would write into each device (built for the device's word order
+    unless one was chosen), each distinct build made once, and the build's declared
+    variables; nothing without sources."""
+
+    def __init__(self, job: StatusJob, ui: StatusUI) -> None:
+        self.job, self.ui = job, ui
+        self._made: dict[tuple[object, ...], tuple[flashing.FlashImage | None,
+                                                   list[Variable]]] = {}
+
+    def get(self, device: FlashTarget, order: int
+            ) -> tuple[flashing.FlashImage | None, list[Variable]]:
+        job = self.job
+        paths = [device.image] if device.image is not None else \
+            list(device.sources) or job.paths
+        if not paths:
+            return None, []
+        fixed = job.word_order_fixed or device.word_order is not None
+        chosen = device.word_order if device.word_order is not None else job.options.word_order
+        key = (tuple(paths), chosen if fixed else order, device.target)
+        if key not in self._made:
+            self._made[key] = self._make(paths, device, chosen if fixed else order)
+        return self._made[key]
+
+    def _make(self, paths: list[Path], device: FlashTarget, order: int | None
+              ) -> tuple[flashing.FlashImage | None, list[Variable]]:
+        images = [p for p in paths if p.suffix.lower() == ".json"]
+        if images:
+            if len(paths) != 1:
+                raise CommandError("usage", "give one image JSON, or .mp sources, not both")
+            return _load(images[0]), []
+        options = replace(self.job.options, word_order=order)
+        if device.target is not None:
+            options = replace(options, target=device.target)
+        result = compile_paths(paths, options)
+        self.ui.checked(result)
+        return flashing.image_from_build(result), list(result.variables)
 
 
 def _load(path: Path) -> flashing.FlashImage:

@@ -148,7 +148,10 @@ def test_status_and_flash_refuse_bad_identity_and_report_no_device(tmp_path: Pat
     bad = mpc(work, "flash", "job.mp", "--tcp", f"127.0.0.1:{closed}", "--identity", "MD0-MD3")
     assert bad.returncode == EXIT_USAGE and "at least 8" in bad.stderr
     csim = mpc(work, "status", "--serial", str(tmp_path / "tty"), "--target", "csim")
-    assert csim.returncode == EXIT_USAGE and "reads CSIM devices not yet" in csim.stderr
+    assert csim.returncode == EXIT_NO_DEVICE and "no such serial device" in csim.stderr
+    fatek = mpc(work, "status", "--serial", str(tmp_path / "tty"), "--target", "fbs-fun140")
+    assert fatek.returncode == EXIT_USAGE
+    assert "no FATEK FBs-PLC device to read: FB documents no way" in fatek.stderr
     both = mpc(work, "status", "--tcp", f"127.0.0.1:{closed}", "--identity", "MD0-MD9",
                "--no-identity")
     assert both.returncode == EXIT_USAGE
