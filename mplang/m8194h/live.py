@@ -35,7 +35,8 @@ from mplang.m8194h.flash.registers import (
 )
 from mplang.m8194h.image import BuildResult, ProgramImage
 from mplang.m8194h.modbus import DeviceException, DeviceLink, Endpoint, LinkError
-from mplang.m8194h.status import AXES, VAR_BASE
+from mplang.m8194h.status import AXES, VAR_BASE, lamp_bits
+from mplang.m8194h.status import lamps as axis_lamps
 
 LIVE_FIRST, LIVE_COUNT = 8, 54  # input 8-15 FRnet DI groups 8-15, then 16-61 as in status
 HOLDING_FIRST = CALL_REGISTER  # holding 8 (called MP) .. 14 (word order)
@@ -58,10 +59,7 @@ class Watcher:
         self.identity: dict[str, int] | None = None
         self.word_order = 0
         raw = self.catalogue.profile.raw
-        bits = raw["di_status_bits"]
-        self.lamp_bits = {name: int(bit) for name, bit in bits.items()
-                          if isinstance(bit, int)}
-        self.active_low = frozenset(bits.get("active_low", ()))
+        self.lamp_bits = lamp_bits(self.catalogue)  # the profile's [lamps], as mpc status
         self.errors: dict[str, str] = raw.get("execution_errors", {})
         self.variables = sorted([*build.variables, *build.aliases] if build else [],
                                 key=lambda v: v.index)
@@ -158,8 +156,7 @@ class Watcher:
             at = first - LIVE_FIRST + 2 * n
             return join32(regs[at:at + 2], order)
         status = regs[16 - LIVE_FIRST + n]
-        lamps = {name: bool((status >> bit) & 1) != (name in self.active_low)
-                 for name, bit in self.lamp_bits.items()}
+        lamps = axis_lamps(status, self.lamp_bits)
         stopped = regs[58 - LIVE_FIRST + n] == 1
         return {"axis": AXES[n], "lp": pair(26), "ep": pair(34), "cv": pair(42),
                 "state": "stopped" if stopped else "moving", "di_status": status,

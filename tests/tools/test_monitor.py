@@ -62,7 +62,7 @@ def test_manual_12_1_api_state_over_http_read_only(tmp_path: Path) -> None:
             x = state["axes"][0]
             assert {"lp", "ep", "cv", "state", "error_code", "lamps"} <= set(x)
             assert set(x["lamps"]) >= {"limit_plus", "limit_minus", "near_home", "home",
-                                       "index", "alarm", "emergency"}
+                                       "index", "alarm", "emg"}
             assert len(state["frnet_di"]) == 8
             assert {(v["name"], v["var"]) for v in state["variables"]} == {
                 ("laps", 400), ("target", 20)}

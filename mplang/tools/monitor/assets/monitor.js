@@ -4,7 +4,7 @@
 "use strict";
 
 const LAMPS = [["limit_plus", true], ["limit_minus", true], ["near_home", false],
-  ["home", false], ["index", false], ["alarm", true], ["emergency", true], ["inpos", false]];
+  ["home", false], ["index", false], ["alarm", true], ["emg", true], ["inpos", false]];
 const path = [];  // [x, y, z] logic positions
 let pathEnd = 0;  // the absolute index after the last point received
 let drawPending = false;
