@@ -12,6 +12,7 @@ from mplang.family.face import NoSuchProgram, RunSetupError
 from mplang.family.run_error import RunError as RunFinding
 from mplang.family.run_error import SourcePlace
 from mplang.family.trace import SampledRun
+from mplang.family.watch import Stopped, Watch
 
 DEFAULT_SAMPLE_PERIOD = 0.001
 
@@ -44,12 +45,7 @@ class FamilyRun(SampledRun):
             return None
         machine, program = self.machine, self.program
         address = machine.error_address
-        where = SourcePlace(program.source if program is not None else None,
-                            program=program.name if program is not None else "")
-        if program is not None and address is not None and \
-                0 <= address < len(program.origins):
-            span = program.origins[address]
-            where = SourcePlace(span.file, span.line, span.col, program.name)
+        where = source_place(program, address)
         return RunFinding(machine.error_code, self.error, where,
                         program.name if program is not None else None, address,
                         round(machine.clock * 1000, 3), line_unit="line")
@@ -67,6 +63,17 @@ class FamilyRun(SampledRun):
         return {"called": self.called, "vars": self.machine.variables(), "names": {},
                 "axes": self.machine.axes(), "time_ms": round(self.machine.clock * 1000, 3),
                 "error": self.failure.to_json() if self.failure is not None else None}
+
+
+def source_place(program: CsimProgram | None, address: int | None) -> SourcePlace:
+    """The source of a CSIM line (a compiled .mp program keeps each line's .mp origin), or
+    the program's file."""
+    where = SourcePlace(program.source if program is not None else None,
+                        program=program.name if program is not None else "")
+    if program is not None and address is not None and 0 <= address < len(program.origins):
+        span = program.origins[address]
+        where = SourcePlace(span.file, span.line, span.col, program.name)
+    return where
 
 
 def pick_entry(build: FamilyBuild, call: str | None) -> tuple[CsimProgram, int, str]:
@@ -111,11 +118,12 @@ def _callable(programs: list[CsimProgram]) -> str:
 
 def run_build(build: FamilyBuild, call: str | None, max_time: float, *,
               inputs: dict[int, bool] | None = None,
-              sample_period: float | None = DEFAULT_SAMPLE_PERIOD) -> FamilyRun:
+              sample_period: float | None = DEFAULT_SAMPLE_PERIOD,
+              watch: Watch | None = None) -> FamilyRun:
     """Load a program into a fresh virtual CSIM, run it from `call` until it ends, fails or
-    `max_time` seconds of simulated time pass. `inputs` sets inputs 1..8 for the whole run.
-    Samples: every `sample_period` of simulated time while anything moves, plus every
-    segment end."""
+    `max_time` seconds of simulated time pass (infinite: no limit). `inputs` sets inputs
+    1..8 for the whole run. Samples: every `sample_period` of simulated time while anything
+    moves, plus every segment end. `watch` sees the run between lines and may stop it."""
     if not build.ok:
         raise RunSetupError("the build has errors; fix them before running it")
     program, address, called = pick_entry(build, call)
@@ -129,7 +137,15 @@ def run_build(build: FamilyBuild, call: str | None, max_time: float, *,
         machine.start(address)
     except RunError as exc:
         raise RunSetupError(str(exc)) from None
-    machine.run(max_time)
+    if watch is not None:
+        machine.watch = lambda now: watch(now, lambda: source_place(
+            program, max(machine.pc - 1, 0) if machine.wait is None else machine.wait_address))
+    try:
+        machine.run(max_time)
+    except Stopped:  # the watch stopped it (Ctrl-C): the state as it stands
+        return FamilyRun(called, machine, False, None,
+                         [(s.time, s.positions) for s in machine.samples], sample_period,
+                         program)
     samples = [(s.time, s.positions) for s in machine.samples]
     return FamilyRun(called, machine, machine.error is None and not machine.running,
                      machine.error, samples, sample_period, program)

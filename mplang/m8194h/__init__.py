@@ -26,6 +26,7 @@ from mplang.family.face import (
     StatusJob,
     StatusUI,
 )
+from mplang.family.watch import Watch
 from mplang.ir.unit import Options
 from mplang.m8194h.compiler import compile_paths
 from mplang.m8194h.image import DEFAULT_FORMAT, FORMATS, BuildResult
@@ -97,9 +98,9 @@ def check_native(paths: list[Path], target: str | None = None) -> BuildResult:
 
 
 def run_build(build: BuildResult, call: str | None, max_time: float, *,
-              sample_period: float | None = None) -> RunReport:
+              sample_period: float | None = None, watch: Watch | None = None) -> RunReport:
     """Run one MP of the build on a fresh virtual controller (`mplang.m8194h.run`)."""
-    return run_family(build, call, max_time, sample_period=sample_period)
+    return run_family(build, call, max_time, sample_period=sample_period, watch=watch)
 
 
 def serve(build: AnyBuild | None, request: ServeRequest, say: Say) -> None:

@@ -20,8 +20,10 @@ from __future__ import annotations
 import math
 
 from mplang.family.trace import DEFAULT_PERIOD, Trace
-from mplang.m8194h.sim.controller import MAX_STEPS_DEFAULT, RunResult, VirtualController
+from mplang.family.watch import Watch, Where
+from mplang.m8194h.sim.controller import RunResult, VirtualController
 from mplang.m8194h.sim.motion import MotionModel
+from mplang.m8194h.watched import step_budget, waits_for_ever
 
 
 def record(trace: Trace, controller: VirtualController) -> None:
@@ -37,14 +39,20 @@ def axis_state(model: MotionModel, axis: int, now: float) -> tuple[int, int, flo
 
 
 def run_traced(controller: VirtualController, period: float = DEFAULT_PERIOD,
-               max_time: float = 3600.0,
-               max_steps: int = MAX_STEPS_DEFAULT) -> tuple[RunResult, Trace]:
+               max_time: float = 3600.0, max_steps: int | None = None,
+               watch: Watch | None = None, where: Where | None = None
+               ) -> tuple[RunResult, Trace]:
     """`controller.run(max_time, max_steps)` for a program already called, sampling every
     axis every `period` seconds of simulated time and at the end of every motion. Returns
     the same result `run` would and the samples, the last one at the moment the run ends
-    (after the motion the program started has come to rest, or where it failed)."""
+    (after the motion the program started has come to rest, or where it failed). An
+    infinite `max_time` is no limit (`mplang.m8194h.watched`); `watch(time, where)` is
+    called between samples, and when it answers True the run ends there, unfinished and
+    without an error (`watched.stopped`)."""
     if not period > 0.0:
         raise ValueError(f"the sampling period must be positive, got {period}")
+    if max_steps is None:
+        max_steps = step_budget(max_time)
     trace = Trace(period)
     start = controller.clock
     limit = start + max_time
@@ -58,6 +66,11 @@ def run_traced(controller: VirtualController, period: float = DEFAULT_PERIOD,
         tick = _next_tick(controller.clock, start, period, tick)
         if controller.clock < target or controller.clock >= limit:
             break  # idle (finished or failed), out of steps, or out of time
+        if not math.isfinite(limit) and waits_for_ever(controller):
+            limit = controller.clock  # no time limit: `outcome` names the wait (R201) here
+            break
+        if watch is not None and where is not None and watch(controller.clock - start, where):
+            return RunResult(False, controller.clock, steps), trace
     result = controller.outcome(limit, steps)
     if result.finished:
         _record_until_rest(controller, trace, start, period, tick)
