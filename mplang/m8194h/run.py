@@ -146,6 +146,18 @@ def source_place(build: BuildResult | None, place: Place | None) -> SourcePlace:
     return SourcePlace(span.file, span.line, span.col, program)
 
 
+def declared_variables(build: BuildResult) -> list[tuple[str, int]]:
+    """Every declared variable (VAR name, ALIAS) once, by device number, as a trace labels
+    it: (`rows_done (VAR400)`, 400)."""
+    seen: set[str] = set()
+    found: list[tuple[str, int]] = []
+    for variable in sorted([*build.variables, *build.aliases], key=lambda v: v.index):
+        if variable.name not in seen:
+            seen.add(variable.name)
+            found.append((f"{variable.name} (VAR{variable.index})", variable.index))
+    return found
+
+
 def pick_program(build: BuildResult, call: str | None, first_file: str | None) -> int:
     """The MP slot to call: `MPn`, `n` or a program name; by default the first MP of the
     first file."""
@@ -200,7 +212,7 @@ def run_build(build: BuildResult, call: str | None = None, first_file: str | Non
             result = run_watched(controller, max_time, watch or never_stop, where)
         return RunReport(controller, result, f"MP{slot}", build=build)
     result, trace = run_traced(controller, trace_period, max_time=max_time, watch=watch,
-                               where=where)
+                               where=where, variables=declared_variables(build))
     return RunReport(controller, result, f"MP{slot}", trace, build=build)
 
 
