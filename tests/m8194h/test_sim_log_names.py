@@ -11,10 +11,11 @@ import threading
 import time
 from pathlib import Path
 
+from simproc import start_sim
+
 from mplang.m8194h.compiler import compile_source
 from mplang.m8194h.modbus import DeviceLink, Endpoint
 from mplang.m8194h.simulate import LogNames
-from tests.simproc import start_sim
 
 JOB = """ALIAS parts = VAR10
 VAR rows_done @ VAR400
