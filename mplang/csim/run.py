@@ -59,8 +59,22 @@ class FamilyRun(SampledRun):
         """What the program sent to the host with OUT."""
         return self.machine.printed
 
+    def named_vars(self) -> tuple[dict[str, float], dict[str, str]]:
+        """The variables by name: every declared one of an .mp build (VAR name, ALIAS) that
+        the program uses, zero or not, by its name; then the other non-zero ones by the
+        CSIM's name; and each declared name's CSIM variable (`rows_done`: `R1`)."""
+        found = self.machine.variables()
+        names = dict(self.program.names) if self.program is not None else {}
+        named: dict[str, float] = {}
+        for name, variable in names.items():
+            named[name] = found.get(variable, 0)
+        shown = set(names.values())
+        named.update({key: value for key, value in found.items() if key not in shown})
+        return named, names
+
     def to_json(self) -> dict[str, object]:
-        return {"called": self.called, "vars": self.machine.variables(), "names": {},
+        named, names = self.named_vars()
+        return {"called": self.called, "vars": named, "names": names,
                 "axes": self.machine.axes(), "time_ms": round(self.machine.clock * 1000, 3),
                 "error": self.failure.to_json() if self.failure is not None else None}
 
