@@ -29,10 +29,18 @@ END MP
 DEADLINE_S = 60.0  # a guard against a hanging subprocess, never an assertion on speed
 
 
-def call(port: int, slot: int) -> None:
+VAR_BASE = 0x7FFF0000  # VARn as an operand (spec: 0x7FFF0000 + n)
+WRITE_VAR = 0x0A25  # RSM_WRITE_VAR, a real-time command (RS 3.18.4)
+
+
+def call_and_write(port: int, slot: int, variable: int, value: int) -> None:
+    """Call MPn (holding register 8), then WRITE_VAR VARn = value (a frame at 8000)."""
     async def host() -> None:
         async with DeviceLink(Endpoint(host="127.0.0.1", port=port)) as link:
             await link.write_holding(8, [slot])
+            operand = VAR_BASE + variable
+            await link.write_frame([WRITE_VAR, operand >> 16, operand & 0xFFFF,
+                                    value >> 16, value & 0xFFFF])
 
     asyncio.run(host())
 
@@ -52,9 +60,9 @@ def test_sim_log_names_the_program_its_source_line_and_variables(tmp_path: Path)
     threading.Thread(target=pump, daemon=True).start()
     seen: list[str] = []
     try:
-        call(port, 100)
+        call_and_write(port, 100, 400, 7)
         end = time.monotonic() + DEADLINE_S
-        while not any("execution error" in line for line in seen) and time.monotonic() < end:
+        while not any("WRITE_VAR" in line for line in seen) and time.monotonic() < end:
             try:
                 seen.append(lines.get(timeout=0.5))
             except queue.Empty:
@@ -66,6 +74,8 @@ def test_sim_log_names_the_program_its_source_line_and_variables(tmp_path: Path)
     assert any(line.endswith(": MP100 job called") for line in seen), seen
     error = next(line for line in seen if "execution error" in line)
     assert "in MP100 job line 1 (" in error and f"{source}:6)" in error, error
+    written = next(line for line in seen if "WRITE_VAR" in line)
+    assert written.endswith("WRITE_VAR rows_done (VAR400) = 7"), written
 
 
 def test_log_names_rewrite_programs_lines_and_variables() -> None:
