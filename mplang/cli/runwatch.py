@@ -27,6 +27,7 @@ from typing import Any, TextIO, TypeVar
 
 import click
 
+from mplang.cli.common import EXIT_RUN_FAILED
 from mplang.family.run_error import SourcePlace
 from mplang.family.watch import Where
 
@@ -164,6 +165,20 @@ class RunWatch:
         program = f" in {place.program}" if place.program else ""
         return (f"{place.prefix()}note: interrupted (Ctrl-C){program} after "
                 f"{self.time_s:.3f} s simulated; the state so far is shown")
+
+
+def given(ctx: click.Context, name: str) -> bool:
+    """Whether the command line (not the default) set the option."""
+    source = ctx.get_parameter_source(name)
+    return source is not None and source is not click.core.ParameterSource.DEFAULT
+
+
+def exit_code(interrupted: bool, code: str | None) -> int:
+    """An unfinished run's exit code: 130 after Ctrl-C, 17 out of --max-time (R202), else
+    5."""
+    if interrupted:
+        return EXIT_SIGINT
+    return EXIT_OUT_OF_TIME if code == "R202" else EXIT_RUN_FAILED
 
 
 def out_of_time_hint(max_time: float, given: bool) -> str:

@@ -11,7 +11,6 @@ from typing import TYPE_CHECKING
 import click
 
 from mplang.cli import style
-from mplang.cli.commands.run import exit_code, given
 from mplang.cli.common import (
     EXIT_MISSING_EXTRA,
     OutputError,
@@ -21,7 +20,7 @@ from mplang.cli.common import (
     with_common,
 )
 from mplang.cli.families import build_and_run, choose
-from mplang.cli.runwatch import RunWatch, max_time_option, out_of_time_hint
+from mplang.cli.runwatch import RunWatch, exit_code, given, max_time_option, out_of_time_hint
 from mplang.cli.shell import complete_paths
 
 if TYPE_CHECKING:

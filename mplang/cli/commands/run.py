@@ -12,7 +12,6 @@ from typing import TYPE_CHECKING, Any
 import click
 
 from mplang.cli.common import (
-    EXIT_RUN_FAILED,
     OutputError,
     build_setup,
     guarded,
@@ -21,9 +20,9 @@ from mplang.cli.common import (
 )
 from mplang.cli.families import build_and_run, choose
 from mplang.cli.runwatch import (
-    EXIT_OUT_OF_TIME,
-    EXIT_SIGINT,
     RunWatch,
+    exit_code,
+    given,
     max_time_option,
     out_of_time_hint,
 )
@@ -104,20 +103,6 @@ def command(ctx: click.Context, files: tuple[str, ...], call: str | None, as_jso
         click.echo(warning, err=True)
     if not run.finished:
         sys.exit(exit_code(interrupted, failure.code if failure is not None else None))
-
-
-def given(ctx: click.Context, name: str) -> bool:
-    """Whether the command line (not the default) set the option."""
-    source = ctx.get_parameter_source(name)
-    return source is not None and source is not click.core.ParameterSource.DEFAULT
-
-
-def exit_code(interrupted: bool, code: str | None) -> int:
-    """An unfinished run's exit code: 130 after Ctrl-C, 17 out of --max-time (R202), else
-    5 (shared by `mpc plot`)."""
-    if interrupted:
-        return EXIT_SIGINT
-    return EXIT_OUT_OF_TIME if code == "R202" else EXIT_RUN_FAILED
 
 
 def _write_trace(trace: Trace, trace_file: str) -> None:
