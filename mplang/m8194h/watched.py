@@ -19,8 +19,8 @@ from mplang.family.watch import Watch, Where
 from mplang.m8194h.sim.controller import MAX_STEPS_DEFAULT, RunResult, VirtualController
 from mplang.m8194h.sim.failure import Place
 
-SLICE_FIRST_S = 0.01
-SLICE_MAX_S = 10.0
+SLICE_FIRST_S = 0.1
+SLICE_MAX_S = 60.0
 SLICE_WALL_S = (0.01, 0.05)
 """A slice shorter than the first (wall seconds) doubles the next, longer than the second
 halves it."""
