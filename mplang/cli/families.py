@@ -23,6 +23,7 @@ from mplang.cli import style
 from mplang.cli.common import EXIT_RUN_FAILED, BuildSetup, report
 from mplang.family.face import CommandError, Family, FamilyBuild, FamilyRun
 from mplang.family.registry import families, family_of_path, family_of_target
+from mplang.family.watch import Watch
 from mplang.ir.unit import Options
 from mplang.tools import project as project_module
 
@@ -219,17 +220,19 @@ def machine_for(selection: Selection, machine_file: Path | None,
 
 
 def build_and_run(selection: Selection, setup: BuildSetup, call: str | None, max_time: float,
-                  sample_period: float | None, machine: object | None = None) -> FamilyRun:
+                  sample_period: float | None, machine: object | None = None,
+                  watch: Watch | None = None) -> FamilyRun:
     """`mpc run` / `mpc plot`: build, then run on the family's virtual controller (on
-    `machine`, from `machine_for`). An unknown --call is a usage error, a build that cannot
-    run exits 5."""
+    `machine`, from `machine_for`; `watch` sees it go, `mplang.cli.runwatch`). An unknown
+    --call is a usage error, a build that cannot run exits 5."""
     family = selection.family
     build = build_checked(selection, setup)
     try:
-        run = family.run_build(build, call, max_time, sample_period=sample_period) \
+        run = family.run_build(build, call, max_time, sample_period=sample_period,
+                               watch=watch) \
             if machine is None else family.run_build(build, call, max_time,
                                                      sample_period=sample_period,
-                                                     machine=machine)
+                                                     machine=machine, watch=watch)
     except family.NoSuchProgram as exc:
         raise click.BadParameter(str(exc), param_hint="--call") from None
     except family.RunSetupError as exc:

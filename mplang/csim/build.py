@@ -45,6 +45,7 @@ class CsimProgram:
     entries: dict[str, str] = field(default_factory=dict)  # compiled: MP name -> label
     variables: dict[str, str] = field(default_factory=dict)  # compiled: VARn -> Rk
     compiled_from: list[str] = field(default_factory=list)
+    names: dict[str, str] = field(default_factory=dict)  # compiled: declared name -> Rk
 
     @property
     def lines(self) -> list[str]:

@@ -495,8 +495,9 @@ def _angle(degrees: float) -> str:
 
 def _lower(paths: list[Path], options: Options, sink: DiagnosticSink,
            texts: dict[Path, str] | None = None
-           ) -> tuple[list[LoweredProgram], dict[str, list[str]]]:
-    """The M8194H front end and lowering, as compile_paths runs them (without linking)."""
+           ) -> tuple[list[LoweredProgram], dict[str, list[str]], list[tuple[str, int]]]:
+    """The M8194H front end and lowering, as compile_paths runs them (without linking);
+    and the declared variables (VAR name, ALIAS) with their VARn, by number."""
     catalogue = catalogue_module.load()
     sources = load_sources(paths, sink, allow_outside=options.allow_outside_includes,
                            texts=texts)
@@ -510,7 +511,9 @@ def _lower(paths: list[Path], options: Options, sink: DiagnosticSink,
     names = {p.name.upper(): p for p in unit.programs if p.name}
     lowered = [ProgramLowerer(scope, program, options.temps, LOWERING_TARGET, names)
                .lower_program() for program in unit.programs]
-    return lowered, {f.display: f.text.splitlines() for f in sources.files}
+    declared = sorted(((v.name, v.index) for v in [*scope.variables, *scope.alias_names]),
+                      key=lambda item: item[1])
+    return lowered, {f.display: f.text.splitlines() for f in sources.files}, declared
 
 
 def _default_first(programs: list[LoweredProgram], first: Path | None) -> list[LoweredProgram]:
@@ -539,7 +542,7 @@ def compile_mp(paths: list[Path], options: Options, target: str, *,
         raise ValueError(f"unknown CSIM target {target!r}: choose one of {', '.join(TARGETS)}")
     profile = profile_module.load()
     sink = DiagnosticSink()
-    lowered, source_lines = _lower(paths, options, sink, texts)
+    lowered, source_lines, declared = _lower(paths, options, sink, texts)
     ordered = _default_first(lowered, paths[0] if paths else None)
     translator = Translator(profile, sink, ordered)
     translator.translate()
@@ -559,8 +562,10 @@ def compile_mp(paths: list[Path], options: Options, target: str, *,
         [d for d in sink.sorted() if not suppressed(d, source_lines)], source_lines)
     build = FamilyBuild(diagnostics)
     if lowered:
+        names = {variable: translator.variables[f"VAR{index}"] for variable, index in declared
+                 if f"VAR{index}" in translator.variables}
         build.programs.append(CsimProgram(name, str(paths[0]) if paths else "", script, origins,
-                                          entries, translator.variables, sources))
+                                          entries, translator.variables, sources, names))
     return build
 
 

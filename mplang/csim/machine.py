@@ -26,6 +26,7 @@ from mplang.csim.machine_state import (
 )
 from mplang.csim.motion import INF, MotionError
 from mplang.csim.syntax import Operand, Statement
+from mplang.family.watch import Stopped
 
 
 class Machine(MotionCommands, FlowCommands, DataCommands):
@@ -34,6 +35,7 @@ class Machine(MotionCommands, FlowCommands, DataCommands):
     def __post_init__(self) -> None:
         super().__post_init__()
         self._handlers = self.handlers()
+        self.watch: Callable[[float], bool] | None = None  # `mpc run`: True stops the run
 
     # ---------------------------------------------------------------------- running
     def run(self, max_time: float, max_steps: int = 5_000_000) -> None:
@@ -41,7 +43,8 @@ class Machine(MotionCommands, FlowCommands, DataCommands):
         max_time; then let the motions in progress finish (within max_time)."""
         if self.sample_period is not None:
             self.sample()
-        self.run_until(max_time, max_steps, offline=True)
+        self.run_until(max_time, max_steps if math.isfinite(max_time) else None,
+                       offline=True)
         if self.running:
             self.stop(f"still running after {max_time:g} s of simulated time", "R202",
                       max(self.pc - 1, 0))
@@ -54,6 +57,8 @@ class Machine(MotionCommands, FlowCommands, DataCommands):
         stops. Offline (mpc run) a wait that nothing can end is an error; on the device the
         host may still change an input, so time just runs on."""
         while self.running and self.clock < until:
+            if self.watch is not None and self.watch(self.clock):
+                raise Stopped(f"stopped at line {self.pc}")
             if max_steps is not None and self.steps >= max_steps:
                 self.stop(f"more than {max_steps} lines executed: an endless loop?", "R202",
                           max(self.pc - 1, 0))

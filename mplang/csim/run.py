@@ -12,6 +12,7 @@ from mplang.family.face import NoSuchProgram, RunSetupError
 from mplang.family.run_error import RunError as RunFinding
 from mplang.family.run_error import SourcePlace
 from mplang.family.trace import SampledRun
+from mplang.family.watch import Stopped, Watch
 
 DEFAULT_SAMPLE_PERIOD = 0.001
 
@@ -44,12 +45,7 @@ class FamilyRun(SampledRun):
             return None
         machine, program = self.machine, self.program
         address = machine.error_address
-        where = SourcePlace(program.source if program is not None else None,
-                            program=program.name if program is not None else "")
-        if program is not None and address is not None and \
-                0 <= address < len(program.origins):
-            span = program.origins[address]
-            where = SourcePlace(span.file, span.line, span.col, program.name)
+        where = source_place(program, address)
         return RunFinding(machine.error_code, self.error, where,
                         program.name if program is not None else None, address,
                         round(machine.clock * 1000, 3), line_unit="line")
@@ -63,10 +59,35 @@ class FamilyRun(SampledRun):
         """What the program sent to the host with OUT."""
         return self.machine.printed
 
+    def named_vars(self) -> tuple[dict[str, float], dict[str, str]]:
+        """The variables by name: every declared one of an .mp build (VAR name, ALIAS) that
+        the program uses, zero or not, by its name; then the other non-zero ones by the
+        CSIM's name; and each declared name's CSIM variable (`rows_done`: `R1`)."""
+        found = self.machine.variables()
+        names = dict(self.program.names) if self.program is not None else {}
+        named: dict[str, float] = {}
+        for name, variable in names.items():
+            named[name] = found.get(variable, 0)
+        shown = set(names.values())
+        named.update({key: value for key, value in found.items() if key not in shown})
+        return named, names
+
     def to_json(self) -> dict[str, object]:
-        return {"called": self.called, "vars": self.machine.variables(), "names": {},
+        named, names = self.named_vars()
+        return {"called": self.called, "vars": named, "names": names,
                 "axes": self.machine.axes(), "time_ms": round(self.machine.clock * 1000, 3),
                 "error": self.failure.to_json() if self.failure is not None else None}
+
+
+def source_place(program: CsimProgram | None, address: int | None) -> SourcePlace:
+    """The source of a CSIM line (a compiled .mp program keeps each line's .mp origin), or
+    the program's file."""
+    where = SourcePlace(program.source if program is not None else None,
+                        program=program.name if program is not None else "")
+    if program is not None and address is not None and 0 <= address < len(program.origins):
+        span = program.origins[address]
+        where = SourcePlace(span.file, span.line, span.col, program.name)
+    return where
 
 
 def pick_entry(build: FamilyBuild, call: str | None) -> tuple[CsimProgram, int, str]:
@@ -112,11 +133,11 @@ def _callable(programs: list[CsimProgram]) -> str:
 def run_build(build: FamilyBuild, call: str | None, max_time: float, *,
               inputs: dict[int, bool] | None = None,
               sample_period: float | None = DEFAULT_SAMPLE_PERIOD,
-              machine: object | None = None) -> FamilyRun:
+              machine: object | None = None, watch: Watch | None = None) -> FamilyRun:
     """Load a program into a fresh virtual CSIM, run it from `call` until it ends, fails or
-    `max_time` seconds of simulated time pass. `inputs` sets inputs 1..8 for the whole run.
-    Samples: every `sample_period` of simulated time while anything moves, plus every
-    segment end."""
+    `max_time` seconds of simulated time pass (infinite: no limit). `inputs` sets inputs
+    1..8 for the whole run. Samples: every `sample_period` of simulated time while anything
+    moves, plus every segment end. `watch` sees the run between lines and may stop it."""
     if machine is not None:  # the face's `load_machine` is None: nothing to place
         raise RunSetupError("the virtual CSIM takes no machine file")
     if not build.ok:
@@ -132,7 +153,15 @@ def run_build(build: FamilyBuild, call: str | None, max_time: float, *,
         machine.start(address)
     except RunError as exc:
         raise RunSetupError(str(exc)) from None
-    machine.run(max_time)
+    if watch is not None:
+        machine.watch = lambda now: watch(now, lambda: source_place(
+            program, max(machine.pc - 1, 0) if machine.wait is None else machine.wait_address))
+    try:
+        machine.run(max_time)
+    except Stopped:  # the watch stopped it (Ctrl-C): the state as it stands
+        return FamilyRun(called, machine, False, None,
+                         [(s.time, s.positions) for s in machine.samples], sample_period,
+                         program)
     samples = [(s.time, s.positions) for s in machine.samples]
     return FamilyRun(called, machine, machine.error is None and not machine.running,
                      machine.error, samples, sample_period, program)

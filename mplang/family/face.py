@@ -25,6 +25,7 @@ from typing import Any, Protocol, TypeVar
 from mplang.family.debug import DebugStart
 from mplang.family.run_error import RunError
 from mplang.family.trace import Trace
+from mplang.family.watch import Watch
 from mplang.ir.unit import Options
 from mplang.lang.diagnostics import Diagnostic, Span
 
@@ -461,5 +462,9 @@ class Family(Protocol):
     def compile_mp(self, paths: list[Path], options: Options, target: str) -> FamilyBuild: ...
 
     def run_build(self, build: Any, call: str | None, max_time: float, *,
-                  sample_period: float | None = ..., machine: object | None = ...
-                  ) -> FamilyRun: ...
+                  sample_period: float | None = ..., machine: object | None = ...,
+                  watch: Watch | None = ...) -> FamilyRun:
+        """Run one program on the family's virtual controller (on the machine its
+        `load_machine` read, if given); an infinite `max_time` is no limit, and `watch` sees
+        the run as it goes and may stop it (`mplang.family.watch`)."""
+        ...

@@ -35,19 +35,25 @@ class Trace:
     ep: list[list[float]] = field(default_factory=list)
     velocity: list[list[float]] = field(default_factory=list)
     unit: str = "pulses"
+    variables: tuple[str, ...] = ()  # declared variables by name: `rows_done (VAR400)`
+    values: list[list[float]] = field(default_factory=list)  # per variable, per sample
 
     def __post_init__(self) -> None:
         if not self.lp:
             self.lp = [[] for _ in self.axes]
             self.ep = [[] for _ in self.axes]
             self.velocity = [[] for _ in self.axes]
+        if not self.values:
+            self.values = [[] for _ in self.variables]
 
     def __len__(self) -> int:
         return len(self.time)
 
-    def add(self, now: float, readings: Sequence[tuple[float, float, float]]) -> None:
-        """One sample: (LP, EP, velocity) per axis at `now`. A second sample at the same
-        instant replaces the first: the later reading is the settled one."""
+    def add(self, now: float, readings: Sequence[tuple[float, float, float]],
+            values: Sequence[float] = ()) -> None:
+        """One sample: (LP, EP, velocity) per axis at `now`, and the value of every traced
+        variable (`variables`). A second sample at the same instant replaces the first:
+        the later reading is the settled one."""
         if self.time and now <= self.time[-1] + SAME_INSTANT_S:
             self._drop_last()
         self.time.append(now)
@@ -55,6 +61,8 @@ class Trace:
             self.lp[index].append(lp)
             self.ep[index].append(ep)
             self.velocity[index].append(velocity)
+        for series, value in zip(self.values, values, strict=True):
+            series.append(value)
 
     def _drop_last(self) -> None:
         self.time.pop()
@@ -62,6 +70,8 @@ class Trace:
             self.lp[index].pop()
             self.ep[index].pop()
             self.velocity[index].pop()
+        for series in self.values:
+            series.pop()
 
     def axis(self, name: str) -> int:
         """Index of an axis by its name (X, Y, Z, U)."""
@@ -81,18 +91,27 @@ class Trace:
         return min(series), max(series)
 
     def header(self) -> list[str]:
+        """time_s, three columns per axis, then one per traced variable, headed by its
+        declared name with the device's number beside it (`rows_done (VAR400)`)."""
         return ["time_s", *(f"{axis}_{column}" for axis in self.axes
-                            for column in CSV_COLUMNS_PER_AXIS)]
+                            for column in CSV_COLUMNS_PER_AXIS), *self.variables]
+
+    def changing_variables(self) -> tuple[int, ...]:
+        """The traced variables whose value changed during the run (by index)."""
+        return tuple(i for i, series in enumerate(self.values)
+                     if series and min(series) != max(series))
 
     def rows(self) -> Iterator[list[str]]:
         """One CSV row per sample: time in seconds (1 us resolution), positions as integers
-        (real coordinates as they are, see `position_text`), velocities with 3 decimals."""
+        (real coordinates as they are, see `position_text`), velocities with 3 decimals,
+        variables as they are."""
         for k, when in enumerate(self.time):
             row = [f"{when:.6f}"]
             for index in range(len(self.axes)):
                 speed = round(self.velocity[index][k], 3) + 0.0  # no "-0.000"
                 row += [position_text(self.lp[index][k]), position_text(self.ep[index][k]),
                         f"{speed:.3f}"]
+            row += [position_text(series[k]) for series in self.values]
             yield row
 
     def write_csv(self, stream: TextIO) -> None:

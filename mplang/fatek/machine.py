@@ -10,8 +10,10 @@ Readings of what FB leaves open are the `[semantics]` choices of stdlib/fatek/de
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
+from mplang.family.watch import Stopped
 from mplang.fatek.contacts import Contacts
 from mplang.fatek.model import (
     NEXT,
@@ -84,6 +86,7 @@ class Machine:
     at_step: int | None = None  # the step running (where a run-time error is reported)
     log: list[str] = field(default_factory=list)
     wr_trace: list[tuple[float, int]] = field(default_factory=list)
+    watch: Callable[[float], bool] | None = None  # between steps: True stops the run
     contacts: Contacts = field(init=False)
 
     def __post_init__(self) -> None:
@@ -179,6 +182,8 @@ class Machine:
             if same_instant > SAME_INSTANT_LIMIT:
                 raise Stuck(f"{SAME_INSTANT_LIMIT} steps ran without time passing (a loop of "
                             "moves that go nowhere)")
+            if self.watch is not None and self.watch(self.time):
+                raise Stopped(f"stopped at step {number}")
             following = self.step(number)
             if following is None:
                 self.finish(number)
@@ -436,14 +441,16 @@ class Machine:
 
     def check_time(self, when: float, leg: Leg | None, where: str) -> None:
         """Stop the run at max_time, or at once for a continuous run nothing can end."""
-        if when <= self.max_time:
+        if when <= self.max_time and when != INF:
             return
+        # without a time limit (`--max-time none`) a run that never ends stops where it is
+        stop = self.max_time if math.isfinite(self.max_time) else self.time
         if leg is not None:
-            self.cut(leg, max(self.max_time, leg.t0))
-        self.time = max(self.time, self.max_time)
+            self.cut(leg, max(stop, leg.t0))
+        self.time = max(self.time, stop)
         if when == INF:
             raise Stuck(f"{where} runs for ever: a continuous run ends only by EXT or ACT (or "
-                        f"EN=0 in the ladder); stopped after {self.max_time:g} s")
+                        f"EN=0 in the ladder); stopped after {self.time:g} s")
         raise OutOfTime(f"stopped after {self.max_time:g} s of simulated time without reaching "
                     "MEND")
 

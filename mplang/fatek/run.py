@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from mplang.family.face import NoSuchProgram, RunSetupError
 from mplang.family.run_error import RunError, SourcePlace
 from mplang.family.trace import SampledRun
+from mplang.family.watch import Stopped, Watch
 from mplang.fatek.build import POSITION_UNIT, FamilyBuild
 from mplang.fatek.machine import Machine, PlcError, Stuck, axis_params
 from mplang.fatek.model import Contact, ParamTable, PositioningTable, Register
@@ -124,11 +125,12 @@ def pick_table(build: FamilyBuild, call: str | None) -> tuple[PositioningTable, 
 
 def run_build(build: FamilyBuild, call: str | None = None, max_time: float = 3600.0, *,
               sample_period: float | None = SAMPLE_PERIOD,
-              machine: object | None = None) -> FamilyRun:
+              machine: object | None = None, watch: Watch | None = None) -> FamilyRun:
     """Run one table of the build (see `pick_table`) on a fresh virtual PLC until MEND, an
-    error, a wait that never ends, or `max_time` seconds of simulated time. `sample_period`
-    is the grid of `FamilyRun.samples` (None: motion starts and ends only); the samples are
-    computed from the recorded legs when asked for, so the run itself is the same."""
+    error, a wait that never ends, or `max_time` seconds of simulated time (infinite: no
+    limit). `sample_period` is the grid of `FamilyRun.samples` (None: motion starts and
+    ends only); the samples are computed from the recorded legs when asked for, so the run
+    itself is the same. `watch` sees the run before every step and may stop it there."""
     if sample_period is not None and not sample_period > 0:
         raise ValueError(f"the sampling period must be positive, got {sample_period}")
     if machine is not None:  # the face's `load_machine` is None: SIM lines describe it
@@ -139,6 +141,8 @@ def run_build(build: FamilyBuild, call: str | None = None, max_time: float = 360
     profile = build.profile
     params = axis_params(profile, [t for t in build.programs if isinstance(t, ParamTable)])
     machine = Machine(profile, table, params, build.sim, max_time)
+    if watch is not None:
+        machine.watch = lambda now: watch(now, lambda: _place(table, machine))
     error: str | None = None
     code = "R401"
     finished = False
@@ -153,6 +157,8 @@ def run_build(build: FamilyBuild, call: str | None = None, max_time: float = 360
     except Stuck as exc:
         error, code = str(exc), exc.code
         machine.note(error)
+    except Stopped as exc:  # the watch stopped it (Ctrl-C): the state as it stands
+        machine.note(str(exc))
     machine.record_positions()
     called = table.name if entry == 1 else f"{table.name}:{entry}"
     return FamilyRun(
@@ -167,11 +173,15 @@ def run_build(build: FamilyBuild, call: str | None = None, max_time: float = 360
 def _located(table: PositioningTable, machine: Machine, code: str, error: str) -> RunError:
     """The run's error at the source line of the step that ran (a table compiled from an
     .mp file keeps the .mp line of each step), or at the table when no step ran."""
+    return RunError(code, error, _place(table, machine), table.name, machine.at_step,
+                    round(machine.time * 1000, 3), line_unit="step")
+
+
+def _place(table: PositioningTable, machine: Machine) -> SourcePlace:
+    """The source line of the step that runs (or ran last), or the table's."""
     step = machine.at_step
     span = table.steps[step - 1].span if step is not None and \
         1 <= step <= len(table.steps) else table.span
     program = table.name + (f" ({table.origin})" if table.origin else "")
-    where = SourcePlace(span.file, span.line, span.col, program) if span.line > 0 \
+    return SourcePlace(span.file, span.line, span.col, program) if span.line > 0 \
         else SourcePlace(table.source or None, program=program)
-    return RunError(code, error, where, table.name, step, round(machine.time * 1000, 3),
-                    line_unit="step")

@@ -50,15 +50,27 @@ class OperandLowerer:
         return self.out.lines[-1].command if self.out.lines else None
 
     # ------------------------------------------------------------------ variables
-    def note_read(self, ref: VarRef, span: Span) -> None:
+    def note_read(self, ref: VarRef, span: Span, expr: ast.Expr | None = None) -> None:
         """W103, except for temporaries and for declared `VAR name` variables: declaring one
-        says that the host (or another program) sets it."""
+        says that the host (or another program) sets it. The message names the variable as
+        the source wrote it (an ALIAS `hits`, with its number beside: `hits (VAR30)`)."""
         if ref.index in self.temps or ref.index in self.scope.declared_indices:
             return
         if ref.index not in self.written and ref.index not in self.warned_reads:
             self.warned_reads.add(ref.index)
-            self.sink.add("W103", span, f"VAR{ref.index} is read before this program writes it",
+            self.sink.add("W103", span, f"{self.var_words(ref, expr)} is read before this "
+                          "program writes it",
                           hint="initialise it first, or ignore if the host or a caller sets it")
+
+    @staticmethod
+    def var_words(ref: VarRef, expr: ast.Expr | None) -> str:
+        """`hits (VAR30)` for a name, `VAR30` for the device's own name."""
+        while isinstance(expr, ast.Group) and len(expr.items) == 1:
+            expr = expr.items[0]
+        device = f"VAR{ref.index}"
+        if isinstance(expr, ast.Name) and expr.name.upper() != device:
+            return f"{expr.name} ({device})"
+        return device
 
     def note_write(self, ref: VarRef) -> None:
         self.written.add(ref.index)
@@ -128,7 +140,7 @@ class OperandLowerer:
             return value if self.check_immediate(value, expr.span) else None
         ref = self.user_var(expr)
         if ref is not None:
-            self.note_read(ref, expr.span)
+            self.note_read(ref, expr.span, expr)
             return ref
         if isinstance(expr, ast.Name) and not self.bare_query(expr.name):
             self.unknown_name(expr)
@@ -405,7 +417,7 @@ class OperandLowerer:
         if not param.var:
             self.sink.add("W107", arg.span, f"the manual does not document variables for "
                           f"{where}")
-        self.note_read(ref, arg.span)
+        self.note_read(ref, arg.span, arg)
         return ref
 
     def string_argument(self, param: Param, arg: ast.Str, where: str) -> Operand | None:

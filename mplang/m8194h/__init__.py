@@ -27,6 +27,7 @@ from mplang.family.face import (
     StatusUI,
     WatchJob,
 )
+from mplang.family.watch import Watch
 from mplang.ir.unit import Options
 from mplang.m8194h import machine as machine_module
 from mplang.m8194h.compiler import compile_paths
@@ -110,10 +111,12 @@ def check_native(paths: list[Path], target: str | None = None) -> BuildResult:
 
 
 def run_build(build: BuildResult, call: str | None, max_time: float, *,
-              sample_period: float | None = None, machine: object | None = None) -> RunReport:
+              sample_period: float | None = None, machine: object | None = None,
+              watch: Watch | None = None) -> RunReport:
     """Run one MP of the build on a fresh virtual controller (`mplang.m8194h.run`), on the
     machine `load_machine` read, if given."""
-    return run_family(build, call, max_time, sample_period=sample_period, machine=machine)
+    return run_family(build, call, max_time, sample_period=sample_period, machine=machine,
+                      watch=watch)
 
 
 def load_machine(path: Path, project: bool = False) -> MachineSetup:

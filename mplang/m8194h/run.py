@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -10,6 +11,7 @@ from pathlib import Path
 from mplang.family.face import NoSuchProgram, RunSetupError
 from mplang.family.run_error import RunError, SourcePlace
 from mplang.family.trace import Trace
+from mplang.family.watch import Watch, never_stop
 from mplang.m8194h.image import BuildResult, ProgramImage
 from mplang.m8194h.machine import MachineSetup, apply_machine
 from mplang.m8194h.sim.controller import RunResult, VirtualController
@@ -17,6 +19,7 @@ from mplang.m8194h.sim.failure import Failure, Place
 from mplang.m8194h.sim.preload import ServiceError, preload
 from mplang.m8194h.sim.unmodelled import Notice
 from mplang.m8194h.trace import run_traced
+from mplang.m8194h.watched import run_watched, running_place
 
 __all__ = ["NoSuchProgram", "RunReport", "RunSetupError", "pick_program", "run_build",
            "run_family"]
@@ -46,28 +49,9 @@ class RunReport:
         return (f"{where}warning[R301]: {notice.command} is not modelled by the virtual "
                 f"controller: it ran with no effect ({notice.where()})")
 
-    def _image(self, kind: str, slot: int) -> ProgramImage | None:
-        for image in self.build.programs if self.build is not None else ():
-            if (image.program.kind, image.placement.slot) == (kind, slot):
-                return image
-        return None
-
     def source_of(self, place: Place) -> SourcePlace:
-        """The source line a slot line was compiled from (`std:` and INCLUDEd files too):
-        the image keeps each frame's span, and a line spans `line_cost` slot lines."""
-        image = self._image(place.kind, place.slot)
-        program = f"{place.kind.upper()}{place.slot}"
-        if image is None:
-            return SourcePlace(None, program=program)
-        if image.program.name:
-            program += f" {image.program.name}"
-        for frames in image.lines:
-            first = frames.first_slot_line
-            if first <= place.slot_line < first + max(1, frames.line.command.line_cost):
-                span = frames.line.span
-                return SourcePlace(span.file, span.line, span.col, program)
-        span = image.close_span  # the closing line: the return to the caller
-        return SourcePlace(span.file, span.line, span.col, program)
+        """The source line a slot line was compiled from (see `source_place`)."""
+        return source_place(self.build, place)
 
     @property
     def failure(self) -> RunError | None:
@@ -142,6 +126,45 @@ class RunReport:
         return summary
 
 
+def _image(build: BuildResult | None, kind: str, slot: int) -> ProgramImage | None:
+    for image in build.programs if build is not None else ():
+        if (image.program.kind, image.placement.slot) == (kind, slot):
+            return image
+    return None
+
+
+def source_place(build: BuildResult | None, place: Place | None) -> SourcePlace:
+    """The source line a slot line was compiled from (`std:` and INCLUDEd files too):
+    the image keeps each frame's span, and a line spans `line_cost` slot lines."""
+    if place is None:
+        return SourcePlace(None)
+    image = _image(build, place.kind, place.slot)
+    program = f"{place.kind.upper()}{place.slot}"
+    if image is None:
+        return SourcePlace(None, program=program)
+    if image.program.name:
+        program += f" {image.program.name}"
+    for frames in image.lines:
+        first = frames.first_slot_line
+        if first <= place.slot_line < first + max(1, frames.line.command.line_cost):
+            span = frames.line.span
+            return SourcePlace(span.file, span.line, span.col, program)
+    span = image.close_span  # the closing line: the return to the caller
+    return SourcePlace(span.file, span.line, span.col, program)
+
+
+def declared_variables(build: BuildResult) -> list[tuple[str, int]]:
+    """Every declared variable (VAR name, ALIAS) once, by device number, as a trace labels
+    it: (`rows_done (VAR400)`, 400)."""
+    seen: set[str] = set()
+    found: list[tuple[str, int]] = []
+    for variable in sorted([*build.variables, *build.aliases], key=lambda v: v.index):
+        if variable.name not in seen:
+            seen.add(variable.name)
+            found.append((f"{variable.name} (VAR{variable.index})", variable.index))
+    return found
+
+
 def pick_program(build: BuildResult, call: str | None, first_file: str | None) -> int:
     """The MP slot to call: `MPn`, `n` or a program name; by default the first MP of the
     first file."""
@@ -173,11 +196,12 @@ def _callable(mps: list[ProgramImage]) -> str:
 
 def run_build(build: BuildResult, call: str | None = None, first_file: str | None = None,
               max_time: float = 3600.0, trace_period: float | None = None,
-              machine: MachineSetup | None = None) -> RunReport:
+              machine: MachineSetup | None = None, watch: Watch | None = None) -> RunReport:
     """Load the build into a fresh virtual controller and run one MP to its end, on
     `machine` if given (`mplang.m8194h.machine`). With `trace_period` (seconds) every axis
     is also sampled over the run (`RunReport.trace`); the run itself comes out the same
-    either way."""
+    either way. An infinite `max_time` is no limit; `watch` sees the run between slices and
+    may stop it (`mplang.family.watch`)."""
     controller = VirtualController(word_order=build.word_order)
     try:  # the programs, then the INIT table (loaded) and the TRIGGERS table, as flashed
         preload(controller, build)
@@ -187,22 +211,30 @@ def run_build(build: BuildResult, call: str | None = None, first_file: str | Non
         apply_machine(controller, machine)
     slot = pick_program(build, call, first_file)
     controller.call(slot)
+
+    def where() -> SourcePlace:
+        return source_place(build, running_place(controller))
+
     if trace_period is None:
-        return RunReport(controller, controller.run(max_time=max_time), f"MP{slot}",
-                         build=build)
-    result, trace = run_traced(controller, trace_period, max_time=max_time)
+        if watch is None and math.isfinite(max_time):
+            result = controller.run(max_time=max_time)
+        else:
+            result = run_watched(controller, max_time, watch or never_stop, where)
+        return RunReport(controller, result, f"MP{slot}", build=build)
+    result, trace = run_traced(controller, trace_period, max_time=max_time, watch=watch,
+                               where=where, variables=declared_variables(build))
     return RunReport(controller, result, f"MP{slot}", trace, build=build)
 
 
 def run_family(build: BuildResult, call: str | None, max_time: float, *,
-               sample_period: float | None = None, machine: object | None = None
-               ) -> RunReport:
+               sample_period: float | None = None, machine: object | None = None,
+               watch: Watch | None = None) -> RunReport:
     """`run_build` as the family face calls it: the default program is the first MP of the
     first file given to the compiler; `machine` is what the face's `load_machine` read."""
     if machine is not None and not isinstance(machine, MachineSetup):
         raise RunSetupError(f"not an M8194H machine: {machine!r}")
     report = run_build(build, call, build.first_source, max_time=max_time,
-                       trace_period=sample_period, machine=machine)
+                       trace_period=sample_period, machine=machine, watch=watch)
     report.machine = machine.path if machine is not None else None
     report.title = program_title(build, report.called)
     return report

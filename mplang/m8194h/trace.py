@@ -18,17 +18,23 @@ stamped, at the clock, never at a time the controller has already left behind.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 
 from mplang.family.trace import DEFAULT_PERIOD, Trace
-from mplang.m8194h.sim.controller import MAX_STEPS_DEFAULT, RunResult, VirtualController
+from mplang.family.watch import Watch, Where
+from mplang.m8194h.sim.controller import RunResult, VirtualController
 from mplang.m8194h.sim.motion import MotionModel
+from mplang.m8194h.watched import step_budget, waits_for_ever
 
 
-def record(trace: Trace, controller: VirtualController) -> None:
-    """Read every axis at the controller's present clock into the trace."""
+def record(trace: Trace, controller: VirtualController,
+           indices: Sequence[int] = ()) -> None:
+    """Read every axis at the controller's present clock into the trace, and the
+    variables `indices` (VARn, one per `trace.variables`)."""
     now = controller.clock
     trace.add(now, [axis_state(controller.motion, index, now)
-                    for index in range(len(trace.axes))])
+                    for index in range(len(trace.axes))],
+              [controller.vars[index] for index in indices])
 
 
 def axis_state(model: MotionModel, axis: int, now: float) -> tuple[int, int, float]:
@@ -37,32 +43,49 @@ def axis_state(model: MotionModel, axis: int, now: float) -> tuple[int, int, flo
 
 
 def run_traced(controller: VirtualController, period: float = DEFAULT_PERIOD,
-               max_time: float = 3600.0,
-               max_steps: int = MAX_STEPS_DEFAULT) -> tuple[RunResult, Trace]:
+               max_time: float = 3600.0, max_steps: int | None = None,
+               watch: Watch | None = None, where: Where | None = None,
+               variables: Sequence[tuple[str, int]] = ()) -> tuple[RunResult, Trace]:
     """`controller.run(max_time, max_steps)` for a program already called, sampling every
     axis every `period` seconds of simulated time and at the end of every motion. Returns
     the same result `run` would and the samples, the last one at the moment the run ends
-    (after the motion the program started has come to rest, or where it failed)."""
+    (after the motion the program started has come to rest, or where it failed). An
+    infinite `max_time` is no limit (`mplang.m8194h.watched`); `watch(time, where)` is
+    called between samples, and when it answers True the run ends there, unfinished and
+    without an error (`watched.stopped`). `variables` (label, VARn index) are sampled
+    with the axes, as columns of the trace."""
     if not period > 0.0:
         raise ValueError(f"the sampling period must be positive, got {period}")
-    trace = Trace(period)
+    if max_steps is None:
+        max_steps = step_budget(max_time)
+    trace = Trace(period, variables=tuple(label for label, _ in variables))
+    indices = [index for _, index in variables]
+
+    def sample() -> None:
+        record(trace, controller, indices)
+
     start = controller.clock
     limit = start + max_time
     steps = 0
     tick = 1
-    record(trace, controller)
+    sample()
     while True:
         target = min(_next_stop(controller, start, period, tick), limit)
         steps += controller.advance(target, max_steps - steps, until_idle=True)
-        record(trace, controller)
+        sample()
         tick = _next_tick(controller.clock, start, period, tick)
         if controller.clock < target or controller.clock >= limit:
             break  # idle (finished or failed), out of steps, or out of time
+        if not math.isfinite(limit) and waits_for_ever(controller):
+            limit = controller.clock  # no time limit: `outcome` names the wait (R201) here
+            break
+        if watch is not None and where is not None and watch(controller.clock - start, where):
+            return RunResult(False, controller.clock, steps), trace
     result = controller.outcome(limit, steps)
     if result.finished:
-        _record_until_rest(controller, trace, start, period, tick)
+        _record_until_rest(controller, sample, start, period, tick)
         result = RunResult(True, controller.clock, steps)
-    record(trace, controller)
+    sample()
     return result, trace
 
 
@@ -81,8 +104,8 @@ def _next_tick(now: float, start: float, period: float, tick: int) -> int:
     return tick
 
 
-def _record_until_rest(controller: VirtualController, trace: Trace, start: float,
-                       period: float, tick: int) -> None:
+def _record_until_rest(controller: VirtualController, sample: Callable[[], None],
+                       start: float, period: float, tick: int) -> None:
     """After the program finished: let the motion it started run out, as `run` does,
     sampling on the way."""
     end = controller.motion.idle_at(15, controller.clock)
@@ -91,6 +114,6 @@ def _record_until_rest(controller: VirtualController, trace: Trace, start: float
     while controller.clock < end:
         target = min(_next_stop(controller, start, period, tick), end)
         controller.advance(target)
-        record(trace, controller)
+        sample()
         tick = _next_tick(controller.clock, start, period, tick)
     controller.motion.settle(controller.clock)

@@ -65,15 +65,21 @@ def render(trace: Trace, request: PlotRequest) -> bytes:
         # a small figure with many panels may not fit every label: it is still drawn
         warnings.filterwarnings("ignore", message=".*constrained_layout.*")
         warnings.filterwarnings("ignore", message=".*[Cc]onstrained layout.*")
-        figure = Figure(figsize=(request.width / DPI, request.height / DPI), dpi=DPI,
-                        layout="constrained")
-        FigureCanvasAgg(figure)
-        figure.suptitle(request.title)
-        _draw(figure, trace)
+        figure = build_figure(trace, request)
         buffer = io.BytesIO()
         metadata: dict[str, str | None] = {"Date": None} if request.fmt == "svg" else {}
         figure.savefig(buffer, format=request.fmt, dpi=DPI, metadata=metadata)
     return buffer.getvalue()
+
+
+def build_figure(trace: Trace, request: PlotRequest) -> Figure:
+    """The figure `render` saves, on its Agg canvas (tests read its panels and legends)."""
+    figure = Figure(figsize=(request.width / DPI, request.height / DPI), dpi=DPI,
+                    layout="constrained")
+    FigureCanvasAgg(figure)
+    figure.suptitle(request.title)
+    _draw(figure, trace)
+    return figure
 
 
 def path_planes(trace: Trace) -> list[tuple[str, str]]:
@@ -87,9 +93,13 @@ def path_planes(trace: Trace) -> list[tuple[str, str]]:
 def _draw(figure: Figure, trace: Trace) -> None:
     moving = trace.moving_axes()
     rows = max(1, len(moving))
-    sections = figure.subfigures(2, 1, squeeze=False, height_ratios=[1.0, 0.55 + 0.25 * rows])
+    changing = trace.changing_variables()
+    ratios = [1.0, 0.55 + 0.25 * rows] + ([0.6] if changing else [])
+    sections = figure.subfigures(len(ratios), 1, squeeze=False, height_ratios=ratios)
     top: SubFigure = sections[0, 0]
     bottom: SubFigure = sections[1, 0]
+    if changing:
+        _draw_variables(sections[2, 0].subplots(), trace, changing)
     planes = path_planes(trace)
     for panel, plane in zip(top.subplots(1, len(planes), squeeze=False)[0], planes,
                             strict=True):
@@ -107,6 +117,24 @@ def _draw(figure: Figure, trace: Trace) -> None:
     grid[0][1].set_title("velocity")
     for panel in grid[-1]:
         panel.set_xlabel("time (s)")
+
+
+MAX_VARIABLE_LINES = 8
+"""The variables panel draws at most this many (the first that change); the CSV has all."""
+
+
+def _draw_variables(panel: Axes, trace: Trace, changing: tuple[int, ...]) -> None:
+    """The declared variables that change, against time, each labelled by its declared
+    name and device number (`rows_done (VAR400)`)."""
+    shown = changing[:MAX_VARIABLE_LINES]
+    for index in shown:
+        panel.step(trace.time, trace.values[index], where="post", linewidth=1.0,
+                   label=trace.variables[index])
+    more = len(changing) - len(shown)
+    panel.set_title("variables" + (f" ({more} more in the trace)" if more else ""))
+    panel.set_xlabel("time (s)")
+    panel.grid(True, linewidth=0.4)
+    panel.legend(loc="best", fontsize=7)
 
 
 def _draw_path(panel: Axes, trace: Trace, plane: tuple[str, str]) -> None:

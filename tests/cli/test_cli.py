@@ -165,9 +165,10 @@ def test_run_picks_first_mp_of_first_file_or_call(project: Path) -> None:
     assert run("run", str(project / "two.mp"), "--call", "MP99")[0] == 2
 
 
-def test_run_that_never_finishes_exits_5(project: Path) -> None:
+def test_run_that_never_finishes_exits_17(project: Path) -> None:
+    """Out of --max-time (R202) has its own exit code since issue 14 item 4 (it was 5)."""
     (project / "spin.mp").write_text("MP 1\n  LABEL a\n  GOTO a\nEND MP\n")
     code, out, _ = run("run", str(project / "spin.mp"), "--json", "--max-time", "1")
     error = json.loads(out)["error"]
-    assert code == 5 and error["code"] == "R202" and "--max-time" in error["message"]
+    assert code == 18 and error["code"] == "R202" and "--max-time" in error["message"]
     assert (error["file"], error["line"], error["slot"]) == (str(project / "spin.mp"), 2, "MP1")

@@ -39,7 +39,9 @@ def test_the_sample_ends_where_its_m8194h_build_ends() -> None:
         "X": 6000, "Y": 0, "Z": 0, "U": 0}
     program = build.programs[0]
     assert program.variables["VAR1"] == "R0"
-    assert outcome.to_json()["vars"] == {"R0": 2}
+    # declared names since issue 14 item 2 (was {"R0": 2}): the name, and its CSIM variable
+    assert outcome.to_json()["vars"] == {"laps": 2}
+    assert outcome.to_json()["names"] == {"laps": "R0"}
     assert reference["vars"] == {"laps": 2} and reference["names"] == {"laps": "VAR1"}
     assert program.entries == {"cross_target": "$CROSS_TARGET", "MP131": "$CROSS_TARGET",
                                "park_y": "$PARK_Y"}

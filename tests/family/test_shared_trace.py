@@ -37,6 +37,6 @@ def test_traces_of_every_family_have_one_row_per_time(tmp_path: Path, source: Pa
     out = tmp_path / "trace.csv"
     result = CliRunner().invoke(main, ["run", str(source), "--trace", str(out),
                                        "--max-time", "5"])
-    assert result.exit_code in (0, 5), result.output
+    assert result.exit_code in (0, 5, 18), result.output  # 18: out of --max-time
     times = [line.split(",", 1)[0] for line in out.read_text().splitlines()[1:]]
     assert times and len(times) == len(set(times))

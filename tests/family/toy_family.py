@@ -12,6 +12,7 @@ from pathlib import Path
 from mplang.family.face import NoSuchProgram, RunSetupError
 from mplang.family.run_error import RunError
 from mplang.family.trace import SampledRun
+from mplang.family.watch import Watch
 from mplang.ir.unit import Options
 from mplang.lang.diagnostics import Diagnostic, DiagnosticSink, Span
 
@@ -99,7 +100,7 @@ class ToyRun(SampledRun):
 
 
 def run_build(build: ToyBuild, call: str | None, max_time: float, *,
-              sample_period: float | None = None) -> ToyRun:
+              sample_period: float | None = None, watch: Watch | None = None) -> ToyRun:
     if call not in (None, "main"):
         raise NoSuchProgram(f"no program {call!r}; callable: main")
     position, samples = 0.0, [(0.0, {"X": 0.0})]

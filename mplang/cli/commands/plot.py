@@ -13,7 +13,6 @@ import click
 from mplang.cli import style
 from mplang.cli.common import (
     EXIT_MISSING_EXTRA,
-    EXIT_RUN_FAILED,
     OutputError,
     build_setup,
     guarded,
@@ -22,6 +21,7 @@ from mplang.cli.common import (
     with_common,
 )
 from mplang.cli.families import build_and_run, choose, machine_for
+from mplang.cli.runwatch import RunWatch, exit_code, given, max_time_option, out_of_time_hint
 from mplang.cli.shell import complete_paths
 
 if TYPE_CHECKING:
@@ -78,8 +78,7 @@ def check_output_place(output: Path) -> None:
 @click.option("--trace-period", type=click.FloatRange(min=0.00001), default=0.001,
               show_default=True, metavar="SECONDS",
               help="Sample the axes this often (simulated time; motion ends are sampled too).")
-@click.option("--max-time", type=click.FloatRange(min=0.001), default=3600.0, show_default=True,
-              help="Give up after this much simulated time (seconds).")
+@max_time_option
 @machine_option
 @project_option
 @with_common
@@ -100,25 +99,43 @@ def command(ctx: click.Context, files: tuple[str, ...], call: str | None, output
     selection = choose(setup)
     check_output_place(Path(output))
     machine = machine_for(selection, machine_file, setup.project)
-    run = build_and_run(selection, setup, call, max_time, trace_period, machine)
+    watch = RunWatch("mpc plot")
+    with watch.active():  # the status line on a terminal; Ctrl-C stops the run
+        run = build_and_run(selection, setup, call, max_time, trace_period, machine=machine,
+                            watch=watch)
+    interrupted = watch.interrupted and not run.finished
     trace = run.trace
     assert trace is not None  # asked for with trace_period
     sources = ", ".join(str(p) for p in setup.paths)
     for warning in run.warnings:  # unmodelled commands, axes stopped (R301-R315)
         click.echo(warning, err=True)
-    _draw(trace, run.plot_title(selection.describe, sources), run.called, run.finished,
-          run.time_s, run.failure.render() if run.failure is not None else run.error,
-          (fmt, width, height), trace_period, output)
+    failure = run.failure
+    error = failure.render() if failure is not None else run.error
+    if interrupted:
+        error = watch.interrupted_note()
+    code = exit_code(interrupted, failure.code if failure is not None else None)
+    hint = out_of_time_hint(max_time, given(ctx, "max_time")) \
+        if failure is not None and failure.code == "R202" else None
+    _draw(trace, run.plot_title(selection.describe, sources), run.called,
+          "finished" if run.finished else "INTERRUPTED" if interrupted else "FAILED",
+          run.time_s, error, (fmt, width, height), trace_period, output)
+    if not run.finished:
+        if error:  # `file:line:col: error[Rnnn]: ...` (docs/runtime/), or where Ctrl-C stopped
+            click.echo(error, err=True)
+            if hint:
+                click.echo(hint, err=True)
+        else:
+            style.error("the program did not finish")
+        sys.exit(code)
 
 
-def _draw(trace: Trace, heading: str, called: str, finished: bool, time_s: float,
+def _draw(trace: Trace, heading: str, called: str, state: str, time_s: float,
           error: str | None, image_shape: tuple[str, int, int], trace_period: float,
           output: str) -> None:
     """Render the run's trace under `heading` into `output` (format, width, height from
-    `image_shape`), say so, and exit 5 unless the run finished (every family plots here)."""
+    `image_shape`) and say so (every family plots here)."""
     from mplang.tools.plot import PlotRequest, render
 
-    state = "finished" if finished else "FAILED"
     title = (f"{heading}\n{state} after {time_s:.3f} s simulated, sampled every "
              f"{trace_period * 1000:g} ms")
     if error:
@@ -130,9 +147,3 @@ def _draw(trace: Trace, heading: str, called: str, finished: bool, time_s: float
         raise OutputError(f"cannot write {output}: {exc.strerror or exc}") from None
     click.echo(f"{called}: {state} after {round(time_s * 1000, 3)} ms simulated; "
                f"{len(trace)} samples plotted to {output}")
-    if not finished:
-        if error:  # `file:line:col: error[Rnnn]: ...` (docs/runtime/)
-            click.echo(error, err=True)
-        else:
-            style.error("the program did not finish")
-        sys.exit(EXIT_RUN_FAILED)

@@ -12,7 +12,6 @@ from typing import TYPE_CHECKING, Any
 import click
 
 from mplang.cli.common import (
-    EXIT_RUN_FAILED,
     OutputError,
     build_setup,
     guarded,
@@ -21,6 +20,13 @@ from mplang.cli.common import (
     with_common,
 )
 from mplang.cli.families import build_and_run, choose, machine_for
+from mplang.cli.runwatch import (
+    RunWatch,
+    exit_code,
+    given,
+    max_time_option,
+    out_of_time_hint,
+)
 from mplang.cli.shell import complete_paths
 
 if TYPE_CHECKING:
@@ -47,8 +53,7 @@ def check_trace_place(trace_file: str) -> None:
               "table NAME[:STEP]; CSIM: a program, an MP's name or a $LABEL.")
 @click.option("--json", "as_json", is_flag=True, help="Print variables, axes, time and error "
               "as JSON.")
-@click.option("--max-time", type=click.FloatRange(min=0.001), default=3600.0, show_default=True,
-              help="Give up after this much simulated time (seconds).")
+@max_time_option
 @click.option("--trace", "trace_file", default=None, metavar="FILE.csv",
               shell_complete=complete_paths,
               help="Also write time, and LP, EP and velocity of every axis, as CSV.")
@@ -79,19 +84,30 @@ def command(ctx: click.Context, files: tuple[str, ...], call: str | None, as_jso
     period = None if trace_file is None \
         else DEFAULT_PERIOD if trace_period is None else trace_period
     machine = machine_for(selection, machine_file, setup.project)
-    run = build_and_run(selection, setup, call, max_time, period, machine)
+    watch = RunWatch("mpc run")
+    with watch.active():  # the status line on a terminal; Ctrl-C stops the run
+        run = build_and_run(selection, setup, call, max_time, period, machine=machine,
+                            watch=watch)
+    interrupted = watch.interrupted and not run.finished
     trace = run.trace
     if trace_file is not None and trace is not None:
         _write_trace(trace, trace_file)
-    summary = run.to_json()
-    headline = (f"{run.called}: {'finished' if run.finished else 'FAILED'} after "
+    summary = dict(run.to_json())
+    if interrupted:  # only then: the summary of a run that ended by itself is unchanged
+        summary["interrupted"] = watch.interrupted_json()
+    state = "finished" if run.finished else "INTERRUPTED" if interrupted else "FAILED"
+    headline = (f"{run.called}: {state} after "
                 f"{summary['time_ms']} ms simulated{run.headline_detail(selection.describe)}")
+    failure = run.failure
+    error = failure.render() if failure is not None else run.error
+    if failure is not None and failure.code == "R202":
+        error = f"{error}\n{out_of_time_hint(max_time, given(ctx, 'max_time'))}"
     _summarise(summary, as_json, headline, trace, trace_file,
-               run.failure.render() if run.failure is not None else run.error)
+               watch.interrupted_note() if interrupted else error)
     for warning in run.warnings:  # commands the virtual controller does not simulate
         click.echo(warning, err=True)
     if not run.finished:
-        sys.exit(EXIT_RUN_FAILED)
+        sys.exit(exit_code(interrupted, failure.code if failure is not None else None))
 
 
 def _write_trace(trace: Trace, trace_file: str) -> None:
@@ -120,5 +136,5 @@ def _summarise(summary: Mapping[str, Any], as_json: bool, headline: str, trace: 
         click.echo(f"  {name}: lp {pos['lp']}, ep {pos['ep']}")
     if trace is not None:
         click.echo(f"  trace: {len(trace)} samples written to {trace_file}")
-    if error:  # `file:line:col: error[Rnnn]: ...` (docs/runtime/)
+    if error:  # `file:line:col: error[Rnnn]: ...` (docs/runtime/), or where Ctrl-C stopped
         click.echo(error, err=True)

@@ -464,7 +464,9 @@ class VirtualController:
             if not isinstance(err, (ValueError, ExecutionError)):
                 LOG.warning("internal fault in %s: %r", queued.command.name, err, exc_info=err)
             return
-        self.log.append(f"{self.clock:.4f} s: {queued.command.name} {values}")
+        shown = f"VAR{self._index(queued.operands[0])} = {values[1]}" \
+            if name == "WRITE_VAR" else values  # the variable by its name (mpc sim -v)
+        self.log.append(f"{self.clock:.4f} s: {queued.command.name} {shown}")
 
     def fault(self, err: Exception) -> None:
         """A fault inside the device outside any one line or command: log it, stop the

@@ -13,6 +13,7 @@ import pytest
 from click.testing import CliRunner
 
 from mplang.cli import EXIT_OK, EXIT_RUN_FAILED, main
+from mplang.cli.runwatch import EXIT_OUT_OF_TIME
 from mplang.lang.runtime_rules import RUNTIME_RULES
 from mplang.m8194h.compiler import compile_paths
 from mplang.m8194h.run import RunReport, run_build
@@ -143,7 +144,7 @@ def test_a_run_out_of_time_is_r202_at_the_line_it_was_at(project: Path) -> None:
                       "    GOTO again\nEND MP\n")
     code, out, _ = run("run", source, "--json", "--max-time", "0.05")
     error = json.loads(out)["error"]
-    assert code == EXIT_RUN_FAILED and error["code"] == "R202"
+    assert code == EXIT_OUT_OF_TIME and error["code"] == "R202"  # 18 since issue 14 item 4
     assert error["file"] == str(source) and 3 <= error["line"] <= 5
 
 

@@ -13,6 +13,7 @@ from click.testing import CliRunner
 
 from mplang import csim, fatek
 from mplang.cli import EXIT_OK, EXIT_RUN_FAILED, EXIT_SOURCE_ERRORS, EXIT_USAGE, main
+from mplang.cli.runwatch import EXIT_OUT_OF_TIME
 
 ROOT = Path(__file__).resolve().parents[3]
 SAMPLES = ROOT / "samples"
@@ -32,7 +33,9 @@ def test_every_fatek_listing_runs_as_the_library_runs_it(listing: Path) -> None:
     expected = fatek.run_build(fatek.check_native([listing]), None, float(MAX_TIME))
     code, out, err = run("run", listing, "--json", "--max-time", MAX_TIME)
     assert json.loads(out) == json.loads(json.dumps(expected.to_json()))
-    assert code == (EXIT_OK if expected.finished else EXIT_RUN_FAILED)
+    failure = expected.failure
+    assert code == (EXIT_OK if expected.finished else EXIT_OUT_OF_TIME
+                    if failure is not None and failure.code == "R202" else EXIT_RUN_FAILED)
     assert err == ""
 
 
@@ -98,7 +101,7 @@ def test_max_time_stops_a_jog() -> None:
     code, out, _ = run("run", SAMPLES / "fatek" / "example4_jog_forward.fbs", "--json",
                        "--max-time", "2")
     summary = json.loads(out)
-    assert code == EXIT_RUN_FAILED and summary["time_ms"] == 2000.0
+    assert code == EXIT_OUT_OF_TIME and summary["time_ms"] == 2000.0
     assert "stopped after 2 s of simulated time" in summary["error"]["message"]
     assert summary["error"]["code"] == "R202"
 
