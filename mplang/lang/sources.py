@@ -21,9 +21,8 @@ from importlib import resources
 from importlib.resources.abc import Traversable
 from pathlib import Path
 
-from mplang.lang import ast
+from mplang.lang import ast, frontcache
 from mplang.lang.diagnostics import DiagnosticSink, Span
-from mplang.lang.parser import parse_text
 
 
 @dataclass
@@ -146,7 +145,7 @@ def load_sources(paths: list[Path], sink: DiagnosticSink, *,
         if text is None:
             return
         seen.add(resolved)
-        source = SourceFile(path, display, text, parse_text(text, display, sink))
+        source = SourceFile(path, display, text, frontcache.parse(text, display, sink))
         result.files.append(source)
         depth = 0
         for statement in source.statements:
