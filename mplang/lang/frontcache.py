@@ -15,7 +15,6 @@ from __future__ import annotations
 import hashlib
 from functools import cache
 from importlib import resources
-from pathlib import Path
 
 from mplang.lang import ast, caches, diagnostics, limits, parser, tokenizer
 from mplang.lang.diagnostics import Diagnostic, DiagnosticSink
@@ -30,8 +29,13 @@ def front_end_key() -> str:
     the modules that turn it into statements and diagnostics."""
     parts: list[bytes] = [FORMAT.encode(), resources.files("mplang.grammar")
                           .joinpath("mplang.lark").read_bytes()]
+    package = resources.files("mplang.lang")  # read so, they are found in a wheel too
     for module in (ast, diagnostics, limits, parser, tokenizer):
-        parts.append(Path(str(module.__file__)).read_bytes())
+        name = module.__name__.rsplit(".", 1)[1]
+        try:
+            parts.append(package.joinpath(name + ".py").read_bytes())
+        except OSError:  # an install without sources: its version stands for them (STAMP)
+            parts.append(name.encode())
     return caches.digest(*parts)
 
 
