@@ -14,6 +14,7 @@ import logging
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
+from functools import cache
 from pathlib import Path
 from typing import Protocol, cast
 
@@ -483,6 +484,14 @@ def _reachable(start: Path, graph: dict[Path, list[Path]]) -> set[Path]:
     return seen
 
 
+@cache
+def _check_doc(code: str) -> Path | None:
+    """The page of a check, looked for once per code (a file with many warnings of one kind
+    would stat it for each)."""
+    page = CHECK_DOCS / f"{code}.md"
+    return page if page.is_file() else None
+
+
 def _place_diagnostic(analysis: Analysis, diagnostic: Diagnostic,
                       by_display: dict[str, SourceText],
                       graph: dict[Path, list[Path]]) -> EditorDiagnostic | None:
@@ -492,7 +501,7 @@ def _place_diagnostic(analysis: Analysis, diagnostic: Diagnostic,
     project is left to that document."""
     related = tuple((_span_location(span, by_display[span.file]), note)
                     for span, note in diagnostic.related if span.file in by_display)
-    docs = CHECK_DOCS / f"{diagnostic.code}.md"
+    docs = _check_doc(diagnostic.code)
     entry = by_display.get(diagnostic.span.file)
     message = diagnostic.message
     if entry is not None and entry.path == analysis.path:
@@ -508,5 +517,5 @@ def _place_diagnostic(analysis: Analysis, diagnostic: Diagnostic,
                 return None
             where = through.range
     return EditorDiagnostic(where, diagnostic.severity.value, diagnostic.code, message,
-                            diagnostic.hint, related, docs if docs.is_file() else None,
+                            diagnostic.hint, related, docs,
                             elsewhere=entry is None or entry.path != analysis.path)
