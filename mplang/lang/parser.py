@@ -19,7 +19,7 @@ from functools import cache
 from importlib import resources
 from typing import Any
 
-from lark import Lark, Token, Transformer, v_args
+from lark import Lark, Token, Transformer
 from lark import __version__ as LARK_VERSION
 from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedToken, VisitError
 
@@ -80,14 +80,24 @@ def _combine(operators: list[str], operands: list[ast.Expr]) -> None:
     operands.append(ast.BinOp(operators.pop(), left, right, left.span))
 
 
-@v_args(inline=True)
+def _spread(method: Callable[..., Any]) -> Callable[[list[Any]], Any]:
+    return lambda children: method(*children)
+
+
 class _Builder(Transformer[Token, Any]):
-    """Builds AST nodes straight from tokens (no intermediate tree, no position propagation)."""
+    """Builds AST nodes straight from tokens (no intermediate tree, no position propagation).
+
+    Each rule's method takes the rule's children as arguments. Lark calls a callback with the
+    list of them: the instance holds, under each rule's name, a function that spreads the
+    list into its method (one call, where lark's `v_args(inline=True)` makes three)."""
 
     def __init__(self, file: str, line_offset: int = 0) -> None:
         super().__init__()
         self.file = file
         self.line_offset = line_offset
+        for name, value in vars(_Builder).items():
+            if callable(value) and not name.startswith("_"):
+                self.__dict__[name] = _spread(getattr(self, name))
 
     def _span(self, token: Token) -> Span:
         line = (token.line or 1) + self.line_offset
