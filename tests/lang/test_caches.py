@@ -174,3 +174,21 @@ def test_lark_tables_from_the_cache_parse_the_same(cache_dir: Path) -> None:
     loaded = parser.cached_lark(grammar, "test", start="start")
     text = "MP 1\n  X = -(1 + 2) * 3\nEND MP\n"
     assert loaded.parse(text) == built.parse(text)
+
+
+def test_a_damaged_lark_table_cache_is_rebuilt(cache_dir: Path) -> None:
+    grammar = parser._grammar()
+    parser.cached_lark(grammar, "damaged", start="start")
+    (entry,) = cache_dir.glob("lark-damaged-*.pickle")
+    entry.write_bytes(entry.read_bytes()[:100])
+    rebuilt = parser.cached_lark(grammar, "damaged", start="start")
+    assert rebuilt.parse("MP 1\nEND MP\n").data == "start"
+
+
+def test_an_unwritable_lark_table_cache_only_costs_time(tmp_path: Path,
+                                                        monkeypatch: pytest.MonkeyPatch) -> None:
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    monkeypatch.setenv("MPLANG_CACHE", str(blocker / "cache"))
+    built = parser.cached_lark(parser._grammar(), "nowhere", start="start")
+    assert built.parse("MP 1\nEND MP\n").data == "start"
