@@ -1,8 +1,11 @@
 """Text -> flat list of line statements, with every syntax error reported at once.
 
-A whole file is parsed in one LALR pass (fast path). If that fails, every line is parsed on
-its own with the grammar's `line` start symbol, so one run reports all bad lines, not only
-the first; the good lines still reach the later passes.
+A whole file is parsed in one LALR pass, its tokens from the hand-written tokenizer
+(`mplang.lang.tokenizer`, the fast path). If that fails, the text is parsed again with
+lark's own contextual lexer, whole, then (still failing) every line on its own with the
+grammar's `line` start symbol, so one run reports all bad lines, not only the first; the
+good lines still reach the later passes. Lark's tables come from the user cache dir
+(`cached_lark`).
 """
 
 from __future__ import annotations
