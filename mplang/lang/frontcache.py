@@ -39,8 +39,11 @@ def front_end_key() -> str:
     return caches.digest(*parts)
 
 
-def parse(text: str, display: str, sink: DiagnosticSink) -> list[ast.Statement]:
-    """`parser.parse_text(text, display, sink)`, from the cache when it holds this text."""
+def parse(text: str, display: str, sink: DiagnosticSink, *,
+          store: bool = True) -> list[ast.Statement]:
+    """`parser.parse_text(text, display, sink)`, from the cache when it holds this text;
+    a text parsed here is kept for the next run unless `store` is false (the language
+    server: what it parses is mostly text being typed, never to be seen again)."""
     directory = caches.user_cache_dir()
     if directory is None:
         return parser.parse_text(text, display, sink)
@@ -58,5 +61,6 @@ def parse(text: str, display: str, sink: DiagnosticSink) -> list[ast.Statement]:
     reported_now: list[Diagnostic] = scratch.items
     for item in reported_now:
         sink.add(item.code, item.span, item.message, item.hint, item.related)
-    caches.store(path, key, (statements, reported_now))
+    if store:
+        caches.store(path, key, (statements, reported_now))
     return statements

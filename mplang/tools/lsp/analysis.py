@@ -255,7 +255,9 @@ def _analyse(path: Path, text: str, context: BuildContext, open_texts: Mapping[P
     if family is None:  # one pass: the sources read once, lowered once, for all of it
         sink = DiagnosticSink()
         sources = load_sources(paths, sink, allow_outside=options.allow_outside_includes,
-                               texts=texts)
+                               texts=texts, store=lambda p: p.resolve() in texts.disk)
+        # the parses of files read from disk are kept for the next change; editor buffers,
+        # text being typed, are not
         lowering = Lowering()
         diagnostics = compile_sources(paths, sources, sink, options, lowering).diagnostics
     else:

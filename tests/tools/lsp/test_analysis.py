@@ -236,3 +236,5 @@ def test_one_change_is_one_analysis(tmp_path: Path, monkeypatch: pytest.MonkeyPa
     assert not [d for d in changed.diagnostics if "FIXD_MOVE" in d.message]
     assert changed.slot_use(changed.programs[0]) is not None
     assert set(changed.consts) == {"SPEED"} and changed.const_values["SPEED"] == 4000
+    # the include read from disk is kept for the next change, the editor's buffer is not
+    assert len(list((tmp_path / "cache" / "front").iterdir())) == 1
