@@ -358,6 +358,11 @@ def _line_tokens(entry: SourceText, line: int) -> list[Token]:
     return lex_line(entry.lines[line - 1]) if 0 < line <= len(entry.lines) else []
 
 
+_INDEXED = (ast.Const, ast.Alias, ast.VarDecl, ast.ProgramHeader, ast.End, ast.LabelStmt,
+            ast.Include)
+"""The statements `_index_file` reads."""
+
+
 def _index_file(analysis: Analysis, source: SourceFile, entry: SourceText) -> None:
     """Definitions, program blocks and INCLUDE lines of one file."""
     open_block: ProgramBlock | None = None
@@ -371,6 +376,12 @@ def _index_file(analysis: Analysis, source: SourceFile, entry: SourceText) -> No
             open_block = None
 
     for statement in source.statements:
+        if not isinstance(statement, _INDEXED):
+            continue  # commands and the like define nothing: their line is not lexed
+        if isinstance(statement, ast.End):
+            if statement.what in ("mp", "isr"):
+                close(statement.span.line - 1)
+            continue
         line = statement.span.line
         tokens = _line_tokens(entry, line)
         text = _code_text(entry.lines[line - 1], tokens) if tokens else ""
@@ -387,8 +398,6 @@ def _index_file(analysis: Analysis, source: SourceFile, entry: SourceText) -> No
             case ast.ProgramHeader():
                 close(line - 2)
                 open_block = _program_block(statement, entry, tokens, line - 1)
-            case ast.End(what="mp" | "isr"):
-                close(line - 1)
             case ast.LabelStmt() if open_block is not None:
                 label = tokens[1] if len(tokens) > 1 and tokens[1].kind in ("name", "int") \
                     else None
