@@ -2,10 +2,10 @@
 syntax diagnostics of each source text, so re-building a project where one file changed
 parses that one file.
 
-An entry is found by the file's name as diagnostics show it and kept under a key of that
-name, its text and the front end itself (the grammar and the source of the modules that
-read it, with mpc's and Python's version): any change to one of them is a miss, and the
-file is parsed again. Entries live in the user cache dir (`mplang.lang.caches`, `front/`),
+An entry is found by the file's path and its name as diagnostics show it, and kept under a
+key of that name, its text and the front end itself (the grammar and the source of the
+modules that read it, with mpc's and Python's version): any change to one of them is a
+miss, and the file is parsed again. Entries live in the user cache dir (`mplang.lang.caches`, `front/`),
 one file per source file, replaced atomically, so runs side by side never read half of
 one; a damaged entry is a miss too. `--no-cache` (or `MPLANG_CACHE=off`) parses everything.
 """
@@ -39,16 +39,19 @@ def front_end_key() -> str:
     return caches.digest(*parts)
 
 
-def parse(text: str, display: str, sink: DiagnosticSink, *,
-          store: bool = True) -> list[ast.Statement]:
+def parse(text: str, display: str, sink: DiagnosticSink, *, store: bool = True,
+          where: str = "") -> list[ast.Statement]:
     """`parser.parse_text(text, display, sink)`, from the cache when it holds this text;
     a text parsed here is kept for the next run unless `store` is false (the language
-    server: what it parses is mostly text being typed, never to be seen again)."""
+    server: what it parses is mostly text being typed, never to be seen again). `where`
+    (the file's resolved path) keeps apart files shown under the same name from two
+    projects."""
     directory = caches.user_cache_dir()
     if directory is None:
         return parser.parse_text(text, display, sink)
     key = caches.digest(front_end_key(), display, text)
-    name = hashlib.sha256(display.encode("utf-8", "surrogatepass")).hexdigest()[:32]
+    name = hashlib.sha256(f"{where}\0{display}".encode("utf-8", "surrogatepass")
+                          ).hexdigest()[:32]
     path = directory / "front" / f"{name}.pickle"
     found = caches.load(path, key)
     if isinstance(found, tuple) and len(found) == 2:

@@ -149,7 +149,8 @@ def load_sources(paths: list[Path], sink: DiagnosticSink, *,
             return
         seen.add(resolved)
         source = SourceFile(path, display, text, frontcache.parse(
-            text, display, sink, store=store if isinstance(store, bool) else store(path)))
+            text, display, sink, store=store if isinstance(store, bool) else store(path),
+            where=str(resolved)))
         result.files.append(source)
         depth = 0
         for statement in source.statements:
