@@ -5,9 +5,10 @@ parses that one file.
 An entry is found by the file's path and its name as diagnostics show it, and kept under a
 key of that name, its text and the front end itself (the grammar and the source of the
 modules that read it, with mpc's and Python's version): any change to one of them is a
-miss, and the file is parsed again. Entries live in the user cache dir (`mplang.lang.caches`, `front/`),
-one file per source file, replaced atomically, so runs side by side never read half of
-one; a damaged entry is a miss too. `--no-cache` (or `MPLANG_CACHE=off`) parses everything.
+miss, and the file is parsed again. Entries live in the user cache dir
+(`mplang.lang.caches`, `front/`), one file per source file, replaced atomically, so runs
+side by side never read half of one; a damaged entry is a miss too. `--no-cache` (or
+`MPLANG_CACHE=off`) parses everything.
 """
 
 from __future__ import annotations
