@@ -105,7 +105,7 @@ class _Builder(Transformer[Token, Any]):
     def _span(self, token: Token) -> Span:
         line = (token.line or 1) + self.line_offset
         col = token.column or 1
-        return Span(self.file, line, col, col + len(str(token)))
+        return Span(self.file, line, col, col + len(token))  # a token is its text
 
     def _first_span(self, *items: Any) -> Span:
         for item in items:
