@@ -5,11 +5,16 @@ scripts written against the earlier layout keep working. One finder, no copies o
 from __future__ import annotations
 
 import importlib
-import importlib.abc
 import importlib.machinery
 import sys
 from collections.abc import Sequence
 from types import ModuleType
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from importlib.abc import Loader as _LoaderBase
+else:
+    _LoaderBase = object
 
 MOVED = {
     "mplang.compiler": "mplang.m8194h.compiler",
@@ -54,9 +59,11 @@ def new_name(old: str) -> str | None:
 _IDENTITY = ("__name__", "__spec__", "__loader__", "__package__", "__file__", "__cached__")
 
 
-class _Loader(importlib.abc.Loader):
+class _Loader(_LoaderBase):
     """Hands out the module under its new name. The import system stamps the old name on
-    whatever `create_module` returns; `exec_module` puts the module's own identity back."""
+    whatever `create_module` returns; `exec_module` puts the module's own identity back.
+    (The import protocols, not `importlib.abc`'s classes: importing those costs every `mpc`
+    start, `--version` included, more than the rest of this package.)"""
 
     def __init__(self, target: str) -> None:
         self.target = target
@@ -72,7 +79,7 @@ class _Loader(importlib.abc.Loader):
             setattr(module, key, value)
 
 
-class MovedFinder(importlib.abc.MetaPathFinder):
+class MovedFinder:
     """Finds old names, and only those: every other import goes to the usual finders."""
 
     def find_spec(self, fullname: str, path: Sequence[str] | None,

@@ -35,37 +35,30 @@ from __future__ import annotations
 import importlib
 import os
 import pkgutil
+import re
 import sys
+from pathlib import Path
 from typing import Any
 
 import click
 
 from mplang import __version__
 from mplang.cli import commands
-from mplang.cli.common import (
-    EXIT_FLEET_MIXED,
-    EXIT_INTERNAL,
-    EXIT_INTERRUPTED,
-    EXIT_MISSING_EXTRA,
-    EXIT_NO_DEVICE,
-    EXIT_NO_INPUT,
-    EXIT_NOT_EXACT,
-    EXIT_OK,
-    EXIT_OMISSIONS,
-    EXIT_OUT_OF_SYNC,
-    EXIT_OUTPUT,
-    EXIT_REJECTED,
-    EXIT_RUN_FAILED,
-    EXIT_SOURCE_ERRORS,
-    EXIT_TRANSPORT,
-    EXIT_UNVERIFIED,
-    EXIT_USAGE,
-    EXIT_WOULD_REFORMAT,
-)
 from mplang.cli.style import COLOR_CHOICES, error, set_color
 
 EXIT_BROKEN_PIPE = 141
 """128 + SIGPIPE: what a shell reports for a program that stopped because its reader left."""
+
+
+def __getattr__(name: str) -> Any:
+    """The exit codes of `mplang.cli.common`, imported when asked for: `mpc --version` and
+    `mpc --help` do not load what the commands share (the compiler's options, the project
+    file)."""
+    if name.startswith("EXIT_"):
+        from mplang.cli import common
+
+        return getattr(common, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 __all__ = [
     "EXIT_BROKEN_PIPE",
@@ -95,6 +88,19 @@ def _module_name(command_name: str) -> str:
     return f"{command_name}_" if command_name in ("import",) else command_name
 
 
+def short_help_of(command_name: str) -> str | None:
+    """The `short_help` a command's module declares in `@click.command("NAME",
+    short_help="...")`, or None when it is written otherwise (then the command is imported)."""
+    path = Path(commands.__path__[0]) / f"{_module_name(command_name)}.py"
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError):
+        return None
+    found = re.search(r'^@click\.command\("' + re.escape(command_name) +
+                      r'", short_help="([^"\\]*)"\)$', text, re.MULTILINE)
+    return found.group(1).strip() if found else None
+
+
 class CommandPackage(click.Group):
     """A click group whose commands are the modules of `mplang.cli.commands`."""
 
@@ -108,6 +114,26 @@ class CommandPackage(click.Group):
         module = importlib.import_module(f"{commands.__name__}.{_module_name(cmd_name)}")
         command: click.Command = module.command
         return command
+
+    def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
+        """`mpc --help`'s list of commands, as click writes it, with each command's
+        `short_help` read from its module's text instead of importing every command (and
+        with it the compiler, pymodbus, pygls) to print one line each."""
+        names = self.list_commands(ctx)
+        if not names:
+            return
+        limit = formatter.width - 6 - max(len(name) for name in names)
+        rows = []
+        for name in names:
+            short = short_help_of(name)
+            if short is None:
+                command = self.get_command(ctx, name)
+                if command is None or command.hidden:
+                    continue
+                short = command.get_short_help_str(limit)
+            rows.append((name, short))
+        with formatter.section("Commands"):
+            formatter.write_dl(rows)
 
     def main(self, *args: Any, **kwargs: Any) -> Any:
         """The last flush of standard output can meet a closed pipe too: quietly, as well."""

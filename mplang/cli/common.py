@@ -19,6 +19,7 @@ import click
 from mplang.cli import style
 from mplang.family.registry import DEFAULT_TARGET, known_targets
 from mplang.ir.unit import DEFAULT_TEMPS, Options
+from mplang.lang import caches
 from mplang.lang.diagnostics import Diagnostic, Severity, without_ignored
 from mplang.tools import project as project_module
 
@@ -231,6 +232,10 @@ common_options = [
     click.option("--allow-outside-includes", is_flag=True,
                  help="Let INCLUDE reach files outside the project directory."),
     click.option("--werror", is_flag=True, help="Treat warnings as errors."),
+    click.option("--no-cache", is_flag=True, expose_value=False, is_eager=True,
+                 callback=lambda _ctx, _param, off: caches.turn_off(bool(off)),
+                 help="Parse every source again: neither read nor write mpc's cache "
+                      "(docs/cli.md, \"Caches\")."),
 ]
 
 

@@ -12,11 +12,14 @@ import os
 import sys
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TextIO
+from typing import TYPE_CHECKING, TextIO
 
 import click
 
-from mplang.lang.diagnostics import Diagnostic, Severity
+from mplang.lang.severity import Severity
+
+if TYPE_CHECKING:  # not at run time: `mpc --version` and `--help` need no rule registry
+    from mplang.lang.diagnostics import Diagnostic
 
 COLOR_CHOICES = ("auto", "always", "never")
 _META_KEY = "mpc.color"

@@ -13,6 +13,8 @@ from functools import cache, cached_property
 from importlib import resources
 from typing import Any
 
+from mplang.lang import caches
+
 WIRE_BY_TYPE = {"BYTE": 1, "WORD": 1, "short": 1, "DWORD": 2, "long": 2, "float": 2}
 VENDOR_PREFIXES = ("RSM_", "ETM_")
 
@@ -211,16 +213,44 @@ def _profile(raw: dict[str, Any]) -> Profile:
     )
 
 
-def _read_toml(family: str, filename: str) -> dict[str, Any]:
-    text = resources.files("mplang.stdlib").joinpath(family, filename).read_text("utf-8")
-    return tomllib.loads(text)
+def _read_text(family: str, filename: str) -> str:
+    return resources.files("mplang.stdlib").joinpath(family, filename).read_text("utf-8")
+
+
+CACHE_FORMAT = "catalogue 1"
+"""Part of the cache key: change it when the classes of this module change shape."""
+
+BUILDS: list[str] = []
+"""The families whose catalogue was built from the TOML in this process (tests read it)."""
 
 
 @cache
 def load(family: str = "m8194h") -> Catalogue:
-    """Load and index the catalogue and profile of a controller family (once per process)."""
-    commands = tuple(_command(c) for c in _read_toml(family, "commands.toml")["command"])
-    profile = _profile(_read_toml(family, "device.toml"))
+    """Load and index the catalogue and profile of a controller family (once per process).
+
+    The TOML files stay the one source: the indexed result is kept in the user cache
+    (`mplang.lang.caches`) under a hash of their text, so it is rebuilt whenever they
+    change, and parsing them (most of the start-up of a short run) is skipped otherwise."""
+    commands_text = _read_text(family, "commands.toml")
+    device_text = _read_text(family, "device.toml")
+    directory = caches.user_cache_dir()
+    if directory is None:
+        return _build(family, commands_text, device_text)
+    key = caches.digest(CACHE_FORMAT, family, commands_text, device_text)
+    path = directory / f"catalogue-{family}.pickle"
+    found = caches.load(path, key)
+    if isinstance(found, Catalogue):
+        return found
+    built = _build(family, commands_text, device_text)
+    caches.store(path, key, built)
+    return built
+
+
+def _build(family: str, commands_text: str, device_text: str) -> Catalogue:
+    """The catalogue from the text of its two TOML files."""
+    BUILDS.append(family)
+    commands = tuple(_command(c) for c in tomllib.loads(commands_text)["command"])
+    profile = _profile(tomllib.loads(device_text))
     by_vendor = {c.name.upper(): c for c in commands}
     macro_by_short: dict[str, Command] = {}
     rtc_by_short: dict[str, Command] = {}

@@ -1,22 +1,33 @@
 """Text -> flat list of line statements, with every syntax error reported at once.
 
-A whole file is parsed in one LALR pass (fast path). If that fails, every line is parsed on
-its own with the grammar's `line` start symbol, so one run reports all bad lines, not only
-the first; the good lines still reach the later passes.
+A whole file is parsed in one LALR pass, its tokens from the hand-written tokenizer
+(`mplang.lang.tokenizer`, the fast path). If that fails, the text is parsed again with
+lark's own contextual lexer, whole, then (still failing) every line on its own with the
+grammar's `line` start symbol, so one run reports all bad lines, not only the first; the
+good lines still reach the later passes. Lark's tables come from the user cache dir
+(`cached_lark`).
 """
 
 from __future__ import annotations
 
+import contextlib
+import hashlib
+import os
 import re
+import sys
+import tempfile
+from collections.abc import Callable
 from dataclasses import replace
 from functools import cache
 from importlib import resources
 from typing import Any
 
-from lark import Lark, Token, Transformer, v_args
+from lark import Lark, Token, Transformer
+from lark import __version__ as LARK_VERSION
 from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedToken, VisitError
 
 from mplang.lang import ast
+from mplang.lang.caches import user_cache_dir
 from mplang.lang.diagnostics import DiagnosticSink, Span
 from mplang.lang.limits import (
     MAX_EXPRESSION_DEPTH,
@@ -25,6 +36,10 @@ from mplang.lang.limits import (
     too_deep,
 )
 from mplang.lang.syntax_hints import character_hint, token_hint
+from mplang.lang.tokenizer import FastLexer, Refused
+
+PARSE_HOOKS: list[Callable[[str], object]] = []
+"""Called with the file name before each parse (tests count parses with it)."""
 
 # What the user sees instead of lark's terminal names.
 TOKEN_WORDS = {
@@ -59,19 +74,39 @@ def _int(token: Token) -> int:
     return int(text, 16) if text[:2].lower() == "0x" else int(text, 10)
 
 
-@v_args(inline=True)
+_PRECEDENCE = {"|": 1, "&": 2, "+": 3, "-": 3, "*": 4, "/": 4}
+
+
+def _combine(operators: list[str], operands: list[ast.Expr]) -> None:
+    """Replace the last two operands by the last operator applied to them."""
+    right = operands.pop()
+    left = operands.pop()
+    operands.append(ast.BinOp(operators.pop(), left, right, left.span))
+
+
+def _spread(method: Callable[..., Any]) -> Callable[[list[Any]], Any]:
+    return lambda children: method(*children)
+
+
 class _Builder(Transformer[Token, Any]):
-    """Builds AST nodes straight from tokens (no intermediate tree, no position propagation)."""
+    """Builds AST nodes straight from tokens (no intermediate tree, no position propagation).
+
+    Each rule's method takes the rule's children as arguments. Lark calls a callback with the
+    list of them: the instance holds, under each rule's name, a function that spreads the
+    list into its method (one call, where lark's `v_args(inline=True)` makes three)."""
 
     def __init__(self, file: str, line_offset: int = 0) -> None:
         super().__init__()
         self.file = file
         self.line_offset = line_offset
+        for name, value in vars(_Builder).items():
+            if callable(value) and not name.startswith("_"):
+                self.__dict__[name] = _spread(getattr(self, name))
 
     def _span(self, token: Token) -> Span:
         line = (token.line or 1) + self.line_offset
         col = token.column or 1
-        return Span(self.file, line, col, col + len(str(token)))
+        return Span(self.file, line, col, col + len(token))  # a token is its text
 
     def _first_span(self, *items: Any) -> Span:
         for item in items:
@@ -86,22 +121,44 @@ class _Builder(Transformer[Token, Any]):
     def number(self, tok: Token) -> ast.Num:
         return ast.Num(_int(tok), self._span(tok))
 
-    def name(self, tok: Token) -> ast.Name:
-        return ast.Name(str(tok), self._span(tok))
+    def _operand(self, item: Any) -> ast.Expr:
+        if not isinstance(item, Token):
+            return item  # type: ignore[no-any-return]  # a number, call or group, built already
+        if item.type == "NAME":
+            return ast.Name(str(item), self._span(item))
+        return ast.Str(str(item)[1:-1], self._span(item))
 
-    def string(self, tok: Token) -> ast.Str:
-        return ast.Str(str(tok)[1:-1], self._span(tok))
-
-    def binop(self, left: ast.Expr, op: Token, right: ast.Expr) -> ast.BinOp:
-        return ast.BinOp(str(op), left, right, left.span)
-
-    def neg(self, op: Token, operand: ast.Expr) -> ast.Expr:
-        if isinstance(operand, ast.Num):
-            return ast.Num(-operand.value, self._span(op))
-        return ast.Neg(operand, self._span(op))
-
-    def pos(self, op: Token, operand: ast.Expr) -> ast.Expr:
-        return operand
+    def expr(self, *items: Any) -> ast.Expr:
+        """Operands with their signs and operators, flat: the tree by precedence climbing
+        (`|` < `&` < `+ -` < `* /`, left-associative); a sign binds tighter, and a minus
+        before a number folds into it."""
+        operands: list[ast.Expr] = []
+        operators: list[str] = []
+        index, count = 0, len(items)
+        while index < count:
+            signs: list[Token] = []
+            item = items[index]
+            while isinstance(item, Token) and (item.type == "MINUS" or item.type == "PLUS"):
+                signs.append(item)
+                index += 1
+                item = items[index]
+            operand = self._operand(item)
+            for sign in reversed(signs):
+                if sign.type == "MINUS":
+                    operand = ast.Num(-operand.value, self._span(sign)) \
+                        if isinstance(operand, ast.Num) else ast.Neg(operand, self._span(sign))
+            operands.append(operand)
+            index += 1
+            if index < count:  # an operator: first combine what binds at least as tightly
+                operator = str(items[index])
+                index += 1
+                precedence = _PRECEDENCE[operator]
+                while operators and _PRECEDENCE[operators[-1]] >= precedence:
+                    _combine(operators, operands)
+                operators.append(operator)
+        while operators:
+            _combine(operators, operands)
+        return operands[0]
 
     def call(self, name: Token, lpar: Token, *rest: Any) -> ast.Call:
         args = [a for a in rest if a is not None and not isinstance(a, Token)]
@@ -220,13 +277,56 @@ class _Builder(Transformer[Token, Any]):
         return [] if statement is None else [statement]
 
 
+def cached_lark(grammar: str, name: str, **options: Any) -> Lark:
+    """`Lark(grammar, parser="lalr", **options)`, its tables kept in the user cache dir
+    (building them is most of lark's start-up).
+
+    Lark checks the file against a hash of the grammar, its options and its own version and
+    builds the tables when they differ or the file is damaged. It is written under a fresh
+    name and renamed into place, so a concurrent run never reads half of one."""
+    directory = user_cache_dir()
+    if directory is None:
+        return Lark(grammar, parser="lalr", **options)
+    key = hashlib.sha256(f"{grammar}\0{name}\0{LARK_VERSION}\0{sys.version_info[:2]}"
+                         .encode()).hexdigest()[:20]
+    target = directory / f"lark-{name}-{key}.pickle"
+    if target.is_file():
+        return Lark(grammar, parser="lalr", cache=str(target), **options)
+    try:
+        directory.mkdir(parents=True, exist_ok=True)
+        descriptor, scratch = tempfile.mkstemp(dir=directory, prefix=".lark-", suffix=".tmp")
+        os.close(descriptor)
+        os.unlink(scratch)  # lark writes it when it has built the tables
+    except OSError:
+        return Lark(grammar, parser="lalr", **options)
+    lark = Lark(grammar, parser="lalr", cache=scratch, **options)
+    with contextlib.suppress(OSError):  # lark could not write it: built all the same
+        os.replace(scratch, target)
+    return lark
+
+
+def _grammar() -> str:
+    return resources.files("mplang.grammar").joinpath("mplang.lark").read_text("utf-8")
+
+
 @cache
 def _parser() -> tuple[Lark, _Builder]:
-    """One parser per process; the inline builder is re-pointed at each file before use."""
-    grammar = resources.files("mplang.grammar").joinpath("mplang.lark").read_text("utf-8")
+    """Lark with lark's own contextual lexer: the reference, and the parser of the error
+    path (its messages are the ones the tests pin). One per process; the inline builder is
+    re-pointed at each file before use."""
     builder = _Builder("<none>")
-    lark = Lark(grammar, parser="lalr", lexer="contextual", start=["start", "line"],
-                maybe_placeholders=True, transformer=builder)
+    lark = cached_lark(_grammar(), "reference", lexer="contextual", start=["start", "line"],
+                       maybe_placeholders=True, transformer=builder)
+    return lark, builder
+
+
+@cache
+def _fast_parser() -> tuple[Lark, _Builder]:
+    """Lark fed by the hand-written tokenizer (`mplang.lang.tokenizer`): the fast path for
+    text that parses."""
+    builder = _Builder("<none>")
+    lark = cached_lark(_grammar(), "fast", lexer=FastLexer, start=["start"],
+                       maybe_placeholders=True, transformer=builder)
     return lark, builder
 
 
@@ -359,6 +459,22 @@ def _bounded(statements: list[ast.Statement], text: str,
 
 def parse_text(text: str, file: str, sink: DiagnosticSink) -> list[ast.Statement]:
     """Parse a whole source text; syntax errors go to `sink`, good lines are returned."""
+    if PARSE_HOOKS:
+        for hook in PARSE_HOOKS:
+            hook(file)
+    fast, fast_builder = _fast_parser()
+    fast_builder.file, fast_builder.line_offset = file, 0
+    try:
+        result: list[ast.Statement] = fast.parse(text, start="start")  # type: ignore[assignment]
+        return _bounded(result, text, sink)
+    except (UnexpectedInput, VisitError, _SyntaxProblem, Refused):
+        pass
+    return _parse_slowly(text, file, sink)
+
+
+def _parse_slowly(text: str, file: str, sink: DiagnosticSink) -> list[ast.Statement]:
+    """The text with lark's own lexer: whole (the tokenizer may have refused something lark
+    takes), else line by line, every bad line reported."""
     parser, builder = _parser()
     builder.file, builder.line_offset = file, 0
     try:
@@ -381,8 +497,13 @@ def parse_text(text: str, file: str, sink: DiagnosticSink) -> list[ast.Statement
             problem = err.orig_exc if isinstance(err, VisitError) else err
             if not isinstance(problem, _SyntaxProblem):
                 raise
-            sink.add(problem.code, Span(file, index + 1, problem.token.column or 1,
-                                        (problem.token.column or 1) + len(str(problem.token))),
-                     problem.message, hint=problem.hint)
+            _report_problem(problem, file, index, sink)
             statements.extend(_placeholder(line_text, Span(file, index + 1)))
     return _bounded(statements, text, sink)
+
+
+def _report_problem(problem: _SyntaxProblem, file: str, index: int,
+                    sink: DiagnosticSink) -> None:
+    column = problem.token.column or 1
+    sink.add(problem.code, Span(file, index + 1, column, column + len(str(problem.token))),
+             problem.message, hint=problem.hint)

@@ -16,14 +16,14 @@ from __future__ import annotations
 import errno
 import os
 import stat
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from importlib import resources
 from importlib.resources.abc import Traversable
 from pathlib import Path
 
-from mplang.lang import ast
+from mplang.lang import ast, frontcache
 from mplang.lang.diagnostics import DiagnosticSink, Span
-from mplang.lang.parser import parse_text
 
 
 @dataclass
@@ -93,11 +93,13 @@ class SourceSet:
 
 def load_sources(paths: list[Path], sink: DiagnosticSink, *,
                  allow_outside: bool = False,
-                 texts: dict[Path, str] | None = None) -> SourceSet:
+                 texts: dict[Path, str] | None = None,
+                 store: bool | Callable[[Path], bool] = True) -> SourceSet:
     """Read and parse `paths` and everything they include.
 
     `texts` supplies in-memory contents for some paths (editors, tests); other files are read
-    from disk.
+    from disk. Parses come from the front-end cache (`frontcache`) when it holds them, and
+    are kept there unless `store` is false (or, a function, false for that path).
     """
     result = SourceSet()
     seen: set[Path] = set()
@@ -146,7 +148,9 @@ def load_sources(paths: list[Path], sink: DiagnosticSink, *,
         if text is None:
             return
         seen.add(resolved)
-        source = SourceFile(path, display, text, parse_text(text, display, sink))
+        source = SourceFile(path, display, text, frontcache.parse(
+            text, display, sink, store=store if isinstance(store, bool) else store(path),
+            where=str(resolved)))
         result.files.append(source)
         depth = 0
         for statement in source.statements:

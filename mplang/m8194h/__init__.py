@@ -29,16 +29,15 @@ from mplang.family.face import (
 )
 from mplang.family.watch import Watch
 from mplang.ir.unit import Options
-from mplang.m8194h import machine as machine_module
 from mplang.m8194h.compiler import compile_paths
 from mplang.m8194h.image import DEFAULT_FORMAT, FORMATS, BuildResult
-from mplang.m8194h.machine import MachineSetup
-from mplang.m8194h.run import RunReport, run_family
 
 if TYPE_CHECKING:
     from mplang.m8194h.debugger import Session
     from mplang.m8194h.disasm import Disassembly
     from mplang.m8194h.live import Watcher
+    from mplang.m8194h.machine import MachineSetup
+    from mplang.m8194h.run import RunReport
 
 TITLE = "M8194H"
 TARGETS = ("et", "rs")
@@ -64,7 +63,18 @@ SERVE_OPTIONS = frozenset({"--unit", "--memory", "--word-order"})
 word order of the virtual controller."""
 
 FamilyBuild = BuildResult
-FamilyRun = RunReport
+if TYPE_CHECKING:
+    FamilyRun = RunReport
+
+
+def __getattr__(name: str) -> object:
+    """`FamilyRun` (the run report), imported when asked for: the virtual controller behind
+    it is not loaded by the commands that only compile (`mpc build`, `mpc lint`)."""
+    if name == "FamilyRun":
+        from mplang.m8194h.run import RunReport
+
+        return RunReport
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 __all__ = [
     "BUILD_OPTIONS",
@@ -113,15 +123,19 @@ def check_native(paths: list[Path], target: str | None = None) -> BuildResult:
 def run_build(build: BuildResult, call: str | None, max_time: float, *,
               sample_period: float | None = None, machine: object | None = None,
               watch: Watch | None = None) -> RunReport:
-    """Run one MP of the build on a fresh virtual controller (`mplang.m8194h.run`), on the
-    machine `load_machine` read, if given."""
+    """Run one MP of the build on a fresh virtual controller (`mplang.m8194h.run`, imported
+    when called, as `serve`), on the machine `load_machine` read, if given."""
+    from mplang.m8194h.run import run_family
+
     return run_family(build, call, max_time, sample_period=sample_period, machine=machine,
                       watch=watch)
 
 
 def load_machine(path: Path, project: bool = False) -> MachineSetup:
     """The simulated machine of a machine file, or of an mpc.toml's `[machine]` table with
-    `project` (`mplang.m8194h.machine`; docs/machine.md)."""
+    `project` (`mplang.m8194h.machine`, imported when called; docs/machine.md)."""
+    from mplang.m8194h import machine as machine_module
+
     return machine_module.load_machine(path, project=project)
 
 

@@ -6,18 +6,19 @@ encoding macro lines as Modbus frames (`encode`)."""
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from mplang.ir import catalogue as catalogue_module
 from mplang.ir.catalogue import Catalogue
 from mplang.ir.configure import TriggerTable, Wire
 from mplang.ir.lower import Scope
-from mplang.ir.macro import ProgramRef
+from mplang.ir.macro import LoweredProgram, ProgramRef
 from mplang.ir.unit import DEFAULT_TEMPS, Options, lower_unit
 from mplang.lang import ast
 from mplang.lang.diagnostics import DiagnosticSink, suppressed
 from mplang.lang.followon import settle_includes
-from mplang.lang.sources import load_sources
+from mplang.lang.sources import SourceSet, load_sources
 from mplang.lang.structure import build_unit
 from mplang.m8194h.encode import Encoder
 from mplang.m8194h.image import (
@@ -30,19 +31,38 @@ from mplang.m8194h.image import (
 )
 from mplang.m8194h.link import Placement, link, resolve
 
-__all__ = ["DEFAULT_TEMPS", "IMAGE_FORMAT", "BuildResult", "InitImage", "LineFrames", "Options",
-           "ProgramImage", "TriggerImage", "compile_paths", "compile_source"]
+__all__ = ["DEFAULT_TEMPS", "IMAGE_FORMAT", "BuildResult", "InitImage", "LineFrames", "Lowering",
+           "Options", "ProgramImage", "TriggerImage", "compile_paths", "compile_source",
+           "compile_sources"]
+
+
+@dataclass
+class Lowering:
+    """What a build worked out on the way to its image, for a tool that shows more than the
+    image from the same one pass (the language server: slot budgets, constant values)."""
+
+    scope: Scope | None = None
+    programs: list[LoweredProgram] = field(default_factory=list)
+    placements: list[Placement] = field(default_factory=list)
 
 
 def compile_paths(paths: list[Path], options: Options = Options(), *,
                   texts: dict[Path, str] | None = None) -> BuildResult:
     """Compile files (and their includes) together into one image."""
-    catalogue = catalogue_module.load()
     sink = DiagnosticSink()
     sources = load_sources(paths, sink, allow_outside=options.allow_outside_includes,
                            texts=texts)
+    return compile_sources(paths, sources, sink, options)
+
+
+def compile_sources(paths: list[Path], sources: SourceSet, sink: DiagnosticSink,
+                    options: Options = Options(), lowering: Lowering | None = None
+                    ) -> BuildResult:
+    """`compile_paths` for sources already read into `sources` (their diagnostics in
+    `sink`); `lowering`, when given, receives the scope, lowered programs and placements."""
+    catalogue = catalogue_module.load()
     unit = build_unit(sources, sink)
-    result = _finish(unit, catalogue, sink, options)
+    result = _finish(unit, catalogue, sink, options, lowering)
     result.sources = {f.display: f.text.splitlines() for f in sources.files}
     if paths:
         first = paths[0].resolve()
@@ -85,7 +105,7 @@ def _check_filled(placements: list[Placement], wired: list[Wire],
 
 
 def _finish(unit: object, catalogue: Catalogue, sink: DiagnosticSink,
-            options: Options) -> BuildResult:
+            options: Options, lowering: Lowering | None = None) -> BuildResult:
     assert isinstance(unit, ast.Unit)
     profile = catalogue.profile
     word_order = profile.word_order_default if options.word_order is None else options.word_order
@@ -94,6 +114,8 @@ def _finish(unit: object, catalogue: Catalogue, sink: DiagnosticSink,
     lowered, init = lowered_unit.programs, lowered_unit.init
     wiring, triggers = lowered_unit.wiring, lowered_unit.triggers
     placements = link(lowered, profile, sink, options.pins)
+    if lowering is not None:
+        lowering.scope, lowering.programs, lowering.placements = scope, lowered, placements
     by_name = {p.name.upper(): p for p in lowered if p.name}
 
     def slot_of(ref: ProgramRef) -> int | None:

@@ -147,8 +147,8 @@ def _signature(line: _Line, catalogue: catalogue_module.Catalogue) -> Signature:
 
 
 def _tokens(tree: Tree[Token]) -> list[Token]:
-    """The tokens of a statement tree in source order, without recursion: a run of signs
-    (`- - - 5`) nests a tree level per sign, though the compiler folds it to one number."""
+    """The tokens of a statement tree in source order, without recursion (brackets nest a
+    tree level each)."""
     found: list[Token] = []
     pending: list[Tree[Token] | Token | None] = [tree]
     while pending:
@@ -233,8 +233,9 @@ class _Renderer:
             name, args = cast(Token, children[0]), children[1:]
             head = self.command_name(name)
             exprs = [a for a in args if isinstance(a, Tree)]
-            if len(exprs) == 1 and exprs[0].data == "group":
-                return head + self.expr(exprs[0])  # NAME(a, b): the argument list form
+            only = exprs[0].children if len(exprs) == 1 else []
+            if len(only) == 1 and isinstance(only[0], Tree) and only[0].data == "group":
+                return head + self.expr(only[0])  # NAME(a, b): the argument list form
             return f"{head} {', '.join(self.expr(e) for e in exprs)}" if exprs else head
         parts = [self.expr(c) if isinstance(c, Tree) and c.data not in ("on_call", "on_words")
                  else self.statement(c) if isinstance(c, Tree) else self.token(c)
@@ -244,20 +245,23 @@ class _Renderer:
     def expr(self, tree: Tree[Token]) -> str:
         children = [c for c in tree.children if c is not None]
         match tree.data:
-            case "binop":
-                left, op, right = children
-                return f"{self.expr(cast(Tree[Token], left))} {op} " \
-                       f"{self.expr(cast(Tree[Token], right))}"
-            case "neg" | "pos":  # a run of signs, followed without recursion
-                signs = ""
-                while tree.data in ("neg", "pos"):
-                    op, operand = [c for c in tree.children if c is not None]
-                    signs += str(op)
-                    tree = cast(Tree[Token], operand)
-                return signs + self.expr(tree)
-            case "name":
-                return self.command_name(cast(Token, children[0]))
-            case "number" | "string":
+            case "expr":  # operands with their signs, and binary operators, flat
+                text = ""
+                expect_operand = True
+                for child in children:
+                    if isinstance(child, Tree):
+                        text += self.expr(child)
+                        expect_operand = False
+                    elif expect_operand and child.type in ("MINUS", "PLUS"):
+                        text += str(child)  # a sign, written against its operand
+                    elif expect_operand:
+                        text += self.command_name(child) if child.type == "NAME" else str(child)
+                        expect_operand = False
+                    else:
+                        text += f" {child} "
+                        expect_operand = True
+                return text
+            case "number":
                 return str(children[0])
             case "call":
                 return self.command_name(cast(Token, children[0])) + self.arguments(children[1:])

@@ -203,7 +203,7 @@ def test_a_renderer_that_loses_a_token_is_caught(monkeypatch: pytest.MonkeyPatch
 
     def dropping_unary_minus(self: _Renderer, tree: Any) -> str:
         text = original(self, tree)
-        return text.lstrip("-") if tree.data == "neg" else text
+        return text.lstrip("-") if tree.data == "expr" else text  # the flat expression
 
     monkeypatch.setattr(_Renderer, "expr", dropping_unary_minus)
     with pytest.raises(FormatterBug):

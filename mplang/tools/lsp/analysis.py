@@ -1,10 +1,10 @@
 """What the editor needs to know about one open `.mp` document, computed without pygls.
 
-`analyse` compiles the document's in-editor text with the real compiler (`compile_paths`,
-INCLUDEs read from disk or from other open documents) for the diagnostics, and reads the
-same sources once more through the front end for what the compiler does not hand back: where
-each CONST, ALIAS, program and label is defined, each program's lines against its slot
-budget (also while the build has errors), and the include graph. `mplang.tools.lsp.features`
+`analyse` compiles the document's in-editor text with the real compiler (`compile_sources`,
+INCLUDEs read from disk or from other open documents) for the diagnostics, in one pass: the
+sources it read and what it lowered and linked also give what the image does not hold:
+where each CONST, ALIAS, program and label is defined, each program's lines against its
+slot budget (also while the build has errors), and the include graph. `mplang.tools.lsp.features`
 answers hover, completion and definition from the result.
 """
 
@@ -31,7 +31,7 @@ from mplang.lang.diagnostics import (
 )
 from mplang.lang.sources import SourceFile, SourceSet, load_sources
 from mplang.lang.structure import build_unit
-from mplang.m8194h.compiler import compile_paths
+from mplang.m8194h.compiler import Lowering, compile_sources
 from mplang.m8194h.link import Placement, link
 from mplang.tools.lsp.positions import Location, Range, line_range, span_range, split_lines
 from mplang.tools.lsp.tokens import Token, lex_line
@@ -255,11 +255,21 @@ def _analyse(path: Path, text: str, context: BuildContext, open_texts: Mapping[P
     paths = [path if p.resolve() == resolved else p for p in context.sources]
     if resolved not in {p.resolve() for p in paths}:
         paths = [path]
-    diagnostics = compile_paths(paths, options, texts=texts).diagnostics if family is None \
-        else family.compile_mp(paths, options, context.options.target, texts=texts).diagnostics
-    scratch = DiagnosticSink()  # the compiler's own run above reports; this one is discarded
-    sources = load_sources(paths, scratch, allow_outside=options.allow_outside_includes,
-                           texts=texts)
+    lowering: Lowering | None = None
+    if family is None:  # one pass: the sources read once, lowered once, for all of it
+        sink = DiagnosticSink()
+        sources = load_sources(paths, sink, allow_outside=options.allow_outside_includes,
+                               texts=texts, store=lambda p: p.resolve() in texts.disk)
+        # the parses of files read from disk are kept for the next change; editor buffers,
+        # text being typed, are not
+        lowering = Lowering()
+        diagnostics = compile_sources(paths, sources, sink, options, lowering).diagnostics
+    else:
+        diagnostics = family.compile_mp(paths, options, context.options.target,
+                                        texts=texts).diagnostics
+        scratch = DiagnosticSink()  # the family's run above reports; this one is discarded
+        sources = load_sources(paths, scratch, allow_outside=options.allow_outside_includes,
+                               texts=texts)
     diagnostics = [*without_ignored(diagnostics, context.ignore),
                    *_refusals(sources.files, paths, texts.refused)]
     by_display: dict[str, SourceText] = {}
@@ -277,7 +287,7 @@ def _analyse(path: Path, text: str, context: BuildContext, open_texts: Mapping[P
     analysis.includes = [replace(i, target=_include_target(analysis.path, i.spelled, analysis,
                                                            by_display))
                          for i in analysis.includes]
-    _measure_programs(analysis, sources.files, by_display, catalogue, options)
+    _measure_programs(analysis, sources.files, by_display, catalogue, options, lowering)
     graph = _include_graph(sources.files, analysis, by_display)
     placed = (_place_diagnostic(analysis, d, by_display, graph) for d in diagnostics)
     analysis.diagnostics = [d for d in placed if d is not None]
@@ -353,6 +363,11 @@ def _line_tokens(entry: SourceText, line: int) -> list[Token]:
     return lex_line(entry.lines[line - 1]) if 0 < line <= len(entry.lines) else []
 
 
+_INDEXED = (ast.Const, ast.Alias, ast.VarDecl, ast.ProgramHeader, ast.End, ast.LabelStmt,
+            ast.Include)
+"""The statements `_index_file` reads."""
+
+
 def _index_file(analysis: Analysis, source: SourceFile, entry: SourceText) -> None:
     """Definitions, program blocks and INCLUDE lines of one file."""
     open_block: ProgramBlock | None = None
@@ -366,6 +381,12 @@ def _index_file(analysis: Analysis, source: SourceFile, entry: SourceText) -> No
             open_block = None
 
     for statement in source.statements:
+        if not isinstance(statement, _INDEXED):
+            continue  # commands and the like define nothing: their line is not lexed
+        if isinstance(statement, ast.End):
+            if statement.what in ("mp", "isr"):
+                close(statement.span.line - 1)
+            continue
         line = statement.span.line
         tokens = _line_tokens(entry, line)
         text = _code_text(entry.lines[line - 1], tokens) if tokens else ""
@@ -382,8 +403,6 @@ def _index_file(analysis: Analysis, source: SourceFile, entry: SourceText) -> No
             case ast.ProgramHeader():
                 close(line - 2)
                 open_block = _program_block(statement, entry, tokens, line - 1)
-            case ast.End(what="mp" | "isr"):
-                close(line - 1)
             case ast.LabelStmt() if open_block is not None:
                 label = tokens[1] if len(tokens) > 1 and tokens[1].kind in ("name", "int") \
                     else None
@@ -417,23 +436,26 @@ def _program_block(header: ast.ProgramHeader, entry: SourceText, tokens: list[To
 
 def _measure_programs(analysis: Analysis, files: list[SourceFile],
                       by_display: dict[str, SourceText], catalogue: Catalogue,
-                      options: Options) -> None:
+                      options: Options, lowering: Lowering | None = None) -> None:
     """Lines used and slot of every program, from the compiler's own lowering and linker.
 
-    The compiler stops before placement output when the build has errors; this runs the same
-    passes to the link so the budgets show while the document is being fixed (lines that do
-    not compile are not counted).
+    The compiler links also when the build has errors, so the budgets show while the
+    document is being fixed (lines that do not compile are not counted): `lowering` holds
+    what its pass worked out. Without it (a FATEK or CSIM project, whose `.mp` files the
+    family compiles) the same passes run here.
     """
-    sink = DiagnosticSink()
-    unit = build_unit(SourceSet(files), sink)
-    scope = Scope.declared(unit, catalogue, sink, options.var_pool, options.temps)
+    if lowering is None or lowering.scope is None:
+        sink = DiagnosticSink()
+        unit = build_unit(SourceSet(files), sink)
+        scope = Scope.declared(unit, catalogue, sink, options.var_pool, options.temps)
+        lowered = lower_unit(unit, scope, sink, options).programs
+        linked = link(lowered, catalogue.profile, sink, options.pins)
+    else:
+        scope, lowered, linked = lowering.scope, lowering.programs, lowering.placements
     analysis.const_values = dict(scope.const_values)
     analysis.alias_targets = dict(scope.aliases)
     analysis.pinned = {v.name.upper() for v in scope.variables if v.pinned}
-    lowered = lower_unit(unit, scope, sink, options).programs
-    placements: dict[int, Placement] = {id(p.program): p
-                                        for p in link(lowered, catalogue.profile, sink,
-                                                      options.pins)}
+    placements: dict[int, Placement] = {id(p.program): p for p in linked}
     close_counts = catalogue.profile.close_counts_as_line
     for program in lowered:
         entry = by_display.get(program.span.file)

@@ -164,7 +164,7 @@ def test_a_compiler_failure_becomes_one_diagnostic_and_commands_still_hover(
     def broken(*_args: object, **_kwargs: object) -> None:
         raise RecursionError("maximum recursion depth exceeded")
 
-    monkeypatch.setattr(module, "compile_paths", broken)
+    monkeypatch.setattr(module, "compile_sources", broken)
     analysis = analyse(Path("crash.mp"), "MP 1\n    SET_V X, 1\nEND MP\n")
     (only,) = analysis.diagnostics
     assert only.message == ("mpc could not check this text: RecursionError: maximum "
@@ -201,3 +201,42 @@ def test_a_family_project_is_checked_by_its_family(tmp_path: Path, target: str,
     assert not any("could not check" in d.message for d in analysis.diagnostics)
     go = analysis.program_named("go")
     assert go is not None and analysis.slot_use(go) is not None
+
+
+def test_one_change_is_one_analysis(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """didChange: the document is parsed once and lowered once (the compiler's pass also
+    gives the definitions and the slot budgets), and an included file that did not change
+    comes from the front-end cache. Counted through the parser's hook and the lowering."""
+    from mplang.ir import unit as unit_module
+    from mplang.lang import parser
+    from mplang.m8194h import compiler
+    from mplang.tools.lsp import analysis as module
+
+    monkeypatch.setenv("MPLANG_CACHE", str(tmp_path / "cache"))
+    (tmp_path / ".git").mkdir()
+    (tmp_path / "common.mp").write_text(COMMON)
+    parsed: list[str] = []
+    lowered: list[int] = []
+    original = unit_module.lower_unit
+
+    def counted(*args: object, **kwargs: object) -> object:
+        lowered.append(1)
+        return original(*args, **kwargs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(compiler, "lower_unit", counted)
+    monkeypatch.setattr(module, "lower_unit", counted)
+    monkeypatch.setattr(parser, "PARSE_HOOKS", [parsed.append])
+    path = tmp_path / "main.mp"
+    first = analyse(path, MAIN)
+    assert sorted(Path(p).name for p in parsed) == ["common.mp", "main.mp"]
+    assert len(lowered) == 1
+    parsed.clear()
+    lowered.clear()
+    changed = analyse(path, MAIN.replace("FIXD_MOVE", "FIXED_MOVE"))
+    assert [Path(p).name for p in parsed] == ["main.mp"] and len(lowered) == 1
+    assert [d.code for d in first.diagnostics if "FIXD_MOVE" in d.message] == ["E201"]
+    assert not [d for d in changed.diagnostics if "FIXD_MOVE" in d.message]
+    assert changed.slot_use(changed.programs[0]) is not None
+    assert set(changed.consts) == {"SPEED"} and changed.const_values["SPEED"] == 4000
+    # the include read from disk is kept for the next change, the editor's buffer is not
+    assert len(list((tmp_path / "cache" / "front").iterdir())) == 1

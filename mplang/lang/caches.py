@@ -1,0 +1,80 @@
+"""Where mpc keeps what it can rebuild (lark's parse tables, the catalogue, front-end
+results), and how: pickles written under a fresh name and renamed into place, so a
+concurrent run reads a whole file or none, and read back only when their key matches.
+
+The user cache directory is `$XDG_CACHE_HOME/mplang`, else `~/.cache/mplang`; `MPLANG_CACHE`
+names another directory, or (empty, `0`, `off`) turns every cache off. A cache that cannot
+be read or written, is damaged or was written for other inputs is ignored: rebuilding is
+only slower, never different.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import os
+import pickle
+import sys
+import tempfile
+from pathlib import Path
+
+from mplang import __version__
+
+OFF_WORDS = ("", "0", "off", "no", "false")
+STAMP = f"mplang {__version__} python {sys.version_info[0]}.{sys.version_info[1]}"
+"""Part of every key: a cache of another mpc or Python is never read."""
+
+
+_turned_off = False
+
+
+def turn_off(off: bool = True) -> None:
+    """`--no-cache`: no cache is read or written by this process from now on (or again)."""
+    global _turned_off
+    _turned_off = off
+
+
+def user_cache_dir() -> Path | None:
+    """The directory of mpc's caches, or None when caching is turned off."""
+    if _turned_off:
+        return None
+    chosen = os.environ.get("MPLANG_CACHE")
+    if chosen is not None:
+        return None if chosen.strip().lower() in OFF_WORDS else Path(chosen)
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "mplang"
+
+
+def digest(*parts: str | bytes) -> str:
+    """A key from the inputs a cached result depends on (and STAMP)."""
+    hasher = hashlib.sha256(STAMP.encode())
+    for part in parts:
+        hasher.update(b"\0")
+        hasher.update(part.encode("utf-8", "surrogatepass") if isinstance(part, str) else part)
+    return hasher.hexdigest()
+
+
+def load(path: Path, key: str) -> object | None:
+    """What `store` kept at `path` under `key`, or None (absent, damaged, another key)."""
+    try:
+        with open(path, "rb") as stream:
+            stored_key, value = pickle.load(stream)
+    except Exception:
+        return None
+    return value if stored_key == key else None
+
+
+def store(path: Path, key: str, value: object) -> None:
+    """Keep `value` at `path` under `key`, atomically; silently nothing when it cannot."""
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        descriptor, scratch = tempfile.mkstemp(dir=path.parent, prefix=".", suffix=".tmp")
+    except OSError:
+        return
+    try:
+        with os.fdopen(descriptor, "wb") as stream:
+            pickle.dump((key, value), stream, protocol=pickle.HIGHEST_PROTOCOL)
+        os.replace(scratch, path)
+    except Exception:
+        with contextlib.suppress(OSError):
+            os.unlink(scratch)

@@ -1,0 +1,194 @@
+"""mpc's caches (docs/cli.md, "Caches"): per-file front-end results, the catalogue and lark's
+tables, each rebuilt on any change and ignored when damaged. Parses are counted through the
+parser's hook, never timed."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from mplang.cli import main
+from mplang.ir import catalogue
+from mplang.lang import caches, frontcache, parser
+from mplang.m8194h.compiler import compile_paths
+
+MAIN = 'INCLUDE "a.mp"\nINCLUDE "b.mp"\nMP 1\n  X_SPEED = A + B\nEND MP\n'
+
+
+@pytest.fixture
+def cache_dir(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    directory = tmp_path / "cache"
+    monkeypatch.setenv("MPLANG_CACHE", str(directory))
+    return directory
+
+
+@pytest.fixture
+def parsed() -> Iterator[list[str]]:
+    """The files parsed (not taken from the cache) while the test runs."""
+    names: list[str] = []
+    parser.PARSE_HOOKS.append(names.append)
+    yield names
+    parser.PARSE_HOOKS.remove(names.append)
+
+
+def _project(root: Path) -> Path:
+    (root / "mpc.toml").write_text("")
+    (root / "a.mp").write_text("CONST A = 1\nALIAS X_SPEED = VAR7\n")
+    (root / "b.mp").write_text("CONST B = 2\n")
+    main_file = root / "main.mp"
+    main_file.write_text(MAIN)
+    return main_file
+
+
+def _image(main_file: Path) -> tuple[object, ...]:
+    result = compile_paths([main_file])
+    return (result.ok, [d.render() for d in result.diagnostics],
+            [[line.frame for line in p.lines] for p in result.programs])
+
+
+def test_a_second_build_parses_only_the_changed_file(tmp_path: Path, cache_dir: Path,
+                                                     parsed: list[str]) -> None:
+    main_file = _project(tmp_path)
+    first = _image(main_file)
+    assert sorted(Path(name).name for name in parsed) == ["a.mp", "b.mp", "main.mp"]
+    parsed.clear()
+    assert _image(main_file) == first
+    assert parsed == []
+    (tmp_path / "b.mp").write_text("CONST B = 3\n")
+    changed = _image(main_file)
+    assert [Path(name).name for name in parsed] == ["b.mp"]
+    assert changed != first  # the new constant reached the image
+
+
+def test_syntax_errors_come_back_from_the_cache(tmp_path: Path, cache_dir: Path,
+                                                parsed: list[str]) -> None:
+    main_file = tmp_path / "bad.mp"
+    main_file.write_text("MP 1\n  X = = 1\n  FOO 999999999999999999999\nEND MP\n")
+    first = _image(main_file)
+    assert parsed and not first[0]
+    parsed.clear()
+    assert _image(main_file) == first
+    assert parsed == []
+
+
+def test_a_damaged_cache_is_ignored(tmp_path: Path, cache_dir: Path,
+                                    parsed: list[str]) -> None:
+    main_file = _project(tmp_path)
+    first = _image(main_file)
+    entries = list((cache_dir / "front").iterdir())
+    assert len(entries) == 3
+    for number, entry in enumerate(entries):
+        # garbage, a cut-off pickle, and a well-formed pickle of something else
+        entry.write_bytes([b"\x80\x05garbage", entry.read_bytes()[:20],
+                           b"\x80\x04\x95\x05\x00\x00\x00\x00\x00\x00\x00K\x01K\x02\x86."]
+                          [number % 3])
+    parsed.clear()
+    assert _image(main_file) == first
+    assert len(parsed) == 3
+
+
+def test_another_front_end_is_a_miss(tmp_path: Path, cache_dir: Path, parsed: list[str],
+                                     monkeypatch: pytest.MonkeyPatch) -> None:
+    """A changed grammar or parser (here, its key) never reuses an entry."""
+    main_file = _project(tmp_path)
+    _image(main_file)
+    parsed.clear()
+    monkeypatch.setattr(frontcache, "front_end_key", lambda: "another front end")
+    _image(main_file)
+    assert len(parsed) == 3
+
+
+def test_an_unwritable_cache_dir_only_costs_time(tmp_path: Path, parsed: list[str],
+                                                 monkeypatch: pytest.MonkeyPatch) -> None:
+    blocker = tmp_path / "not-a-dir"
+    blocker.write_text("")
+    monkeypatch.setenv("MPLANG_CACHE", str(blocker / "cache"))
+    main_file = _project(tmp_path)
+    assert _image(main_file)[0]
+    assert _image(main_file)[0]
+    assert len(parsed) == 6
+
+
+def test_no_cache_parses_every_file(tmp_path: Path, cache_dir: Path, parsed: list[str],
+                                    monkeypatch: pytest.MonkeyPatch) -> None:
+    main_file = _project(tmp_path)
+    monkeypatch.chdir(tmp_path)
+    runner = CliRunner()
+    assert runner.invoke(main, ["lint", str(main_file)]).exit_code == 0
+    parsed.clear()
+    assert runner.invoke(main, ["lint", "--no-cache", str(main_file)]).exit_code == 0
+    assert len(parsed) == 3
+    parsed.clear()
+    assert runner.invoke(main, ["lint", str(main_file)]).exit_code == 0  # on again
+    assert parsed == []
+
+
+def test_cache_off_in_the_environment(tmp_path: Path, parsed: list[str],
+                                      monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("MPLANG_CACHE", "off")
+    assert caches.user_cache_dir() is None
+    main_file = _project(tmp_path)
+    _image(main_file)
+    _image(main_file)
+    assert len(parsed) == 6
+
+
+def test_the_catalogue_is_rebuilt_when_its_toml_changes(cache_dir: Path,
+                                                        monkeypatch: pytest.MonkeyPatch) -> None:
+    """stdlib/m8194h/*.toml stay the one source: a changed text is a miss."""
+    catalogue.load.cache_clear()
+    monkeypatch.setattr(catalogue, "BUILDS", [])
+    try:
+        first = catalogue.load()
+        catalogue.load.cache_clear()
+        assert catalogue.load() == first
+        assert catalogue.BUILDS == ["m8194h"]  # the second load came from the cache
+        original = catalogue._read_text
+
+        def changed(family: str, filename: str) -> str:
+            text = original(family, filename)
+            return text.replace('summary = "', 'summary = "changed: ', 1) \
+                if filename == "commands.toml" else text
+
+        monkeypatch.setattr(catalogue, "_read_text", changed)
+        catalogue.load.cache_clear()
+        rebuilt = catalogue.load()
+        assert catalogue.BUILDS == ["m8194h", "m8194h"]
+        assert any(c.summary.startswith("changed: ") for c in rebuilt.commands)
+        for entry in cache_dir.glob("catalogue-*"):
+            entry.write_bytes(b"damaged")
+        catalogue.load.cache_clear()
+        assert catalogue.load() == rebuilt
+        assert len(catalogue.BUILDS) == 3
+    finally:
+        catalogue.load.cache_clear()
+
+
+def test_lark_tables_from_the_cache_parse_the_same(cache_dir: Path) -> None:
+    grammar = parser._grammar()
+    built = parser.cached_lark(grammar, "test", start="start")
+    assert list(cache_dir.glob("lark-test-*.pickle"))
+    loaded = parser.cached_lark(grammar, "test", start="start")
+    text = "MP 1\n  X = -(1 + 2) * 3\nEND MP\n"
+    assert loaded.parse(text) == built.parse(text)
+
+
+def test_a_damaged_lark_table_cache_is_rebuilt(cache_dir: Path) -> None:
+    grammar = parser._grammar()
+    parser.cached_lark(grammar, "damaged", start="start")
+    (entry,) = cache_dir.glob("lark-damaged-*.pickle")
+    entry.write_bytes(entry.read_bytes()[:100])
+    rebuilt = parser.cached_lark(grammar, "damaged", start="start")
+    assert rebuilt.parse("MP 1\nEND MP\n").data == "start"
+
+
+def test_an_unwritable_lark_table_cache_only_costs_time(tmp_path: Path,
+                                                        monkeypatch: pytest.MonkeyPatch) -> None:
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    monkeypatch.setenv("MPLANG_CACHE", str(blocker / "cache"))
+    built = parser.cached_lark(parser._grammar(), "nowhere", start="start")
+    assert built.parse("MP 1\nEND MP\n").data == "start"
