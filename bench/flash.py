@@ -33,7 +33,7 @@ from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from mplang.family.ptylink import PtyLink
+from mplang.family.ptylink import PtyLink, Wire
 from mplang.ir import catalogue
 from mplang.m8194h.compiler import compile_paths, compile_source
 from mplang.m8194h.flash import FlashImage, FlashReport, flash, image_from_build
@@ -183,11 +183,10 @@ async def over_tcp(image: FlashImage) -> None:
 
 # ------------------------------------------------------------------------- 2: RTU wire
 def paced_line(baud: int) -> PtyLink:
-    """A pty link that holds every chunk for its time on an RTU wire (`BITS_PER_CHAR` bits
-    per byte at `baud`, plus the 3.5-character silence): a serial line without hardware that
-    takes as long as a real one."""
-    char_time = BITS_PER_CHAR / baud
-    return PtyLink(lambda data: (len(data) + GAP_CHARS) * char_time)
+    """A pty link that passes every chunk on when it would be through an RTU wire
+    (`BITS_PER_CHAR` bits per byte at `baud`, the 3.5-character silence before each frame):
+    a serial line without hardware that takes as long as a real one (`ptylink.Wire`)."""
+    return PtyLink(Wire(baud, BITS_PER_CHAR, GAP_CHARS))
 
 
 def rtu_request_bytes(registers: int) -> int:
