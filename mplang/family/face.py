@@ -80,6 +80,7 @@ class ServeRequest:
     verbose: bool
     word_order: int | None
     describe: str  # the family (and target) in words, for messages
+    devices: int = 1  # `mpc sim --devices N`: N devices from one process
 
 
 class CommandError(Exception):

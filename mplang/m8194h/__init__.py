@@ -50,9 +50,9 @@ FLASH_OPTIONS = frozenset({"--unit", "--word-order", "--set-word-order", "--reco
 build manifest in machine data."""
 FLASHES_FLEETS = True
 FLASH_INSTEAD = ""
-SERVE_OPTIONS = frozenset({"--unit", "--memory", "--word-order"})
-"""`mpc sim` options beyond the common ones: the RTU address, the macro memory file and the
-word order of the virtual controller."""
+SERVE_OPTIONS = frozenset({"--unit", "--memory", "--word-order", "--devices"})
+"""`mpc sim` options beyond the common ones: the RTU address, the macro memory file, the
+word order of the virtual controller and a fleet of them (`--devices`)."""
 
 FamilyBuild = BuildResult
 FamilyRun = RunReport
