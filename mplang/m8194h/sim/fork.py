@@ -6,10 +6,12 @@ watch_axis_stops`) it copied the whole controller each time: most of a motion-he
 into it. A fork copies only what running ahead changes, and shares what never changes once
 built: a `_Motion` (a new motion replaces a running one, it is never altered), its profile
 and every path but a chain's, the queued `_Cmd`s (compared by identity), `_Plan`s and
-`_Seg`s. A continuous interpolation's `_ChainPath` grows as segments come in, so it is
-copied, and with it every motion, event and home search that drives along it, keeping the
-sharing the original has (a chain's motion is its axes' motion). The copy's stop watchers
-are removed: what a prediction meets is not something the program did.
+`_Seg`s, and the sensors and axis configuration, which only commands change (a fork runs
+none: it only settles time forward; the axis settings are copied, as a synchronous action
+may change a speed). A continuous interpolation's `_ChainPath` grows as segments come in,
+so it is copied, and with it every motion, event and home search that drives along it,
+keeping the sharing the original has (a chain's motion is its axes' motion). The copy's
+stop watchers are removed: what a prediction meets is not something the program did.
 
 `FORKED` lists the attributes a fork knows for each class; a test keeps it equal to what the
 classes hold, so a new mutable attribute cannot slip past the copy.
@@ -21,7 +23,7 @@ from typing import TYPE_CHECKING, Any, TypeVar
 
 from mplang.m8194h.sim.builders import _Motion
 from mplang.m8194h.sim.chains import _Chain
-from mplang.m8194h.sim.io_state import _AxisConfig, _AxisStatus, _Event, _HomeRun
+from mplang.m8194h.sim.io_state import _AxisStatus, _Event, _HomeRun
 from mplang.m8194h.sim.paths import _ChainPath
 
 if TYPE_CHECKING:
@@ -106,12 +108,6 @@ class _Forker:
         new.motion = self.motion(run.motion)
         return new
 
-    def config(self, cfg: _AxisConfig) -> _AxisConfig:
-        new = _blank(cfg)
-        new.int_factors = dict(cfg.int_factors)
-        new.action = None if cfg.action is None else _blank(cfg.action)
-        return new
-
     def status(self, st: _AxisStatus) -> _AxisStatus:
         new = _blank(st)
         new.home = self.home(st.home)
@@ -121,8 +117,7 @@ class _Forker:
     def io(self, io: AxisIO, model: MotionModel) -> AxisIO:
         new = _blank(io)
         new.model = model
-        new.sensors = [_blank(s) for s in io.sensors]
-        new.cfg = [self.config(c) for c in io.cfg]
+        # sensors and cfg are shared: only commands change them, and a fork runs none
         new.status = [self.status(s) for s in io.status]
         new.triggered = list(io.triggered)
         new.requests = [_blank(r) for r in io.requests]
@@ -132,6 +127,7 @@ class _Forker:
 
     def model(self, model: MotionModel) -> MotionModel:
         new = _blank(model)
+        # a synchronous action may change a speed while running ahead (SET_ACTION preset 4)
         new.settings = [_blank(s) for s in model.settings]
         new.vector = _blank(model.vector)
         axes = []

@@ -52,6 +52,10 @@ def _command(model: MotionModel, kind: int, a: int, b: int, now: float) -> None:
                 model.start(axis, now)
             case 11:
                 model.io.set_compare(axis, a % 2, 0, b, now)
+            case 12:  # a start on one axis sets another's speed and may drive it
+                other = (X, Y, Z, U)[(a + 1) % 4]
+                model.io.set_preset(other, abs(b) % 50_000 + 100)
+                model.io.sync_action(axis, other, 0xFF, a % 5, 0, 4, 0, 0, (0, 0, 0, 0), now)
             case _:
                 model.intp_end(2, now)
     except (ValueError, QueueFull):
@@ -64,6 +68,16 @@ def _observe(model: MotionModel, now: float) -> tuple[object, ...]:
                   model.axis_report(i, now)) for i in range(4))
     return axes, model.busy(15, now), model.waiting_commands(), \
         tuple(model.io.triggered_factors(now)), tuple(model.io.requests)
+
+
+def _settings(model: MotionModel) -> tuple[object, ...]:
+    """The model's settings and configuration as values (compared before and after a fork
+    ran ahead: the original's must not move)."""
+    return ([vars(s).copy() for s in model.settings], vars(model.vector).copy(),
+            [repr(c) for c in model.io.cfg], [repr(s) for s in model.io.sensors],
+            [(s.latched, s.latch, s.mach_off, s.home_end,
+              None if s.home is None else (s.home.state, s.home.stopping))
+             for s in model.io.status], list(model.io.triggered))
 
 
 def _run_ahead(model: MotionModel, start: float, steps: int = 40) -> list[tuple[object, ...]]:
@@ -81,7 +95,7 @@ def _run_ahead(model: MotionModel, start: float, steps: int = 40) -> list[tuple[
     return seen
 
 
-program = st.lists(st.tuples(st.integers(0, 12), st.integers(0, 40),
+program = st.lists(st.tuples(st.integers(0, 13), st.integers(0, 40),
                              st.integers(-30_000, 30_000), st.floats(0.0, 0.4)),
                    min_size=1, max_size=14)
 
@@ -107,6 +121,7 @@ def test_fork_runs_ahead_as_a_deep_copy_does_and_leaves_the_original(
         ahead = fork(model)
         reference = copy.deepcopy(model)
         assert _run_ahead(ahead, now) == _run_ahead(reference, now)
+        assert _settings(model) == _settings(before)
         # the original was not touched: it runs ahead as the copy taken before the fork
         assert _run_ahead(copy.deepcopy(model), now) == _run_ahead(copy.deepcopy(before), now)
         assert model.idle_at(15, now) == copy.deepcopy(before).idle_at(15, now)
