@@ -1,39 +1,39 @@
-"""`mpc flash` download speed (printed, never asserted).
+"""`mpc flash` download speed (printed, never asserted). `bench/flash.py [tcp] [rtu] [fleet]`
+runs the parts named (default: all three).
 
-Targets (issue 4), each a ratio to a baseline measured in the same run:
+Targets (issues 4 and 16), each a ratio to a baseline measured in the same run:
 
 1. A full-device image (every MP and ISR slot filled to its line budget) over loopback Modbus
    TCP: total time at most 1.3 x N single-frame round trips, N being every request the flash
    makes (frames and status reads); a round trip is one FC16 sub-function frame and its
    answer through the same client (`DeviceLink`) to the same virtual device.
-2. The same image over Modbus RTU at 115200 baud 8N1: total time against the wire-time limit,
+2. The same image over Modbus RTU at 115200 baud 8N1: at most 1.15 x the wire-time limit,
    the bytes of every request and answer on the line (start bit, 8 data bits, parity and
    stop bits) plus a 3.5-character silence before each frame. Ptys ignore the baud rate, so
-   the line here is a pty pair whose relay holds every chunk for its time on the wire.
-3. A fleet of 20 virtual devices flashed at once (20 `mplang.m8194h.flash.flash` calls under
-   asyncio.gather) against one device with the same image: target at most 2x. The image is
-   the samples build (788 frames; the full device 20 times over would take minutes). Three
-   fleets: TCP devices served by this process's event loop, TCP devices served by a child
-   process (`--serve N`: the devices then do not take the flashing loop's time), and RTU
-   devices each on its own paced 115200-baud line. Over loopback TCP nothing waits: every
-   request costs CPU only, so 20 devices cost about 20 times the CPU of one and the ratio
-   measures the machine's cores, not the flasher's concurrency (the "busy" figure shows
-   it). On a paced line the wire sets one device's time, as on a real installation, and
-   the ratio shows how far concurrency hides it.
+   the line here is a pty pair that passes every chunk on when it would be through a real
+   line (`ptylink.Wire`: the line's own clock, the silence before a frame and no more).
+3. Fleets of 10, 20 and 100 devices served by one `mpc sim --devices 100` process, each
+   flashed by one `mpc flash --fleet` command, against the same command for one device:
+   100 devices at most 3x one. The image is the samples build (18 programs, 788 frames).
+   Over loopback TCP nothing waits for a wire: every request costs CPU in the flashing
+   process and in the serving one, so on 2 cores the ratio grows with the fleet's requests
+   once they outweigh the command's fixed cost (start-up, build), whatever the flasher's
+   concurrency.
 """
 
 from __future__ import annotations
 
 import asyncio
+import signal
 import statistics
 import subprocess
 import sys
+import tempfile
 import time
-from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from mplang.family.ptylink import PtyLink
+from mplang.family.ptylink import PtyLink, Wire
 from mplang.ir import catalogue
 from mplang.m8194h.compiler import compile_paths, compile_source
 from mplang.m8194h.flash import FlashImage, FlashReport, flash, image_from_build
@@ -183,11 +183,10 @@ async def over_tcp(image: FlashImage) -> None:
 
 # ------------------------------------------------------------------------- 2: RTU wire
 def paced_line(baud: int) -> PtyLink:
-    """A pty link that holds every chunk for its time on an RTU wire (`BITS_PER_CHAR` bits
-    per byte at `baud`, plus the 3.5-character silence): a serial line without hardware that
-    takes as long as a real one."""
-    char_time = BITS_PER_CHAR / baud
-    return PtyLink(lambda data: (len(data) + GAP_CHARS) * char_time)
+    """A pty link that passes every chunk on when it would be through an RTU wire
+    (`BITS_PER_CHAR` bits per byte at `baud`, the 3.5-character silence before each frame):
+    a serial line without hardware that takes as long as a real one (`ptylink.Wire`)."""
+    return PtyLink(Wire(baud, BITS_PER_CHAR, GAP_CHARS))
 
 
 def rtu_request_bytes(registers: int) -> int:
@@ -239,117 +238,85 @@ async def over_rtu(image: FlashImage) -> None:
     print(f"full-device image over Modbus RTU at {BAUD} baud 8N1 (paced pty pair): "
           f"{run.requests:,} requests in {run.seconds:.2f} s")
     print(f"  wire-time limit: {total_bytes:,} bytes + 3.5-character gaps = {limit:.2f} s; "
-          f"flash = {run.seconds / limit:.2f}x the wire time")
+          f"flash = {run.seconds / limit:.2f}x the wire time (target at most 1.15x)")
     print(f"  of which software (client, device, pty; the same flash over an unpaced pty "
           f"pair): {own.seconds:.2f} s = {own.seconds / own.requests * 1e3:.2f} ms a request; "
           f"wire + software = {(limit + own.seconds) / limit:.2f}x the wire time")
 
 
 # ---------------------------------------------------------------------------- 3: fleet
-@dataclass
-class FleetRun:
-    one: float  # seconds to flash one device
-    many: float  # seconds to flash FLEET devices at once
-    cpu: float  # CPU seconds this process used while flashing the fleet
+FLEETS = (10, 20, 100)
+FLEET_TARGET = 3.0  # 100 devices at most 3x one (issue 16)
 
 
-async def flash_fleet(image: FlashImage, endpoints: list[Endpoint],
-                      faces: list[DeviceFace] | None) -> FleetRun:
-    """The first endpoint alone, then the other FLEET at once."""
-    face = faces[0] if faces else None
-    one = await timed_flash(image, endpoints[0], face)
-    cpu = time.process_time()
+def serve_fleet(count: int) -> tuple[subprocess.Popen[str], list[int]]:
+    """`mpc sim --devices COUNT` (one process, consecutive ports from any free one): the
+    process and the ports it prints."""
+    proc = subprocess.Popen([sys.executable, "-m", "mplang", "sim", "--tcp", "127.0.0.1:0",
+                             "--devices", str(count)], stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True)
+    assert proc.stdout is not None
+    ports: list[int] = []
+    for line in proc.stdout:
+        if "Modbus TCP on" in line:
+            ports.append(int(line.rsplit(":", 1)[1].split()[0]))
+            if len(ports) == count:
+                return proc, ports
+    raise SystemExit(f"mpc sim --devices {count} did not start")
+
+
+def flash_fleet_process(ports: list[int], folder: Path) -> float:
+    """Wall seconds of `mpc flash samples/*.mp --fleet FILE --force` over these devices, as
+    a user runs it (the process, its build and its flashers on one asyncio loop)."""
+    fleet = folder / f"fleet-{len(ports)}.toml"
+    fleet.write_text("".join(f'[targets.d{k}]\ntcp = "127.0.0.1:{port}"\n'
+                             for k, port in enumerate(ports)))
+    samples = sorted(str(p) for p in (ROOT / "samples").glob("*.mp"))
     start = time.perf_counter()
-    await asyncio.gather(*(timed_flash(image, endpoint, faces[n + 1] if faces else None)
-                           for n, endpoint in enumerate(endpoints[1:])))
-    many = time.perf_counter() - start
-    return FleetRun(one.seconds, many, time.process_time() - cpu)
+    done = subprocess.run([sys.executable, "-m", "mplang", "flash", *samples, "--fleet",
+                           str(fleet), "--force", "--record", str(folder / "record.json")],
+                          capture_output=True, text=True)
+    seconds = time.perf_counter() - start
+    if done.returncode != 0:
+        raise SystemExit(f"mpc flash --fleet ({len(ports)} devices) failed "
+                         f"(exit {done.returncode}): {done.stderr[-2000:]}")
+    return seconds
 
 
-async def fleet_in_process(image: FlashImage) -> FleetRun:
-    """Every device served by this process's event loop, beside the flashing."""
-    faces = [DeviceFace(VirtualController(), SimClock(1.0)) for _ in range(FLEET + 1)]
-    served = [await serve_tcp(face, "127.0.0.1", 0) for face in faces]
+def over_a_fleet(image: FlashImage) -> None:
+    """One `mpc sim --devices` process serves every device; `mpc flash --fleet` flashes the
+    first N of them, after the same command for one device (both best of `REPEATS` for
+    one and of one run for the fleets, the flash record forced off by --force)."""
+    largest = max(FLEETS)
+    proc, ports = serve_fleet(largest)
     try:
-        run = await flash_fleet(image, [Endpoint(host="127.0.0.1", port=port)
-                                        for _server, port in served], faces)
+        with tempfile.TemporaryDirectory() as folder:
+            one = min(flash_fleet_process(ports[:1], Path(folder)) for _ in range(REPEATS))
+            print(f"fleets flashed by `mpc flash --fleet` (samples image: "
+                  f"{len(image.programs)} programs, {frames_of(image)} frames each), the "
+                  f"devices served by one `mpc sim --devices {largest}` process; one device "
+                  f"{one:.2f} s (the whole command, best of {REPEATS}):")
+            for count in FLEETS:
+                many = flash_fleet_process(ports[:count], Path(folder))
+                target = f" (target at most {FLEET_TARGET:g}x)" if count == largest else ""
+                print(f"  {count} devices: {many:.2f} s = {many / one:.1f}x one{target}")
     finally:
-        for server, _port in served:
-            await stop(server)
-    for face in faces:
-        check_stored(face, image)
-    return run
+        proc.send_signal(signal.SIGTERM)
+        proc.communicate(timeout=60)
 
 
-async def fleet_in_child(image: FlashImage) -> FleetRun:
-    """The devices served by a child process (its own interpreter, event loop and core), so
-    that they do not take the flashing loop's time."""
-    child = subprocess.Popen([sys.executable, __file__, "--serve", str(FLEET + 1)],
-                             stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
-    assert child.stdout is not None and child.stdin is not None
-    try:
-        ports = [int(word) for word in child.stdout.readline().split()]
-        return await flash_fleet(image, [Endpoint(host="127.0.0.1", port=port)
-                                         for port in ports], None)
-    finally:
-        child.stdin.close()
-        child.wait(30)
-
-
-async def fleet_on_serial_lines(image: FlashImage) -> FleetRun:
-    """RS-M8194H devices, each on its own paced 115200-baud line: the wire, not the CPU,
-    sets one device's time, as on a real installation."""
-    lines = [paced_line(BAUD) for _ in range(FLEET + 1)]
-    faces = [DeviceFace(VirtualController(), SimClock(1.0)) for _ in lines]
-    servers = [await serve_rtu(face, line.device_end, unit=1, baudrate=BAUD)
-               for face, line in zip(faces, lines, strict=True)]
-    try:
-        run = await flash_fleet(image, [Endpoint(serial=line.client_end, baudrate=BAUD)
-                                        for line in lines], faces)
-    finally:
-        for server in servers:
-            await stop(server)
-        for line in lines:
-            line.close()
-    for face in faces:
-        check_stored(face, image)
-    return run
-
-
-async def serve_devices(count: int) -> None:
-    """`--serve N`: serve N virtual devices on loopback ports, print the ports on one line,
-    stop when standard input closes."""
-    served = [await serve_tcp(DeviceFace(VirtualController(), SimClock(1.0)), "127.0.0.1", 0)
-              for _ in range(count)]
-    print(" ".join(str(port) for _server, port in served), flush=True)
-    await asyncio.get_running_loop().run_in_executor(None, sys.stdin.read)
-    for server, _port in served:
-        await stop(server)
-
-
-async def over_a_fleet(image: FlashImage) -> None:
-    print(f"fleet of {FLEET} devices, the samples image ({len(image.programs)} programs, "
-          f"{frames_of(image)} frames each), against one device (target at most 2x):")
-    cases: list[tuple[str, Callable[[FlashImage], Awaitable[FleetRun]]]] = [
-        ("TCP, devices in this process", fleet_in_process),
-        ("TCP, devices in a child process", fleet_in_child),
-        (f"RTU, one {BAUD}-baud line each", fleet_on_serial_lines)]
-    for name, measure in cases:
-        run = await measure(image)
-        print(f"  {name}: one device {run.one:.2f} s, {FLEET} devices {run.many:.2f} s = "
-              f"{run.many / run.one:.1f}x; this process was busy {run.cpu / run.many:.0%} "
-              f"of the fleet's time")
-
-
-async def main() -> None:
-    image = full_device_image()
-    await over_tcp(image)
-    await over_rtu(image)
-    await over_a_fleet(samples_image())
+async def main(parts: set[str]) -> None:
+    if "tcp" in parts:
+        await over_tcp(full_device_image())
+    if "rtu" in parts:
+        await over_rtu(full_device_image())
+    if "fleet" in parts:
+        over_a_fleet(samples_image())
 
 
 if __name__ == "__main__":
-    if sys.argv[1:2] == ["--serve"]:
-        asyncio.run(serve_devices(int(sys.argv[2])))
-    else:
-        asyncio.run(main())
+    PARTS = {"tcp", "rtu", "fleet"}
+    chosen = set(sys.argv[1:]) or PARTS
+    if not chosen <= PARTS:
+        raise SystemExit(f"usage: bench/flash.py [{' '.join(sorted(PARTS))}]")
+    asyncio.run(main(chosen))

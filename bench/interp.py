@@ -1,8 +1,11 @@
 """Interpreter throughput and simulated-time speed (printed, never asserted).
 
-Targets (issue 3): 1,000,000 macro lines/s on a loop-and-arithmetic program, and a 4-axis
-job simulated at 1000x wall time. The baseline measured in the same run is a bare Python
-loop doing the same arithmetic, the floor for any interpreter written in Python.
+Targets (issue 16): 3,000,000 macro lines/s on a loop-and-arithmetic program, and a 4-axis
+job simulated at 3,000x wall time. Each figure is the best of `RUNS` runs (the machine is
+shared: the best run is the one least disturbed). The baseline is a bare Python loop doing
+the same arithmetic, the floor for any interpreter written in Python, timed over
+`BASELINE_ITERATIONS` iterations (best of `RUNS`) so that it is stable, then scaled to the
+program's 20,000 iterations.
 """
 
 from __future__ import annotations
@@ -10,7 +13,7 @@ from __future__ import annotations
 import time
 
 from mplang.m8194h.compiler import compile_source
-from mplang.m8194h.run import run_build
+from mplang.m8194h.run import RunReport, run_build
 
 ARITH = """MP 156
   VAR1 = 0
@@ -48,6 +51,13 @@ END MP
 """
 
 
+RUNS = 5
+BASELINE_ITERATIONS = 2_000_000
+LOOP_ITERATIONS = 20_000  # the FOR count of ARITH
+TARGET_LINES_PER_S = 3_000_000
+TARGET_REAL_TIME = 3_000
+
+
 def baseline(iterations: int) -> float:
     start = time.perf_counter()
     v1 = v2 = 0
@@ -59,22 +69,37 @@ def baseline(iterations: int) -> float:
     return time.perf_counter() - start
 
 
+def best_run(source: str) -> tuple[float, float, RunReport]:
+    """The fastest of `RUNS` runs of a compiled program (load, call, run to the end): wall
+    seconds, and the CPU seconds of this process in the same run (on a machine busy with
+    other work the wall time also holds the time others had the CPU)."""
+    build = compile_source(source)
+    best, cpu, report = float("inf"), float("inf"), None
+    for _ in range(RUNS):
+        start, start_cpu = time.perf_counter(), time.process_time()
+        report = run_build(build)
+        best = min(best, time.perf_counter() - start)
+        cpu = min(cpu, time.process_time() - start_cpu)
+    assert report is not None and report.result.finished, report and report.result.error
+    return best, cpu, report
+
+
 def main() -> None:
-    build = compile_source(ARITH)
-    start = time.perf_counter()
-    report = run_build(build)
-    wall = time.perf_counter() - start
+    wall, cpu, report = best_run(ARITH)
     lines = report.result.steps
-    per_second = lines / wall
-    base = baseline(20000)
-    print(f"arithmetic loop: {lines:,} lines in {wall * 1000:.0f} ms = {per_second:,.0f} lines/s "
-          f"(target 1,000,000); {wall / base:.0f}x a bare Python loop doing the same work")
-    build = compile_source(JOB)
-    start = time.perf_counter()
-    report = run_build(build)
-    wall = time.perf_counter() - start
-    print(f"4-axis job: {report.result.time_s:.1f} s simulated in {wall * 1000:.0f} ms wall = "
-          f"{report.result.time_s / wall:,.0f}x real time (target 1000x)")
+    base = min(baseline(BASELINE_ITERATIONS) for _ in range(RUNS)) / BASELINE_ITERATIONS \
+        * LOOP_ITERATIONS
+    print(f"interpreter, arithmetic loop: {lines:,} lines in {wall * 1000:.1f} ms = "
+          f"{lines / wall:,.0f} lines/s (target at least {TARGET_LINES_PER_S:,}/s; best of "
+          f"{RUNS}; CPU time {cpu * 1000:.1f} ms = {lines / cpu:,.0f} lines/s); "
+          f"{wall / base:.1f}x a bare Python loop doing the same work ({base * 1000:.2f} ms, "
+          f"from {BASELINE_ITERATIONS:,} iterations)")
+    wall, cpu, report = best_run(JOB)
+    simulated = report.result.time_s
+    print(f"simulated / wall time, 4-axis job: {simulated:.1f} s simulated in "
+          f"{wall * 1000:.1f} ms = {simulated / wall:,.0f}x real time (target at least "
+          f"{TARGET_REAL_TIME:,}x; best of {RUNS}; CPU time {cpu * 1000:.1f} ms = "
+          f"{simulated / cpu:,.0f}x)")
 
 
 if __name__ == "__main__":

@@ -96,6 +96,7 @@ class ServeRequest:
     describe: str  # the family (and target) in words, for messages
     companion: Companion | None = None  # started once Modbus TCP listens (`mpc sim --monitor`)
     machine: object | None = None  # what the family's `load_machine` returned, if given
+    devices: int = 1  # `mpc sim --devices N`: N devices from one process
 
 
 class CommandError(Exception):

@@ -2,28 +2,59 @@
 
 The device opens one end by name, the client (pymodbus, mbpoll, a PLC program under test)
 the other. A thread copies bytes between the two pty masters. Ptys ignore the baud rate;
-by default nothing models wire timing, and `seconds_per_chunk` (bench/flash.py) may hold each
-chunk for its time on a real wire.
+by default nothing models wire timing. With a `Wire` (bench/flash.py) each chunk is passed
+on when its last byte would have arrived over a real RTU line: the line is busy for every
+byte (start, data, parity and stop bits) and keeps the 3.5-character silence the standard
+requires before a frame, and no more. The wire keeps its own clock, so the time the two
+ends take to answer is hidden in that silence when it is shorter, and a late wake-up of
+the relay delays one chunk without shifting the ones after it.
 """
 
 from __future__ import annotations
 
+import math
 import os
 import pty
 import select
 import threading
 import time
 import tty
-from collections.abc import Callable
+from dataclasses import dataclass, field
+
+
+@dataclass
+class Wire:
+    """The timing of one half-duplex RTU line: `bits_per_char` bits a byte at `baudrate`
+    (8N1: 10), and `gap_chars` characters of silence before every frame (3.5)."""
+
+    baudrate: int
+    bits_per_char: int = 10
+    gap_chars: float = 3.5
+    free_at: float = field(default=-math.inf, init=False)  # when the last byte is through
+    last_sender: int = field(default=-1, init=False)
+
+    @property
+    def char_time(self) -> float:
+        return self.bits_per_char / self.baudrate
+
+    def deliver_at(self, sender: int, size: int, now: float) -> float:
+        """When a chunk of `size` bytes that `sender` wrote at `now` is through: at once
+        after what is on the line if it continues the frame being sent (same sender, before
+        the silence that would end it), else after that silence; never before `now`."""
+        gap = self.gap_chars * self.char_time
+        continues = sender == self.last_sender and now < self.free_at + gap
+        start = max(now, self.free_at if continues else self.free_at + gap)
+        self.free_at = start + size * self.char_time
+        self.last_sender = sender
+        return self.free_at
 
 
 class PtyLink:
-    """Two linked ptys; `device_end` and `client_end` are the paths to open.
-    `seconds_per_chunk(data)`, if given, is how long each chunk is held before it is passed
-    on (one chunk at a time, as on a half-duplex line)."""
+    """Two linked ptys; `device_end` and `client_end` are the paths to open. With a
+    `wire`, every chunk is held until it would be through a real line (see `Wire`)."""
 
-    def __init__(self, seconds_per_chunk: Callable[[bytes], float] | None = None) -> None:
-        self._pace = seconds_per_chunk
+    def __init__(self, wire: Wire | None = None) -> None:
+        self._wire = wire
         self._masters: list[int] = []
         self._slaves: list[int] = []
         for _ in range(2):
@@ -50,8 +81,9 @@ class PtyLink:
                 except OSError:
                     continue  # nobody has the other end open yet
                 if data:
-                    if self._pace is not None:
-                        time.sleep(self._pace(data))
+                    if self._wire is not None:
+                        due = self._wire.deliver_at(fd, len(data), time.monotonic())
+                        time.sleep(max(0.0, due - time.monotonic()))
                     os.write(peer[fd], data)
 
     def close(self) -> None:

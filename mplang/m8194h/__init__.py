@@ -58,9 +58,9 @@ FLASH_INSTEAD = ""
 NO_DEBUG = ""
 NO_MACHINE = ""
 """`--machine` applies: the virtual controller's sensors and inputs (docs/machine.md)."""
-SERVE_OPTIONS = frozenset({"--unit", "--memory", "--word-order"})
-"""`mpc sim` options beyond the common ones: the RTU address, the macro memory file and the
-word order of the virtual controller."""
+SERVE_OPTIONS = frozenset({"--unit", "--memory", "--word-order", "--devices"})
+"""`mpc sim` options beyond the common ones: the RTU address, the macro memory file, the
+word order of the virtual controller and a fleet of them (`--devices`)."""
 
 FamilyBuild = BuildResult
 if TYPE_CHECKING:

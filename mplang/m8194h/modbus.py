@@ -331,6 +331,7 @@ MAX_WRITE_REGISTERS = 123  # the Modbus limit for FC16, which pymodbus does not 
 ANSWER_GRACE_S = 1.0  # beyond pymodbus's own timeout, before a request is abandoned here
 DEVICE_BUSY = 0x06  # the exception that says "not carried out, send it again later"
 FENCE_REGISTER = 100  # input: a fence reads 2-9 registers from here (ready state onwards)
+FENCE_SETTLE_S = 0.002  # after a fence's barrier: events that came with its answer are seen
 
 
 class LinkError(Exception):
@@ -440,6 +441,7 @@ class DeviceLink:
         self._line_outstanding = 0  # RTU requests sent, not answered
         self._received = b""  # TCP bytes received, not yet a whole answer
         self._barriers = 0
+        self._waiting = False  # a request awaits its answer
         self.opened = False  # the first connection succeeded
         self.reconnects = 0
         self.repeats = 0  # idempotent requests sent again after a link failure
@@ -452,21 +454,35 @@ class DeviceLink:
     # ------------------------------------------------------------------ connection
     def _make_client(self, lost: asyncio.Event) -> Client:
         ep = self.endpoint
+        made: list[Client] = []
 
         def on_connection(up: bool) -> None:
             if not up:
                 lost.set()
+                if made:
+                    self._lost_now(made[0])
 
+        client: Client
         if ep.host is not None:
-            return AsyncModbusTcpClient(ep.host, port=ep.port, timeout=ep.timeout, retries=0,
-                                        reconnect_delay=0, trace_connect=on_connection,
-                                        trace_packet=self._sending)
-        assert ep.serial is not None
-        return AsyncModbusSerialClient(ep.serial, framer=FramerType.RTU, baudrate=ep.baudrate,
-                                       bytesize=8, parity=ep.parity, stopbits=ep.stopbits,
-                                       timeout=ep.timeout, retries=0, reconnect_delay=0,
-                                       trace_connect=on_connection,
-                                       trace_packet=self._sending)
+            client = AsyncModbusTcpClient(ep.host, port=ep.port, timeout=ep.timeout, retries=0,
+                                          reconnect_delay=0, trace_connect=on_connection,
+                                          trace_packet=self._sending)
+        else:
+            assert ep.serial is not None
+            client = AsyncModbusSerialClient(
+                ep.serial, framer=FramerType.RTU, baudrate=ep.baudrate, bytesize=8,
+                parity=ep.parity, stopbits=ep.stopbits, timeout=ep.timeout, retries=0,
+                reconnect_delay=0, trace_connect=on_connection, trace_packet=self._sending)
+        made.append(client)
+        return client
+
+    def _lost_now(self, client: Client) -> None:
+        """The connection closed: the request waiting for its answer (if any) fails now
+        with ConnectionException instead of waiting out its timeout. The request is awaited
+        directly (one await, no watcher task), so the answer's future is where to say it."""
+        future = getattr(client.ctx, "response_future", None)
+        if self._waiting and future is not None and not future.done():
+            future.set_exception(ConnectionException("connection lost"))
 
     def _sending(self, sending: bool, packet: bytes) -> bytes:
         """pymodbus's packet hook: note every request sent (TCP: its transaction id)."""
@@ -651,6 +667,10 @@ class DeviceLink:
             self._outstanding.clear()
             self._line_outstanding = 0
             self._received = b""  # what remains is no answer (a corrupted one's rest)
+            # a late answer often comes with the close of the connection that held it (a
+            # gateway or proxy giving up on it): let the loop see that close before the next
+            # request is sent, so that request goes out on a fresh connection
+            await asyncio.sleep(FENCE_SETTLE_S)
             return True
         self._unsettled = False
         self._stale = True
@@ -671,24 +691,27 @@ class DeviceLink:
         client = await self._ready()
         lost = self._lost
         describe = self.endpoint.describe()
-        call = asyncio.ensure_future(request(client))
-        watch = asyncio.ensure_future(lost.wait())
+        self._waiting = True  # a lost connection now fails the request at once (`_lost_now`)
+        guard = asyncio.timeout(self.endpoint.timeout + ANSWER_GRACE_S)
+        task = asyncio.current_task()
+        cancelling = task.cancelling() if task is not None else 0
         try:
-            done, _ = await asyncio.wait((call, watch), return_when=asyncio.FIRST_COMPLETED,
-                                         timeout=self.endpoint.timeout + ANSWER_GRACE_S)
-        finally:
-            pending = [task for task in (call, watch) if not task.done()]
-            for task in pending:
-                task.cancel()
-            await asyncio.gather(*pending, return_exceptions=True)
-        if call not in done:
-            if watch in done:
+            async with guard:
+                reply = await request(client)
+            if task is not None and task.cancelling() > cancelling:
+                # pymodbus's wait_for (Python 3.11) drops a cancel that meets the answer:
+                # the caller asked to stop, so stop here as it would have
+                raise asyncio.CancelledError
+        except TimeoutError as exc:
+            if not guard.expired():  # a socket timeout inside pymodbus: the link failed
                 self._unsettle(lost=True)
-                raise LinkLost(f"{describe}: connection lost")
+                raise LinkLost(f"{describe}: {exc}") from None
+            if lost.is_set():
+                self._unsettle(lost=True)
+                raise LinkLost(f"{describe}: connection lost") from None
             self._unsettle()
-            raise LinkTimeout(f"{describe}: no answer within {self.endpoint.timeout:g} s")
-        try:
-            reply = call.result()
+            raise LinkTimeout(f"{describe}: no answer within {self.endpoint.timeout:g} s"
+                              ) from None
         except ConnectionException as exc:
             self._unsettle(lost=True)
             raise LinkLost(f"{describe}: connection lost ({exc})") from None
@@ -702,6 +725,8 @@ class DeviceLink:
         except (ModbusException, OSError) as exc:
             self._unsettle(lost=True)
             raise LinkLost(f"{describe}: {exc}") from None
+        finally:
+            self._waiting = False
         # an exception answer carries the function code (plus 0x80) but no address: a late
         # refusal of another function is told apart by that code alone
         if reply.function_code & 0x7F != function_code or \

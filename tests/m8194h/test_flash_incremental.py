@@ -236,3 +236,43 @@ def test_dry_run_marks_the_programs_the_record_holds() -> None:
     text = render_plan(image, recorded=frozenset({"MP4"}))
     marked = [line for line in text.splitlines() if "recorded on the device" in line]
     assert len(marked) == 1 and marked[0].startswith("MP4 second")
+
+
+class CountingRecord(FlashRecord):
+    """A record that counts its saves and keeps what the file said at each."""
+
+    def __init__(self, path: Path) -> None:
+        super().__init__(path)
+        self.saved: list[dict[str, object]] = []
+
+    def save(self) -> None:
+        super().save()
+        self.saved.append(json.loads(self.path.read_text()))
+
+
+def test_the_record_is_saved_once_per_device_run_not_after_every_program(
+        tmp_path: Path) -> None:
+    """Issue 16: a fleet rewrote the whole record after every program of every device. A
+    first flash saves each device's entry once, at its end; a flash that changes a recorded
+    program saves first (the file must stop vouching for that slot before it is written)
+    and once more at the end."""
+    record = CountingRecord(tmp_path / "record.json")
+    options = FlashOptions(record=record, address="bench")
+
+    async def steps(do: Flash, face: DeviceFace, _counter: Counter) -> None:
+        image = image_of(JOB)
+        assert (await do(image, options)).ok
+        assert len(record.saved) == 1
+        assert set(record.saved[0]["devices"]["bench"]["slots"]) == {  # type: ignore[index]
+            "MP3", "MP4", "ISR2"}
+        assert (await do(image, options)).ok  # unchanged: nothing to write, nothing to save
+        assert len(record.saved) == 1
+        changed = image_of(JOB.replace("VAR1 + 1", "VAR1 + 3"))
+        assert (await do(changed, options)).ok
+        assert len(record.saved) == 3
+        first, last = (saved["devices"]["bench"]["slots"]  # type: ignore[index]
+                       for saved in record.saved[1:])
+        assert set(first) == {"MP3", "ISR2"} and set(last) == {"MP3", "MP4", "ISR2"}
+        assert_all_stored(face, changed)
+
+    run_on_one_device(steps)

@@ -42,8 +42,13 @@ from mplang.cli.shell import complete_paths
 @with_serial_line
 @click.option("--speed", type=click.FloatRange(min=0.0001, max=10000), default=1.0,
               show_default=True, help="Simulated seconds per wall second.")
-@click.option("--memory", type=click.Path(dir_okay=False, path_type=Path), default=None,
-              help="Macro memory file: loaded at start, written after every download.")
+@click.option("--memory", type=click.Path(path_type=Path), default=None,
+              help="Macro memory file: loaded at start, written after every download "
+              "(with --devices: a directory of them).")
+@click.option("--devices", type=click.IntRange(1, 1000), default=1, show_default=True,
+              help="Serve this many virtual M8194H from this process over Modbus TCP, on "
+              "consecutive ports from --tcp's (port 0: any free port each); --memory then "
+              "names a directory with one memory file per device (device-K.json).")
 @click.option("--duration", type=click.FloatRange(min=0), default=None,
               help="Stop after this many seconds [default: run until interrupted].")
 @click.option("-v", "--verbose", is_flag=True, help="Print what the device does.")
@@ -57,7 +62,7 @@ from mplang.cli.shell import complete_paths
 @guarded
 def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | None,
             serial: str | None, unit: int, baud: int, parity: str, stopbits: str, speed: float,
-            memory: Path | None, duration: float | None, verbose: bool,
+            memory: Path | None, devices: int, duration: float | None, verbose: bool,
             monitor_port: int | None, machine_file: Path | None, target: str,
             word_order: str | None, temp_vars: range, allow_outside_includes: bool,
             werror: bool) -> None:
@@ -72,6 +77,9 @@ def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | N
         source = ctx.get_parameter_source(name)
         return source is not None and source is not click.core.ParameterSource.DEFAULT
 
+    if devices == 1 and memory is not None and memory.is_dir():
+        raise click.BadParameter(f"File {str(memory)!r} is a directory.",
+                                 param_hint="'--memory'")
     selection = select(expand_inputs(files) if files else [], target, given("target"))
     family = selection.family
     if family.serve is None:
@@ -81,12 +89,14 @@ def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | N
             f"--target {selection.target or family.TARGETS[0]} FILE` (or draw it with "
             "mpc plot)")
     refuse_options(selection, {"--unit": given("unit"), "--memory": given("memory"),
-                               "--word-order": given("word_order")}, "SERVE_OPTIONS")
+                               "--word-order": given("word_order"),
+                               "--devices": given("devices")}, "SERVE_OPTIONS")
     request = ServeRequest(
         tcp=tcp, serial=serial, unit=unit, baud=baud, parity=parity, stopbits=int(stopbits),
         speed=speed, memory=memory, duration=duration, verbose=verbose,
         word_order=int(word_order) if word_order is not None else None,
-        describe=selection.describe, machine=machine_for(selection, machine_file, None))
+        describe=selection.describe, machine=machine_for(selection, machine_file, None),
+        devices=devices)
     build = None
     if files:
         setup = BuildSetup(selection.paths, build_options(

@@ -151,6 +151,7 @@ class Flasher:
         self._accepted = 0  # line frames of the current download the device accepted
         self._unanswered = 0  # 1 if the last frame sent got no answer
         self._last_status: list[int] | None = None  # 110-114 at the last verification
+        self._unsaved = False  # the record holds verified programs not written to its file
 
     def _set_steps(self) -> None:
         image = self.image
@@ -227,6 +228,9 @@ class Flasher:
             raise
         finally:
             self.link.close()
+            if self.options.record is not None and self._unsaved:  # what was verified:
+                self._unsaved = False  # saved once, at the end (`FlashRecord.start_run`)
+                self.options.record.save()
             self.report.seconds = time.monotonic() - start
         return self.report
 
@@ -339,16 +343,15 @@ class Flasher:
                     for p in self.image.programs if p.slot_label in found}
                 self._note(f"trusting the device's build manifest ({len(found)} program(s) "
                            "match)")
-        self._entry = fresh
-        record.devices[self.address] = fresh
-        record.save()
-        if not trusted or self.options.force:
-            return frozenset()
         slots = fresh["slots"]
-        return frozenset(
+        unchanged = frozenset() if not trusted or self.options.force else frozenset(
             p.slot_label for p in self.image.programs
             if isinstance(slots.get(p.slot_label), dict)
             and slots[p.slot_label].get("hash") == p.content_hash(self.image.word_order))
+        self._entry = fresh
+        self._unsaved = record.start_run(self.address, old, fresh, [
+            p.slot_label for p in self.image.programs if p.slot_label not in unchanged])
+        return unchanged
 
     def _forget(self, slot_label: str) -> None:
         """Before a slot is written: the record may no longer vouch for it."""
@@ -366,7 +369,7 @@ class Flasher:
             "source": program.source, "build_id": self.image.build_id,
             "at": datetime.now(UTC).isoformat(timespec="seconds")}
         self._entry["last_status"] = status
-        record.save()
+        self._unsaved = True  # saved at the end of the run
 
     # ------------------------------------------------------------------ programs
     async def _program(self, program: FlashProgram, result: ProgramResult) -> None:

@@ -1,10 +1,12 @@
-"""Incremental flashing (`FlashRecord`): after each verified program, a local record keeps the
+"""Incremental flashing (`FlashRecord`): for each verified program, a local record keeps the
 program's content hash under the device's address, with the device's identity (input registers
 81-85: module id and both firmware versions) and its download status (110-114) as the last
 verification left it. The next run trusts the record only if identity, word order and download
 status still match and the device is ready: any download by another tool since changes 110-114.
-Then programs whose hash is recorded are not written. A program's entry is removed before its
-download starts, so a cut-short download is never taken for a recorded one.
+Then programs whose hash is recorded are not written. The entries of the programs a run will
+write are removed (and the file saved) before the first of them starts, so a cut-short
+download is never taken for a recorded one; what the run verifies is saved once, at its end,
+not after every program (a fleet of N devices rewrote the whole file N x programs times).
 
 This module holds the record file; `Flasher` consults and updates it.
 """
@@ -32,11 +34,13 @@ def default_record_path() -> Path:
 class FlashRecord:
     """What mpc last verified in which device: a JSON file, `{"format", "devices": {address:
     {"identity", "word_order", "last_status", "slots": {"MP3": {"hash", "name", "source",
-    "build_id", "at"}}}}}`. Written (atomically) after every change, so an interrupted run
-    keeps what it verified. Only a flash record (its format tag) or an empty file is ever
-    replaced: anything else at the path (a file that is not a record, a damaged record, a
-    FIFO, a directory) is left as it is, with a note, and this run records nothing. Flashing
-    everything is always correct, only slower."""
+    "build_id", "at"}}}}}`, written atomically: when a run starts if the file vouches for a
+    slot the run will write, and once at the end of each device's run with what it verified
+    (`start_run`), so the file never vouches for what is not there. Only a flash record
+    (its format tag) or an empty file is ever replaced: anything else at the path (a file
+    that is not a record, a damaged record, a FIFO, a directory) is left as it is, with a
+    note, and this run records nothing. Flashing everything is always correct, only
+    slower."""
 
     def __init__(self, path: Path) -> None:
         self.path = path
@@ -65,6 +69,23 @@ class FlashRecord:
     def recorded_slots(self, address: str) -> frozenset[str]:
         entry = self.devices.get(address)
         return frozenset(entry["slots"]) if entry else frozenset()
+
+    def start_run(self, address: str, old: dict[str, Any] | None, fresh: dict[str, Any],
+                  writing: list[str]) -> bool:
+        """A device's run begins with `fresh` as its entry (`old`: what the file held), and
+        will write the slots `writing`: they are no longer vouched for. If the file vouched
+        for one of them it is saved now, before any is written; otherwise the file claims
+        nothing beyond the truth and the entry waits for the end of the run, saved once
+        with the programs verified (a run killed before that leaves a record that is only
+        behind). Returns whether the entry still has to be saved."""
+        slots = fresh["slots"]
+        for label in writing:
+            slots.pop(label, None)
+        self.devices[address] = fresh
+        if old is not None and any(label not in slots for label in old.get("slots", {})):
+            self.save()
+            return False
+        return old != fresh
 
     def save(self) -> None:
         """Write the file atomically (a crash leaves the old or the new record, never half),

@@ -18,10 +18,15 @@ def _round(x: float) -> int:
     return math.floor(x + 0.5)
 
 
+_MASK_AXES = {mask: tuple(i for i in range(4) if mask >> i & 1) for mask in range(1, 16)}
+
+
 def _mask_axes(mask: int) -> tuple[int, ...]:
-    if not 1 <= mask <= 15:
+    """The axis indices of a mask (a table: every motion command asks)."""
+    axes = _MASK_AXES.get(mask)
+    if axes is None:
         raise ValueError(f"axis mask must be 1..15, got {mask}")
-    return tuple(i for i in range(4) if mask >> i & 1)
+    return axes
 
 
 def _axis_index(code: int) -> int:

@@ -28,6 +28,7 @@ from mplang.m8194h.sim import (
     initial_table,
     interpolation_commands,
     memory,
+    precompile,
     unmodelled,
 )
 from mplang.m8194h.sim.failure import EXECUTION_CODES, Failure, located, watch_axis_stops
@@ -228,14 +229,16 @@ class VirtualController:
         self.log.append(f"{self.clock:.4f} s: {kind.upper()}{slot} called")
 
     def _compiled(self, table: MacroTable) -> Program:
-        """The table's lines as `Program` entries, built once per table."""
+        """The table's lines as `Program` entries, built once per table (the hot lines
+        prepared by `precompile`)."""
         key = (table.kind, table.slot)
         built = self.programs.get(key)
         if built is not None and built[0] is table:
             return built[1]
-        program = [(self.handlers.get(line.command.short_name), line.operands,
-                    line.command.short_name not in PURE_COMMANDS)
-                   for line in table.lines]
+        program = [(precompile.prepare(self, table, pc, line.command.short_name,
+                                       self.handlers.get(line.command.short_name)),
+                    line.operands, line.command.short_name not in PURE_COMMANDS)
+                   for pc, line in enumerate(table.lines)]
         self.programs[key] = (table, program)
         return program
 
@@ -703,10 +706,7 @@ class VirtualController:
         code = self.value(ops[1])
         if code not in self.cmp_symbols:
             code = ((code & 0xFF) << 8) | (code >> 8)  # the example's byte order
-        symbol = self.cmp_symbols[code]
-        holds = {"<": left < right, ">": left > right, "<=": left <= right,
-                 ">=": left >= right, "==": left == right, "!=": left != right}[symbol]
-        if not holds:
+        if not precompile.COMPARE[self.cmp_symbols[code]](left, right):
             frame.pc = frame.table.if_false[frame.pc - 1] + 1
 
     def _else(self, frame: Frame, _ops: tuple[Operand, ...]) -> None:

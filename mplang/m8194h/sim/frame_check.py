@@ -87,8 +87,23 @@ def _outside(value: float, low: float | None, high: float | None) -> str | None:
     return None
 
 
-def _allowed(param: Param, profile: Profile) -> set[int] | None:
-    """The only values of a parameter that has a closed set of them (None: a range)."""
+_ALLOWED: dict[tuple[int, int], tuple[Param, Profile, frozenset[int] | None]] = {}
+
+
+def _allowed(param: Param, profile: Profile) -> frozenset[int] | None:
+    """The only values of a parameter that has a closed set of them (None: a range); worked
+    out once per parameter and profile (every downloaded line asks)."""
+    key = (id(param), id(profile))
+    known = _ALLOWED.get(key)
+    if known is not None and known[0] is param and known[1] is profile:
+        return known[2]
+    values = _allowed_now(param, profile)
+    allowed = None if values is None else frozenset(values)
+    _ALLOWED[key] = (param, profile, allowed)
+    return allowed
+
+
+def _allowed_now(param: Param, profile: Profile) -> set[int] | None:
     kind = param.kind
     singles = set(profile.axes.values())
     offset = int(profile.raw["axes"]["initial_table_offset"])

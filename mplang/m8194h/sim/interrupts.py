@@ -20,9 +20,8 @@ Conventions and simplifications (manual = RS manual, "l.N" its line N)
 
 from __future__ import annotations
 
-import copy
-
 from mplang.m8194h.sim.builders import _Motion
+from mplang.m8194h.sim.fork import fork
 from mplang.m8194h.sim.io_state import _axes, _IOBase, _one_axis, _Request
 
 
@@ -86,7 +85,7 @@ class _Interrupts(_IOBase):
             return None
         if self._prediction is not None and self._prediction[0] == self._version:
             return self._prediction[1]
-        sim = copy.deepcopy(self.model)
+        sim = fork(self.model)
         t = now
         when: float | None = None
         for _ in range(100_000):

@@ -85,7 +85,6 @@ Conventions and simplifications
 
 from __future__ import annotations
 
-import copy
 import math
 from dataclasses import dataclass
 
@@ -110,6 +109,7 @@ from mplang.m8194h.sim.chains import (
     _lay,
     _Seg,
 )
+from mplang.m8194h.sim.fork import fork
 from mplang.m8194h.sim.io_state import AxisReport
 from mplang.m8194h.sim.profiles import (
     _AxisSettings,
@@ -591,7 +591,7 @@ class MotionModel:
                 if m is not None:
                     end = max(end, m.end)
             return None if end == _INF else end
-        sim = copy.deepcopy(self)
+        sim = fork(self)
         t = now
         while sim._busy(axes):
             nxt = sim.next_event(t)

@@ -3,7 +3,9 @@
 The library entry point is `serve`; the CLI only parses options and prints. Macro memory
 (the device's FRAM: programs, initial and trigger tables, machine data) can live in a file:
 it is loaded at start and written after every change and at the end, so a restart keeps it
-as the device does.
+as the device does. `serve_fleet` serves many controllers from one process, each on its own
+TCP port (consecutive from the one asked for) with its own memory file (`memory_path`), so
+a fleet of devices can be flashed and tested on one machine (`mpc sim --devices N`).
 """
 
 from __future__ import annotations
@@ -37,6 +39,7 @@ class SimOptions:
     duration: float | None = None  # stop by itself after this many wall seconds
     verbose: bool = False
     companion: Companion | None = None  # served beside the device once TCP listens
+    devices: int = 1  # `serve_fleet`: this many controllers on consecutive TCP ports
 
 
 @dataclass
@@ -132,3 +135,70 @@ def save_memory(controller: VirtualController, path: Path) -> None:
     except OSError as exc:
         raise ServiceError(f"{path}: cannot write macro memory: {exc.strerror or exc}",
                            "memory") from None
+
+
+def memory_path(memory: Path | None, device: int, devices: int) -> Path | None:
+    """Device `device`'s (1..`devices`) memory file: `memory` itself for one device; for a
+    fleet `memory` is a directory holding `device-K.json` per device."""
+    if memory is None or devices == 1:
+        return memory
+    return memory / f"device-{device}.json"
+
+
+async def serve_fleet(options: SimOptions, controllers: list[VirtualController],
+                      announce: Callable[[str], None],
+                      stop_event: asyncio.Event | None = None,
+                      ports: list[int] | None = None) -> None:
+    """Serve every controller of `controllers` over Modbus TCP on `options.tcp`'s host, the
+    first on its port and each next one on the port after (port 0: any free port for each),
+    until `stop_event` is set or `options.duration` passes. `ports` (if given) receives the
+    ports bound, in device order, as they are. Each device's memory is saved to its own file
+    (`memory_path`) after every change and at the end."""
+    if not options.verbose:
+        logging.getLogger("pymodbus").setLevel(logging.CRITICAL)
+    assert options.tcp is not None
+    stop_event = stop_event or asyncio.Event()
+    ports = ports if ports is not None else []
+    host, first = options.tcp
+    count = len(controllers)
+    faces = [DeviceFace(c, SimClock(options.speed, origin_sim=c.clock)) for c in controllers]
+    memories = [memory_path(options.memory, k + 1, count) for k in range(count)]
+    saved = [c.memory_version for c in controllers]
+    servers: list[Server] = []
+
+    def save_changed() -> None:
+        for k, controller in enumerate(controllers):
+            path = memories[k]
+            if path is not None and controller.memory_version != saved[k]:
+                save_memory(controller, path)
+                saved[k] = controller.memory_version
+
+    try:
+        for k, face in enumerate(faces):
+            port = first + k if first else 0
+            try:
+                listening, bound = await serve_tcp(face, host, port)
+            except (OSError, RuntimeError) as exc:
+                raise ServiceError(f"cannot listen on {host}:{port} (device {k + 1} of "
+                                   f"{count}): {exc}") from None
+            servers.append(listening)
+            ports.append(bound)
+            announce(f"Modbus TCP on {host}:{bound} (device {k + 1} of {count}, any unit id)")
+        loop = asyncio.get_running_loop()
+        deadline = None if options.duration is None else loop.time() + options.duration
+        while not stop_event.is_set():
+            timeout = 0.05 if deadline is None else max(0.0, min(0.05, deadline - loop.time()))
+            with contextlib.suppress(TimeoutError):
+                await asyncio.wait_for(stop_event.wait(), timeout)
+            for k, face in enumerate(faces):
+                face.catch_up()
+                if options.verbose:
+                    while face.controller.log:
+                        announce(f"device {k + 1}: {face.controller.log.popleft()}")
+            save_changed()
+            if deadline is not None and loop.time() >= deadline:
+                break
+    finally:
+        for server in servers:
+            await stop(server)
+        save_changed()

@@ -1,0 +1,161 @@
+"""The run-ahead copy of the motion model (`sim.fork`, behind STOP_WAIT's prediction and the
+interrupt prediction of 7.3.10-13): it must behave exactly as a deep copy does and leave the
+original alone, for every kind of state the model holds (single-axis moves, interpolation,
+continuous-interpolation chains, home searches, limits, interrupt factors, held commands)."""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from mplang.m8194h.sim.builders import QueueFull
+from mplang.m8194h.sim.chains import _Chain
+from mplang.m8194h.sim.fork import FORKED, fork
+from mplang.m8194h.sim.io_state import _AxisConfig, _AxisStatus
+from mplang.m8194h.sim.motion import MotionModel
+from mplang.m8194h.sim.signals import AxisSensors
+
+X, Y, Z, U = 1, 2, 4, 8
+
+
+def _command(model: MotionModel, kind: int, a: int, b: int, now: float) -> None:
+    """One command of a generated program; values the model refuses are skipped."""
+    axis = (X, Y, Z, U)[a % 4]
+    try:
+        match kind:
+            case 0:
+                model.fixed_move(axis, b, now)
+            case 1:
+                model.line((b, a * 37 - 500), now)
+            case 2:
+                model.arc((b // 2 or 1, 0), (b or 2, 0), a % 2 == 0, now)
+            case 3:
+                model.continuous_line((b, a * 11), a % 5 == 0, now)
+            case 4:
+                model.continuous_mix(1 + a % 5, (b // 3 or 1, 0), (b or 3, 0), a % 7 == 0,
+                                     now)
+            case 5:
+                model.continue_move(axis, b * 3 or 500, now)
+            case 6:
+                model.stop(axis, now, a % 2 == 0)
+            case 7:
+                model.io.home_start(axis, now)
+            case 8:
+                model.io.intfactor_enable(axis, a % 8, 1 + a % 3, now)
+                model.io.enable_int(now)
+            case 9:
+                model.hold(axis)
+            case 10:
+                model.start(axis, now)
+            case 11:
+                model.io.set_compare(axis, a % 2, 0, b, now)
+            case 12:  # a start on one axis sets another's speed and may drive it
+                other = (X, Y, Z, U)[(a + 1) % 4]
+                model.io.set_preset(other, abs(b) % 50_000 + 100)
+                model.io.sync_action(axis, other, 0xFF, a % 5, 0, 4, 0, 0, (0, 0, 0, 0), now)
+            case _:
+                model.intp_end(2, now)
+    except (ValueError, QueueFull):
+        pass
+
+
+def _observe(model: MotionModel, now: float) -> tuple[object, ...]:
+    """Everything a program or a register read can see of the model at `now`."""
+    axes = tuple((model.lp(1 << i, now), model.ep(1 << i, now), round(model.cv(1 << i, now), 6),
+                  model.axis_report(i, now)) for i in range(4))
+    return axes, model.busy(15, now), model.waiting_commands(), \
+        tuple(model.io.triggered_factors(now)), tuple(model.io.requests)
+
+
+def _settings(model: MotionModel) -> tuple[object, ...]:
+    """The model's settings and configuration as values (compared before and after a fork
+    ran ahead: the original's must not move)."""
+    return ([vars(s).copy() for s in model.settings], vars(model.vector).copy(),
+            [repr(c) for c in model.io.cfg], [repr(s) for s in model.io.sensors],
+            [(s.latched, s.latch, s.mach_off, s.home_end,
+              None if s.home is None else (s.home.state, s.home.stopping))
+             for s in model.io.status], list(model.io.triggered))
+
+
+def _run_ahead(model: MotionModel, start: float, steps: int = 40) -> list[tuple[object, ...]]:
+    """What the prediction loops do with a copy: from event to event, observing."""
+    seen: list[tuple[object, ...]] = []
+    t = start
+    for _ in range(steps):
+        nxt = model.next_event(t)
+        if nxt is None or nxt > start + 60.0:
+            break
+        t = nxt
+        model.settle(t)
+        seen.append(_observe(model, t))
+    seen.append(_observe(model, t + 0.25))
+    return seen
+
+
+program = st.lists(st.tuples(st.integers(0, 13), st.integers(0, 40),
+                             st.integers(-30_000, 30_000), st.floats(0.0, 0.4)),
+                   min_size=1, max_size=14)
+
+
+@settings(max_examples=60, deadline=None, derandomize=True)
+@given(program)
+def test_fork_runs_ahead_as_a_deep_copy_does_and_leaves_the_original(
+        commands: list[tuple[int, int, int, float]]) -> None:
+    model = MotionModel(queue_capacity=8)
+    model.io.set_sensors(0, AxisSensors(limit_plus=40_000, limit_minus=-40_000), 0.0)
+    model.set_v(15, 20_000)
+    model.set_a(15, 200_000)
+    model.set_vv(20_000)
+    model.set_va(200_000)
+    for axis in (X, Y, Z, U):
+        model.io.set_home_mode(axis, 2, 1, 2, 0, 100)
+        model.io.set_hv(axis, 2_000)
+    now = 0.0
+    for kind, a, b, pause in commands:
+        now += pause
+        _command(model, kind, a, b, now)
+        before = copy.deepcopy(model)
+        ahead = fork(model)
+        reference = copy.deepcopy(model)
+        assert _run_ahead(ahead, now) == _run_ahead(reference, now)
+        assert _settings(model) == _settings(before)
+        # the original was not touched: it runs ahead as the copy taken before the fork
+        assert _run_ahead(copy.deepcopy(model), now) == _run_ahead(copy.deepcopy(before), now)
+        assert model.idle_at(15, now) == copy.deepcopy(before).idle_at(15, now)
+        assert model.io.next_interrupt(now) == copy.deepcopy(before).io.next_interrupt(now)
+
+
+def _attributes(obj: object) -> frozenset[str]:
+    return frozenset(vars(obj))
+
+
+def test_fork_knows_every_attribute_of_the_state_it_copies() -> None:
+    """A new attribute of the model's state must be added to `fork` (copied or shared on
+    purpose): otherwise a prediction could change the running model through it."""
+    model = MotionModel()
+    chain = _Chain((0, 1), model._vector_plan())
+    assert _attributes(model) == FORKED["MotionModel"]
+    assert _attributes(model.io) == FORKED["AxisIO"]
+    assert frozenset(f.name for f in dataclasses.fields(_AxisConfig)) == FORKED["_AxisConfig"]
+    assert frozenset(f.name for f in dataclasses.fields(_AxisStatus)) == FORKED["_AxisStatus"]
+    assert _attributes(chain) == FORKED["_Chain"]
+
+
+def test_fork_drops_the_stop_watchers_of_the_run() -> None:
+    """A limit the prediction reaches is not a stop of the program (failure.watch_axis_stops
+    must not record it)."""
+    model = MotionModel()
+    raised: list[int] = []
+    model.io.status[0].raised = raised.append
+    model.io.set_sensors(0, AxisSensors(limit_plus=1_000), 0.0)
+    model.set_v(X, 10_000)
+    model.set_a(X, 100_000)
+    model.fixed_move(X, 5_000, 0.0)
+    ahead = fork(model)
+    _run_ahead(ahead, 0.0)
+    assert ahead.io.status[0].errors and not raised
+    _run_ahead(model, 0.0)
+    assert raised
