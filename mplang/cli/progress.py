@@ -2,7 +2,9 @@
 (one per event, nothing redrawn) when standard error is a file or a pipe, as in a CI log.
 
 The display polls the flash reports (`FlashReport.frames_written`, `frames_planned`) instead of
-being called for each frame, so flashing never waits for the terminal.
+being called for each frame, so flashing never waits for the terminal. The bar itself is
+click's (`click.progressbar`, formatted with `format_progress_line`); this module only keeps it
+on the bottom line below the narration, which click's bar, drawn for a loop, does not do.
 """
 
 from __future__ import annotations
@@ -13,6 +15,8 @@ import sys
 import time
 from collections.abc import Callable
 from typing import Protocol, TextIO
+
+import click
 
 
 class FlashReport(Protocol):
@@ -37,10 +41,15 @@ def frames_per_second(frames: int, seconds: float) -> float:
     return frames / seconds if seconds > 0 else 0.0
 
 
-def bar(done: int, total: int, width: int = BAR_WIDTH) -> str:
-    """Nothing planned yet (or nothing to write) is an empty bar, never a full one."""
-    filled = 0 if total <= 0 else min(width, done * width // total)
-    return "[" + "#" * filled + "." * (width - filled) + "]"
+def bar(done: int, total: int, width: int = BAR_WIDTH, info: str = "") -> str:
+    """click's bar at `done` of `total`, then `info`. Nothing planned yet (or nothing to write)
+    is an empty bar, never a full one; more than planned (re-downloads) a full one."""
+    progress = click.progressbar(length=max(total, 0), width=width, fill_char="#",
+                                 empty_char=".", bar_template="[%(bar)s] %(info)s",
+                                 show_eta=False, show_percent=False,
+                                 item_show_func=lambda _item: info or None)
+    progress.pos = 0 if total <= 0 else min(done, total)
+    return progress.format_progress_line()
 
 
 class FlashDisplay:
@@ -71,8 +80,8 @@ class FlashDisplay:
         planned = sum(r.frames_planned for r in reports)
         written = sum(r.frames_written for r in reports)
         rate = frames_per_second(written, time.monotonic() - self.started)
-        text = f"{bar(written, planned)} {min(written, planned)}/{planned} frames " \
-               f"{rate:7.0f} frames/s"
+        text = bar(written, planned, info=f"{min(written, planned)}/{planned} frames "
+                                          f"{rate:7.0f} frames/s")
         if len(reports) > 1:
             finished = sum(1 for r in reports if r.seconds > 0)
             text += f"  {finished}/{len(reports)} devices done"
