@@ -14,9 +14,12 @@ import re
 import sys
 import time
 from collections.abc import Callable
-from typing import Protocol, TextIO
+from typing import TYPE_CHECKING, Protocol, TextIO
 
 import click
+
+if TYPE_CHECKING:
+    from click._termui_impl import ProgressBar
 
 
 class FlashReport(Protocol):
@@ -44,7 +47,7 @@ def frames_per_second(frames: int, seconds: float) -> float:
 def bar(done: int, total: int, width: int = BAR_WIDTH, info: str = "") -> str:
     """click's bar at `done` of `total`, then `info`. Nothing planned yet (or nothing to write)
     is an empty bar, never a full one; more than planned (re-downloads) a full one."""
-    progress = click.progressbar(length=max(total, 0), width=width, fill_char="#",
+    progress: ProgressBar[int] = click.progressbar(length=max(total, 0), width=width, fill_char="#",
                                  empty_char=".", bar_template="[%(bar)s] %(info)s",
                                  show_eta=False, show_percent=False,
                                  item_show_func=lambda _item: info or None)
