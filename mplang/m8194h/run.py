@@ -41,13 +41,25 @@ class RunReport:
         its source line (`file:line:col: warning[R301]: ...`), once per program line; then
         every axis stop (limit, alarm, emergency, failed home search, R311-R315) at the line
         the program was at, once per cause and axis."""
-        stops = [self.located(stop).render() for stop in self.controller.stops.values()]
+        return [self._notice_text(finding) if finding.code == "R301" else finding.render()
+                for finding in self.findings]
+
+    @staticmethod
+    def _notice_text(finding: RunError) -> str:
+        return f"{finding.where.prefix()}warning[R301]: {finding.message}"
+
+    @property
+    def findings(self) -> list[RunError]:
+        """`warnings` as data (`--json`: "warnings", each as the "error" object)."""
+        stops = [self.located(stop) for stop in self.controller.stops.values()]
         return [*(self._warning(notice) for notice in self.controller.notices), *stops]
 
-    def _warning(self, notice: Notice) -> str:
-        where = self.source_of(Place(notice.kind, notice.slot, notice.line)).prefix()
-        return (f"{where}warning[R301]: {notice.command} is not modelled by the virtual "
-                f"controller: it ran with no effect ({notice.where()})")
+    def _warning(self, notice: Notice) -> RunError:
+        where = self.source_of(Place(notice.kind, notice.slot, notice.line))
+        return RunError("R301", f"{notice.command} is not modelled by the virtual controller: "
+                        f"it ran with no effect ({notice.where()})", where,
+                        None if notice.kind == "rtc" else f"{notice.kind.upper()}{notice.slot}",
+                        None if notice.kind == "rtc" else notice.line)
 
     def source_of(self, place: Place) -> SourcePlace:
         """The source line a slot line was compiled from (see `source_place`)."""
@@ -123,6 +135,9 @@ class RunReport:
             "error": failure.to_json() if failure is not None else None}
         if self.machine is not None:
             summary["machine"] = str(self.machine)
+        findings = self.findings
+        if findings:  # only when there are any, so a clean run's summary keeps its keys
+            summary["warnings"] = [finding.to_json() for finding in findings]
         return summary
 
 

@@ -172,6 +172,26 @@ def test_3_9_1_a_software_limit_stop_warns_at_the_line_that_waited(project: Path
                    "slot line 3\n")
 
 
+def test_json_lists_the_warnings_as_error_objects(project: Path) -> None:
+    """The axis stops (R311-R315) and unmodelled commands (R301) that text output prints
+    on standard error are in `--json` too, each as the "error" object, at its source line;
+    a run without any has no "warnings" key."""
+    source = project / "slmt.mp"
+    source.write_text("MP 4\n    SET_V X, 10000\n    SET_SLMT X, 1000, -1000, 0\n"
+                      "    FIXED_MOVE X, 5000\n    STOP_WAIT X\n    VAR1 = 1\nEND MP\n")
+    code, out, _err = run("run", "--json", source)
+    summary = json.loads(out)
+    assert code == EXIT_OK and summary["error"] is None
+    (stop,) = summary["warnings"]
+    assert (stop["code"], stop["file"], stop["line"], stop["column"], stop["slot"],
+            stop["slot_line"]) == ("R312", str(source), 5, 5, "MP4", 3)
+    assert stop["message"] == "axis X stopped on the software limit"
+    clean = project / "clean.mp"
+    clean.write_text("MP 5\n    VAR1 = 1\nEND MP\n")
+    code, out, _err = run("run", "--json", clean)
+    assert code == EXIT_OK and "warnings" not in json.loads(out)
+
+
 # ------------------------------------------------------- the other families
 def test_fatek_and_csim_errors_have_the_same_object(project: Path) -> None:
     listing = project / "stuck.csim"
