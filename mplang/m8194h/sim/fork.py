@@ -38,7 +38,8 @@ FORKED: dict[str, frozenset[str]] = {
         "_next_end", "_chains", "_chain_seq", "_open"}),
     "AxisIO": frozenset({
         "model", "sensors", "cfg", "status", "now", "emergency", "emg_input", "int_enabled",
-        "triggered", "requests", "_events", "_next", "_exempt", "_version", "_prediction"}),
+        "triggered", "requests", "_events", "_next", "_exempt", "_version", "_prediction",
+        "script", "script_next", "watches", "watch_above", "inpos_forced", "di_changes"}),
     "_AxisConfig": frozenset({
         "hlmt_plus_level", "hlmt_minus_level", "limit_stop_slow", "nhome_level", "home_level",
         "z_level", "alarm_enabled", "alarm_level", "inpos_enabled", "inpos_level", "slmt",
@@ -123,6 +124,12 @@ class _Forker:
         new.requests = [_blank(r) for r in io.requests]
         new._events = [self.event(e) for e in io._events]
         new._exempt = [m for m in (self.motion(x) for x in io._exempt) if m is not None]
+        # the machine's script (docs/machine.md): its changes and `when` conditions are
+        # shared (set once by the machine file); what running ahead through them changes is
+        # copied, and inputs the copy meets are not the controller's to apply
+        new.watch_above = list(io.watch_above)
+        new.inpos_forced = list(io.inpos_forced)
+        new.di_changes = list(io.di_changes)
         return new
 
     def model(self, model: MotionModel) -> MotionModel:

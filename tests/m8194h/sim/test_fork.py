@@ -16,6 +16,7 @@ from mplang.m8194h.sim.chains import _Chain
 from mplang.m8194h.sim.fork import FORKED, fork
 from mplang.m8194h.sim.io_state import _AxisConfig, _AxisStatus
 from mplang.m8194h.sim.motion import MotionModel
+from mplang.m8194h.sim.scripted import InputChange, TimedChange, Watch
 from mplang.m8194h.sim.signals import AxisSensors
 
 X, Y, Z, U = 1, 2, 4, 8
@@ -159,3 +160,26 @@ def test_fork_drops_the_stop_watchers_of_the_run() -> None:
     assert ahead.io.status[0].errors and not raised
     _run_ahead(model, 0.0)
     assert raised
+
+
+def test_fork_runs_a_machine_script_ahead_without_touching_the_original() -> None:
+    """A machine file's script (docs/machine.md): timed inputs and a `when` condition met
+    while running ahead happen in the copy as in a deep copy, and the original keeps its
+    place in the script, its condition states and its pending FRnet input changes."""
+    model = MotionModel()
+    model.io.load_script(
+        [TimedChange(0.05, (InputChange("X.INPOS", 0, axis=0),)),
+         TimedChange(0.2, (InputChange("DI8.3", 1, group=8, mask=1 << 3),))],
+        [Watch(0, 5000, True, (InputChange("DI9", 0xFF, group=9, mask=0xFFFF),
+                               InputChange("Y.INPOS", 1, axis=1)))], 0.0)
+    model.fixed_move(X, 20_000, 0.0)
+    before = copy.deepcopy(model)
+    ahead = fork(model)
+    assert _run_ahead(ahead, 0.0) == _run_ahead(copy.deepcopy(model), 0.0)
+    assert ahead.io.script_next == 2 and ahead.io.watch_above == [True]
+    assert len(ahead.io.di_changes) == 2 and ahead.io.inpos_forced[:2] == [False, True]
+    # the original is where it was: its own run ahead meets the same script
+    assert (model.io.script_next, model.io.watch_above, model.io.di_changes,
+            model.io.inpos_forced) == (before.io.script_next, before.io.watch_above,
+                                       before.io.di_changes, before.io.inpos_forced)
+    assert _run_ahead(copy.deepcopy(model), 0.0) == _run_ahead(copy.deepcopy(before), 0.0)
