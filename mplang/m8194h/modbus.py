@@ -10,7 +10,8 @@ device refuses it, never answered by pymodbus itself (diagnostics, server identi
 
 The client side (`DeviceLink`, below the server) is the downloader's transport to one real
 or virtual device over Modbus TCP or RTU. It raises mplang's own exceptions (`LinkError`
-and its kinds, `DeviceException`) so that `mplang.m8194h.flash` never sees a pymodbus type.
+and its kinds, `DeviceException`, defined with `Endpoint` in `mplang.m8194h.endpoint` and
+re-exported here) so that `mplang.m8194h.flash` never sees a pymodbus type.
 """
 
 from __future__ import annotations
@@ -30,6 +31,15 @@ from pymodbus.server import ModbusSerialServer, ModbusTcpServer
 from pymodbus.simulator import DataType, SimData, SimDevice
 
 from mplang.family.linkfail import connect_reason, listen_reason, serial_reason
+from mplang.m8194h.endpoint import MODBUS_EXCEPTIONS as MODBUS_EXCEPTIONS
+from mplang.m8194h.endpoint import DeviceException as DeviceException
+from mplang.m8194h.endpoint import Endpoint as Endpoint
+from mplang.m8194h.endpoint import LinkError as LinkError
+from mplang.m8194h.endpoint import LinkLost as LinkLost
+from mplang.m8194h.endpoint import LinkTimeout as LinkTimeout
+from mplang.m8194h.endpoint import LinkUnavailable as LinkUnavailable
+from mplang.m8194h.endpoint import backoff as backoff
+from mplang.m8194h.endpoint import crc16 as crc16
 from mplang.m8194h.openfail import OpenFailure, recording
 from mplang.m8194h.sim.controller import VirtualController
 from mplang.m8194h.sim.registers import (
@@ -321,12 +331,6 @@ def drop_connections(server: Server) -> int:
 # twice. So only reads and idempotent holding writes are repeated here; a frame never is, and
 # the caller (mplang.m8194h.flash) decides what an unanswered frame means.
 
-MODBUS_EXCEPTIONS = {
-    0x01: "ILLEGAL FUNCTION", 0x02: "ILLEGAL DATA ADDRESS", 0x03: "ILLEGAL DATA VALUE",
-    0x04: "SLAVE DEVICE FAILURE", 0x05: "ACKNOWLEDGE", 0x06: "SLAVE DEVICE BUSY",
-    0x08: "MEMORY PARITY ERROR", 0x0A: "GATEWAY PATH UNAVAILABLE",
-    0x0B: "GATEWAY TARGET DEVICE FAILED TO RESPOND",
-}
 MAX_WRITE_REGISTERS = 123  # the Modbus limit for FC16, which pymodbus does not check
 ANSWER_GRACE_S = 1.0  # beyond pymodbus's own timeout, before a request is abandoned here
 DEVICE_BUSY = 0x06  # the exception that says "not carried out, send it again later"
@@ -334,81 +338,7 @@ FENCE_REGISTER = 100  # input: a fence reads 2-9 registers from here (ready stat
 FENCE_SETTLE_S = 0.002  # after a fence's barrier: events that came with its answer are seen
 
 
-class LinkError(Exception):
-    """The link failed: whether the device carried the request out is unknown."""
-
-
-class LinkUnavailable(LinkError):
-    """The device cannot be reached: connection refused, no route, no such serial port."""
-
-
-class LinkTimeout(LinkError):
-    """No answer within the timeout, or an answer that belongs to another request."""
-
-
-class LinkLost(LinkError):
-    """The connection closed while a request was outstanding."""
-
-
-class DeviceException(Exception):
-    """The device refused a request with a Modbus exception response, so it did not carry it
-    out. `code` is the Modbus exception code (0x01 ILLEGAL FUNCTION ... 0x06 BUSY)."""
-
-    def __init__(self, code: int, function_code: int, address: int) -> None:
-        self.code = code
-        self.function_code = function_code
-        self.address = address
-        super().__init__(f"Modbus exception {code:#04x} ({self.name}) to function "
-                         f"{function_code} at register {address}")
-
-    @property
-    def name(self) -> str:
-        return MODBUS_EXCEPTIONS.get(self.code, "unknown exception")
-
-
-@dataclass(frozen=True)
-class Endpoint:
-    """Where and how to reach one device: Modbus TCP (`host`) or RTU (`serial`), one of them.
-    The ET-M8194H answers as unit 1 (its card number); an RS-M8194H as its slave address."""
-
-    host: str | None = None
-    port: int = 502
-    serial: str | None = None
-    baudrate: int = 115200
-    parity: str = "N"
-    stopbits: int = 1
-    unit: int = 1
-    timeout: float = 1.0  # seconds per answer; the ET manual suggests 1-2 s (ET 788)
-    retries: int = 3  # repeats of an idempotent request, and reconnection attempts
-
-    def __post_init__(self) -> None:
-        if (self.host is None) == (self.serial is None):
-            raise ValueError("an endpoint is either Modbus TCP (host) or Modbus RTU (serial)")
-
-    def describe(self) -> str:
-        if self.host is not None:
-            return f"Modbus TCP {self.host}:{self.port} unit {self.unit}"
-        return (f"Modbus RTU {self.serial} unit {self.unit} "
-                f"({self.baudrate} 8{self.parity}{self.stopbits})")
-
-
-def backoff(attempt: int, ceiling: float = 1.0, first: float = 0.05) -> float:
-    """The pause before repeat `attempt` (1, 2, ...): doubling from `first` up to `ceiling`,
-    so a glitch costs little and a device that restarts gets time."""
-    return float(min(ceiling, first * 2 ** (attempt - 1)))
-
-
 Client = AsyncModbusTcpClient | AsyncModbusSerialClient
-
-
-def crc16(data: bytes) -> bytes:
-    """The Modbus RTU CRC of `data`, low byte first as on the line."""
-    crc = 0xFFFF
-    for byte in data:
-        crc ^= byte
-        for _bit in range(8):
-            crc = (crc >> 1) ^ 0xA001 if crc & 1 else crc >> 1
-    return crc.to_bytes(2, "little")
 
 
 class DeviceLink:
