@@ -14,6 +14,7 @@ import click
 
 from mplang.cli import style
 from mplang.cli.common import (
+    EXIT_MISSING_EXTRA,
     EXIT_TRANSPORT,
     build_setup,
     guarded,
@@ -36,6 +37,23 @@ from mplang.tools.project import Target
 
 DEFAULT_PORT = 8194
 """Where the dashboard listens unless --port says otherwise (on 127.0.0.1)."""
+
+
+class MissingExtra(click.ClickException):
+    exit_code = EXIT_MISSING_EXTRA
+
+
+def require_aiohttp(command: str) -> None:
+    """aiohttp is the optional `monitor` extra (no other command serves HTTP): say how to get
+    it, instead of an import error."""
+    import importlib
+
+    try:
+        importlib.import_module("aiohttp")
+    except ImportError as exc:
+        raise MissingExtra(
+            f"{command} needs aiohttp, which cannot be imported ({exc}); install mplang with "
+            "its monitor extra: pip install 'mplang[monitor]'") from None
 
 
 def refuse_family(family: Family, command: str) -> None:
@@ -146,6 +164,7 @@ def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | N
     family = selection.family
     if family.watch is None:
         refuse_family(family, "mpc monitor")
+    require_aiohttp("mpc monitor")
     build = None
     if paths and not any(p.suffix.lower() == ".json" for p in paths):
         build = build_checked(selection, setup)

@@ -10,7 +10,7 @@ from pathlib import Path
 import click
 
 from mplang.cli import style
-from mplang.cli.commands.monitor import DEFAULT_PORT, dashboard, refuse_family
+from mplang.cli.commands.monitor import DEFAULT_PORT, dashboard, refuse_family, require_aiohttp
 from mplang.cli.common import (
     EXIT_NO_INPUT,
     EXIT_RUN_FAILED,
@@ -105,6 +105,7 @@ def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | N
     if monitor_port is not None:
         if family.watch is None:
             refuse_family(family, "mpc sim --monitor")
+        require_aiohttp("mpc sim --monitor")
         if serial is not None and tcp is None:
             raise click.UsageError("--monitor watches the device over Modbus TCP: give --tcp "
                                    "as well as --serial")
