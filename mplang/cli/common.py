@@ -262,6 +262,51 @@ def with_serial_line(func: F) -> F:
     return func
 
 
+def device_options(serial_help: str, to_help: str) -> Callable[[F], F]:
+    """The options that name one device (`mpc flash`, `status`, `monitor`): --tcp, --serial,
+    --unit, the RTU line settings and --to; `chosen_device` reads them."""
+    options = [
+        click.option("--tcp", callback=parse_device_address, default=None,
+                     metavar="HOST[:PORT]", help="The device's Modbus TCP address (ET-M8194H) "
+                     "[default port: 502]."),
+        click.option("--serial", default=None, metavar="PORT", help=serial_help),
+        click.option("--unit", type=click.IntRange(1, 247), default=1, show_default=True,
+                     help="Modbus unit id: the RTU slave address (the ET-M8194H answers as "
+                     "1)."),
+        with_serial_line,
+        click.option("--to", "to", default=None, metavar="NAME", help=to_help),
+    ]
+
+    def decorate(func: F) -> F:
+        for option in reversed(options):
+            func = option(func)
+        return func
+
+    return decorate
+
+
+def chosen_device(tcp: tuple[str, int] | None, serial: str | None, unit: int, baud: int,
+                  parity: str, stopbits: str, to: str | None,
+                  project: project_module.Project | None) -> project_module.Target:
+    """The device `device_options` name: --tcp, --serial, or --to NAME of the project (a
+    usage error naming the file when it has no such [targets.NAME])."""
+    if tcp is not None:
+        return project_module.Target(f"{tcp[0]}:{tcp[1]}", host=tcp[0], port=tcp[1],
+                                     unit=unit, baud=baud, parity=parity,
+                                     stopbits=int(stopbits))
+    if serial is not None:
+        return project_module.Target(serial, serial=serial, unit=unit, baud=baud,
+                                     parity=parity, stopbits=int(stopbits))
+    if project is None:
+        raise click.UsageError("--to names a [targets] device of mpc.toml, and there is no "
+                               "mpc.toml here or above (or give --project)")
+    if to not in project.targets:
+        known = ", ".join(project.targets) or "none"
+        raise click.BadParameter(f"{project.path} has no [targets.{to}] (targets: {known})",
+                                 param_hint="--to")
+    return project.targets[to]
+
+
 def build_options(target: str, word_order: str | None, temp_vars: range,
                   allow_outside_includes: bool) -> Options:
     return Options(word_order=None if word_order is None else int(word_order), target=target,

@@ -22,12 +22,12 @@ from mplang.cli.common import (
     BuildSetup,
     InputError,
     build_setup,
+    chosen_device,
+    device_options,
     guarded,
-    parse_device_address,
     project_option,
     report,
     with_common,
-    with_serial_line,
 )
 from mplang.cli.families import (
     Selection,
@@ -51,15 +51,8 @@ DEFAULT_TIMEOUT, DEFAULT_RETRIES = 1.0, 3
 
 @click.command("flash", short_help="Download and verify programs in a device or a fleet.")
 @click.argument("files", nargs=-1, shell_complete=complete_paths)
-@click.option("--tcp", callback=parse_device_address, default=None, metavar="HOST[:PORT]",
-              help="The device's Modbus TCP address (ET-M8194H) [default port: 502].")
-@click.option("--serial", default=None, metavar="PORT",
-              help="The serial port of a Modbus RTU device (RS-M8194H), or of a CSIM.")
-@click.option("--unit", type=click.IntRange(1, 247), default=1, show_default=True,
-              help="Modbus unit id: the RTU slave address (the ET-M8194H answers as 1).")
-@with_serial_line
-@click.option("--to", "to", default=None, metavar="NAME",
-              help="Flash the device [targets.NAME] of mpc.toml.")
+@device_options("The serial port of a Modbus RTU device (RS-M8194H), or of a CSIM.",
+                "Flash the device [targets.NAME] of mpc.toml.")
 @click.option("--fleet", type=click.Path(dir_okay=False, path_type=Path), default=None,
               metavar="FILE", help="Flash every [targets.NAME] device of FILE concurrently "
               "(mpc.toml itself is a fleet file).")
@@ -230,21 +223,8 @@ def _targets(project: Project | None, tcp: tuple[str, int] | None, serial: str |
             return load_fleet(fleet)
         except ProjectError as exc:
             raise InputError(str(exc)) from None
-    if tcp is not None:
-        return [Target(f"{tcp[0]}:{tcp[1]}", host=tcp[0], port=tcp[1], unit=unit, baud=baud,
-                       parity=parity, stopbits=stopbits)]
-    if serial is not None:
-        return [Target(serial, serial=serial, unit=unit, baud=baud, parity=parity,
-                       stopbits=stopbits)]
-    if to is not None:
-        if project is None:
-            raise click.UsageError("--to names a [targets] device of mpc.toml, and there is "
-                                   "no mpc.toml here or above (or give --project)")
-        if to not in project.targets:
-            known = ", ".join(project.targets) or "none"
-            raise click.BadParameter(f"{project.path} has no [targets.{to}] (targets: "
-                                     f"{known})", param_hint="--to")
-        return [project.targets[to]]
+    if tcp is not None or serial is not None or to is not None:
+        return [chosen_device(tcp, serial, unit, baud, parity, str(stopbits), to, project)]
     if project is not None and len(project.targets) == 1:
         return list(project.targets.values())
     if project is not None and project.targets:

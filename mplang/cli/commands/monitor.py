@@ -17,11 +17,11 @@ from mplang.cli.common import (
     EXIT_MISSING_EXTRA,
     EXIT_TRANSPORT,
     build_setup,
+    chosen_device,
+    device_options,
     guarded,
-    parse_device_address,
     project_option,
     with_common,
-    with_serial_line,
 )
 from mplang.cli.families import build_checked, select
 from mplang.cli.shell import complete_paths
@@ -103,15 +103,8 @@ def _open(url: str) -> None:
 
 @click.command("monitor", short_help="Watch a device live in the browser.")
 @click.argument("files", nargs=-1, shell_complete=complete_paths)
-@click.option("--tcp", callback=parse_device_address, default=None, metavar="HOST[:PORT]",
-              help="The device's Modbus TCP address (ET-M8194H) [default port: 502].")
-@click.option("--serial", default=None, metavar="PORT",
-              help="The serial port of a Modbus RTU device (RS-M8194H).")
-@click.option("--unit", type=click.IntRange(1, 247), default=1, show_default=True,
-              help="Modbus unit id: the RTU slave address (the ET-M8194H answers as 1).")
-@with_serial_line
-@click.option("--to", "to", default=None, metavar="NAME",
-              help="The device [targets.NAME] of mpc.toml.")
+@device_options("The serial port of a Modbus RTU device (RS-M8194H).",
+                "The device [targets.NAME] of mpc.toml.")
 @click.option("--port", "http_port", type=click.IntRange(0, 65535), default=DEFAULT_PORT,
               show_default=True, help="The dashboard's HTTP port (0: any free one).")
 @click.option("--bind", default="127.0.0.1", show_default=True, metavar="ADDR",
@@ -146,18 +139,7 @@ def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | N
     setup = build_setup(ctx, files, project_file, target, word_order, temp_vars,
                         allow_outside_includes, werror, need_sources=False)
     project = setup.project
-    if tcp is not None:
-        device = Target(f"{tcp[0]}:{tcp[1]}", host=tcp[0], port=tcp[1], unit=unit, baud=baud,
-                        parity=parity, stopbits=int(stopbits))
-    elif serial is not None:
-        device = Target(serial, serial=serial, unit=unit, baud=baud, parity=parity,
-                        stopbits=int(stopbits))
-    else:
-        if project is None or to not in project.targets:
-            raise click.BadParameter(f"no [targets.{to}] in "
-                                     f"{project.path if project else 'an mpc.toml'}",
-                                     param_hint="--to")
-        device = project.targets[to]
+    device = chosen_device(tcp, serial, unit, baud, parity, stopbits, to, project)
     paths = list(device.sources) or setup.paths
     selection = select(paths, device.target or setup.options.target,
                        setup.target_given or device.target is not None)

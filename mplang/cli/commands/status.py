@@ -18,12 +18,12 @@ from mplang.cli.common import (
     BuildSetup,
     InputError,
     build_setup,
+    chosen_device,
+    device_options,
     guarded,
-    parse_device_address,
     project_option,
     report,
     with_common,
-    with_serial_line,
 )
 from mplang.cli.families import Family, click_error, identity_choice, select
 from mplang.cli.shell import complete_paths
@@ -35,15 +35,8 @@ STATUS_EXIT = {"in-sync": EXIT_OK, "out-of-sync": EXIT_OUT_OF_SYNC, "no-device":
 
 @click.command("status", short_help="Show what a device holds and does, and compare it.")
 @click.argument("files", nargs=-1)
-@click.option("--tcp", callback=parse_device_address, default=None, metavar="HOST[:PORT]",
-              help="The device's Modbus TCP address (ET-M8194H) [default port: 502].")
-@click.option("--serial", default=None, metavar="PORT",
-              help="The serial port of a Modbus RTU device (RS-M8194H), or of a CSIM.")
-@click.option("--unit", type=click.IntRange(1, 247), default=1, show_default=True,
-              help="Modbus unit id: the RTU slave address (the ET-M8194H answers as 1).")
-@with_serial_line
-@click.option("--to", "to", default=None, metavar="NAME",
-              help="The device [targets.NAME] of mpc.toml.")
+@device_options("The serial port of a Modbus RTU device (RS-M8194H), or of a CSIM.",
+                "The device [targets.NAME] of mpc.toml.")
 @click.option("--fleet", type=click.Path(dir_okay=False, path_type=Path), default=None,
               metavar="FILE", shell_complete=complete_paths,
               help="Read every [targets.NAME] device of FILE (mpc.toml is a fleet file too) "
@@ -96,18 +89,8 @@ def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | N
         except ProjectError as exc:
             raise InputError(str(exc)) from None
         device = devices[0]
-    elif tcp is not None:
-        device = Target(f"{tcp[0]}:{tcp[1]}", host=tcp[0], port=tcp[1], unit=unit, baud=baud,
-                        parity=parity, stopbits=int(stopbits))
-    elif serial is not None:
-        device = Target(serial, serial=serial, unit=unit, baud=baud, parity=parity,
-                        stopbits=int(stopbits))
     else:
-        if project is None or to not in project.targets:
-            raise click.BadParameter(f"no [targets.{to}] in "
-                                     f"{project.path if project else 'an mpc.toml'}",
-                                     param_hint="--to")
-        device = project.targets[to]
+        device = chosen_device(tcp, serial, unit, baud, parity, stopbits, to, project)
     family = _family(setup, device)
     if fleet is not None:
         others = [d.name for d in devices[1:] if _family(setup, d) is not family]
