@@ -120,6 +120,19 @@ class Profile:
 
     def axis_code(self, name: str) -> int | None:
         """`XZ` or `AXIS_XZ` -> 0x5; `INITIAL_XZ` -> 0x15; None if not an axis name."""
+        return self._axis_codes.get(name.upper())
+
+    @cached_property
+    def _axis_codes(self) -> dict[str, int | None]:
+        """Every spelling `_axis_code` reads, worked out once (every axis argument of a
+        build asks)."""
+        letters = "XYZU"  # the order `_axis_code` accepts
+        names = ["".join(c for i, c in enumerate(letters) if mask >> i & 1)
+                 for mask in range(1 << len(letters))]
+        spellings = [prefix + n for prefix in ("", "AXIS_", "INITIAL_") for n in names]
+        return {s: self._axis_code(s) for s in spellings}
+
+    def _axis_code(self, name: str) -> int | None:
         upper = name.upper()
         offset = 0
         if upper.startswith("AXIS_"):
