@@ -37,6 +37,10 @@ class Trace:
     unit: str = "pulses"
     variables: tuple[str, ...] = ()  # declared variables by name: `rows_done (VAR400)`
     values: list[list[float]] = field(default_factory=list)  # per variable, per sample
+    places: list[str] | None = None
+    """Where the running program is at each sample (`file:line` of its source, "" while
+    none runs; the last sample of a failed run is at the failing line): the CSV's `source`
+    column. None for a family that cannot tell."""
 
     def __post_init__(self) -> None:
         if not self.lp:
@@ -50,7 +54,7 @@ class Trace:
         return len(self.time)
 
     def add(self, now: float, readings: Sequence[tuple[float, float, float]],
-            values: Sequence[float] = ()) -> None:
+            values: Sequence[float] = (), place: str | None = None) -> None:
         """One sample: (LP, EP, velocity) per axis at `now`, and the value of every traced
         variable (`variables`). A second sample at the same instant replaces the first:
         the later reading is the settled one."""
@@ -63,6 +67,8 @@ class Trace:
             self.velocity[index].append(velocity)
         for series, value in zip(self.values, values, strict=True):
             series.append(value)
+        if self.places is not None:
+            self.places.append(place or "")
 
     def _drop_last(self) -> None:
         self.time.pop()
@@ -72,6 +78,8 @@ class Trace:
             self.velocity[index].pop()
         for series in self.values:
             series.pop()
+        if self.places is not None:
+            self.places.pop()
 
     def axis(self, name: str) -> int:
         """Index of an axis by its name (X, Y, Z, U)."""
@@ -92,9 +100,11 @@ class Trace:
 
     def header(self) -> list[str]:
         """time_s, three columns per axis, then one per traced variable, headed by its
-        declared name with the device's number beside it (`rows_done (VAR400)`)."""
+        declared name with the device's number beside it (`rows_done (VAR400)`), then
+        `source` where the family tells the running program's source line."""
         return ["time_s", *(f"{axis}_{column}" for axis in self.axes
-                            for column in CSV_COLUMNS_PER_AXIS), *self.variables]
+                            for column in CSV_COLUMNS_PER_AXIS), *self.variables,
+                *(["source"] if self.places is not None else [])]
 
     def changing_variables(self) -> tuple[int, ...]:
         """The traced variables whose value changed during the run (by index)."""
@@ -112,12 +122,22 @@ class Trace:
                 row += [position_text(self.lp[index][k]), position_text(self.ep[index][k]),
                         f"{speed:.3f}"]
             row += [position_text(series[k]) for series in self.values]
+            if self.places is not None:
+                row.append(_csv_field(self.places[k]))
             yield row
 
     def write_csv(self, stream: TextIO) -> None:
         stream.write(",".join(self.header()) + "\n")
         for row in self.rows():
             stream.write(",".join(row) + "\n")
+
+
+def _csv_field(text: str) -> str:
+    """A CSV field: quoted when a comma, quote or line break would split it (a path may
+    hold any of them)."""
+    if any(c in text for c in ',"\r\n'):
+        return '"' + text.replace('"', '""') + '"'
+    return text
 
 
 def position_text(value: float) -> str:

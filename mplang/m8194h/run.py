@@ -238,7 +238,11 @@ def run_build(build: BuildResult, call: str | None = None, first_file: str | Non
         return RunReport(controller, result, f"MP{slot}", build=build)
     result, trace = run_traced(controller, trace_period, max_time=max_time, watch=watch,
                                where=where, variables=declared_variables(build))
-    return RunReport(controller, result, f"MP{slot}", trace, build=build)
+    report = RunReport(controller, result, f"MP{slot}", trace, build=build)
+    failure = report.failure
+    if failure is not None and failure.where.line is not None and trace.places:
+        trace.places[-1] = f"{failure.where.file}:{failure.where.line}"  # where it failed
+    return report
 
 
 def run_family(build: BuildResult, call: str | None, max_time: float, *,

@@ -28,13 +28,18 @@ from mplang.m8194h.watched import step_budget, waits_for_ever
 
 
 def record(trace: Trace, controller: VirtualController,
-           indices: Sequence[int] = ()) -> None:
-    """Read every axis at the controller's present clock into the trace, and the
-    variables `indices` (VARn, one per `trace.variables`)."""
+           indices: Sequence[int] = (), where: Where | None = None) -> None:
+    """Read every axis at the controller's present clock into the trace, the variables
+    `indices` (VARn, one per `trace.variables`) and, given `where`, the source line the
+    running program is at."""
     now = controller.clock
+    place = None
+    if where is not None and controller.stack:
+        found = where()
+        place = f"{found.file}:{found.line}" if found.line is not None else ""
     trace.add(now, [axis_state(controller.motion, index, now)
                     for index in range(len(trace.axes))],
-              [controller.vars[index] for index in indices])
+              [controller.vars[index] for index in indices], place)
 
 
 def axis_state(model: MotionModel, axis: int, now: float) -> tuple[int, int, float]:
@@ -58,11 +63,12 @@ def run_traced(controller: VirtualController, period: float = DEFAULT_PERIOD,
         raise ValueError(f"the sampling period must be positive, got {period}")
     if max_steps is None:
         max_steps = step_budget(max_time)
-    trace = Trace(period, variables=tuple(label for label, _ in variables))
+    trace = Trace(period, variables=tuple(label for label, _ in variables),
+                  places=[] if where is not None else None)
     indices = [index for _, index in variables]
 
     def sample() -> None:
-        record(trace, controller, indices)
+        record(trace, controller, indices, where)
 
     start = controller.clock
     limit = start + max_time

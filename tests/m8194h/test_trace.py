@@ -187,12 +187,12 @@ def test_csv_has_a_header_and_numbers_only() -> None:
     trace.write_csv(stream)
     rows = list(csv.reader(io.StringIO(stream.getvalue())))
     assert rows[0] == ["time_s"] + [f"{axis}_{column}" for axis in "XYZU"
-                                    for column in ("lp", "ep", "velocity")]
+                                    for column in ("lp", "ep", "velocity")] + ["source"]
     assert len(rows) == len(trace) + 1
     for row in rows[1:]:
-        assert len(row) == 13
+        assert len(row) == 14
         assert "-0.000" not in row
-        assert all(math.isfinite(float(cell)) for cell in row)  # every cell is a number
+        assert all(math.isfinite(float(cell)) for cell in row[:-1])  # numbers, then where
     assert [int(v) for v in rows[-1][1:3]] == [trace.lp[0][-1], trace.ep[0][-1]]
 
 

@@ -41,7 +41,7 @@ def test_trace_csv_heads_declared_variables_by_name(tmp_path: Path) -> None:
     rows = list(csv.reader(trace_file.open()))
     header = rows[0]
     assert header[:4] == ["time_s", "X_lp", "X_ep", "X_velocity"]
-    assert header[13:] == ["parts (VAR10)", "rows_done (VAR400)", "spare (VAR401)"]
+    assert header[13:] == ["parts (VAR10)", "rows_done (VAR400)", "spare (VAR401)", "source"]
     first, last = dict(zip(header, rows[1], strict=True)), dict(zip(header, rows[-1],
                                                                      strict=True))
     assert (first["parts (VAR10)"], first["rows_done (VAR400)"]) == ("0", "0")
@@ -54,7 +54,7 @@ def test_a_trace_of_a_program_without_declarations_has_the_axis_columns_only() -
     build = compile_source("MP 1\n    VAR1 = 5\nEND MP\n")
     trace = run_build(build, trace_period=0.001).trace
     assert trace is not None and trace.variables == ()
-    assert trace.header()[-1] == "U_velocity"
+    assert trace.header()[-2:] == ["U_velocity", "source"]
 
 
 def test_plot_legend_names_the_variables_that_change() -> None:

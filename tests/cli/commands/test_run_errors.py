@@ -5,6 +5,7 @@ by declared name. The execution errors are those of registers 115-119 (ET 18744-
 
 from __future__ import annotations
 
+import csv
 import json
 import re
 from pathlib import Path
@@ -170,6 +171,29 @@ def test_3_9_1_a_software_limit_stop_warns_at_the_line_that_waited(project: Path
     assert code == EXIT_OK and "  VAR1 = 1\n" in out
     assert err == (f"{source}:5:5: warning[R312]: axis X stopped on the software limit in MP4, "
                    "slot line 3\n")
+
+
+def test_the_trace_follows_the_source_line_and_ends_at_the_failing_one(project: Path) -> None:
+    """`--trace`: the `source` column is the line the running program is at, in the file it
+    is in (an INCLUDEd one too), empty once no program runs; a failed run's last sample is
+    at the failing line."""
+    (project / "share.mp").write_text("MP 31 share\n    result = 10 / zero\nEND MP\n")
+    source = project / "divide.mp"
+    source.write_text('VAR zero\nVAR result\nINCLUDE "share.mp"\n\nMP 30 divide\n'
+                      "    FIXED_MOVE X, 1000\n    STOP_WAIT X\n    zero = 0\n"
+                      "    CALL share\nEND MP\n")
+    trace_file = project / "divide.csv"
+    code, _out, _err = run("run", source, "--trace", trace_file)
+    assert code == EXIT_RUN_FAILED
+    rows = list(csv.reader(trace_file.open()))
+    places = [row[rows[0].index("source")] for row in rows[1:]]
+    assert places[0] == f"{source}:6" and f"{source}:7" in places  # FIXED_MOVE, STOP_WAIT
+    assert places[-1] == f"{project / 'share.mp'}:2"  # the division by zero
+    clean = project / "clean.mp"
+    clean.write_text("MP 5\n    FIXED_MOVE X, 100\nEND MP\n")
+    code, _out, _err = run("run", clean, "--trace", trace_file)
+    rows = list(csv.reader(trace_file.open()))
+    assert code == EXIT_OK and rows[-1][-1] == ""  # the move runs on after the program ended
 
 
 def test_json_lists_the_warnings_as_error_objects(project: Path) -> None:
