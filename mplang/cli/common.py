@@ -115,6 +115,12 @@ def expand_inputs(patterns: tuple[str, ...], skip_projects: bool = False) -> lis
             paths += matches
         else:
             raise InputError(f"{pattern}: no such file")
+    from mplang.lang.sources import not_regular
+
+    for p in paths:
+        special = not_regular(p)
+        if special is not None:  # a FIFO or a device would block, or never end
+            raise InputError(f"{_shown(str(p))}: it is {special}, not a regular file")
     unique: list[Path] = []
     seen: set[Path] = set()
     for p in paths:
@@ -424,14 +430,16 @@ def refuse_images(paths: Sequence[Path]) -> None:
     saying what it is and what to do with it, instead of a syntax error per line. What
     `mpc build` writes as JSON is an object with "format" and "target"; no .mp source or
     native listing starts with `{`, so nothing else is read whole."""
-    from mplang.lang.limits import load_json
+    from mplang.lang.limits import read_json_file
 
     for path in paths:
         try:
+            if not path.is_file():
+                continue  # the build says what it is (a FIFO is never opened here)
             with path.open("rb") as stream:
                 if not stream.read(256).lstrip().startswith(b"{"):
                     continue
-            data = load_json(path.read_text(encoding="utf-8"))
+            data = read_json_file(path, errors="strict")
         except (OSError, ValueError):
             continue  # the build reports what is wrong with the file itself
         if isinstance(data, dict) and "format" in data and "target" in data:

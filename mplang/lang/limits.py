@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import json
 import re
+import stat
+from pathlib import Path
 from typing import Any
 
 from mplang.lang import ast
@@ -109,6 +111,9 @@ def too_deep(statement: ast.Statement) -> ast.Expr | None:
 
 # Arrays and objects inside each other in JSON the tools read; images nest 4 deep.
 MAX_JSON_DEPTH = 32
+# The size of a JSON file the tools read (an image, a macro memory file, the flash record):
+# a full-device image is about 2 MB, so this only stops a wrong file being read whole.
+MAX_JSON_BYTES = 64 * 1024 * 1024
 _JSON_STRING = re.compile(r'"(?:[^"\\\n]|\\.)*"')
 _JSON_BRACKET = re.compile(r"[\[\]{}]")
 
@@ -124,3 +129,16 @@ def load_json(text: str, max_depth: int = MAX_JSON_DEPTH) -> Any:
         if deepest > max_depth:
             raise ValueError(f"arrays and objects nested more than {max_depth} deep")
     return json.loads(text)
+
+
+def read_json_file(path: Path, errors: str = "replace") -> Any:
+    """`load_json` of a file a user hands over, bounded before it is read: OSError when it
+    cannot be read, ValueError when it is not a regular file (a FIFO or a device would block
+    or never end) or is larger than MAX_JSON_BYTES, and as `load_json`."""
+    info = path.stat()
+    if not stat.S_ISREG(info.st_mode):
+        raise ValueError("not a regular file")
+    if info.st_size > MAX_JSON_BYTES:
+        raise ValueError(f"{info.st_size:,} bytes, more than the {MAX_JSON_BYTES:,} mpc "
+                         "reads of a JSON file")
+    return load_json(path.read_bytes().decode("utf-8", errors=errors))

@@ -77,6 +77,20 @@ def read_regular(path: Path) -> str:
         return stream.read()
 
 
+def read_regular_bytes(path: Path) -> bytes:
+    """The bytes of a file a user names (a project, a machine file, C source), never
+    blocking on what is not a regular file: OSError (EINVAL, "it is a FIFO (named pipe), not
+    a regular file") for a FIFO, a device or a socket, as for any file that cannot be read."""
+    special = not_regular(path)
+    if special is not None:
+        raise OSError(errno.EINVAL, f"it is {special}, not a regular file")
+    descriptor = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+    with open(descriptor, "rb") as stream:
+        if not stat.S_ISREG(os.fstat(descriptor).st_mode):
+            raise OSError(errno.EINVAL, "it is no longer a regular file")
+        return stream.read()
+
+
 def _display(path: Path) -> str:
     try:
         return str(path.relative_to(Path.cwd()))
@@ -112,14 +126,16 @@ def load_sources(paths: list[Path], sink: DiagnosticSink, *,
             entry = library.get(path.resolve())
             if entry is not None:
                 return entry.read_text(encoding="utf-8")
-            if at is not None:  # an INCLUDE: a regular file, or nothing is opened
-                special = not_regular(path)
-                if special is not None:
+            special = not_regular(path)  # a regular file, or nothing is opened
+            if special is not None:
+                if at is None:
+                    sink.add("E102", Span(display, 1), f"cannot read {display}: it is "
+                             f"{special}, not a regular file")
+                else:
                     sink.add("E102", at, f"cannot include {display}: it is {special}, not a "
                              "regular file", hint="INCLUDE names a .mp source file")
-                    return None
-                return read_regular(path)
-            return path.read_text(encoding="utf-8")
+                return None
+            return read_regular(path)
         except UnicodeDecodeError as exc:
             sink.add("E105", at or Span(display, 1), f"{display} is not UTF-8 text ({exc.reason})")
         except OSError as exc:

@@ -38,7 +38,7 @@ from mplang.ir.mpwriter import (
 )
 from mplang.ir.scope import Scope
 from mplang.lang.diagnostics import Severity
-from mplang.lang.limits import load_json
+from mplang.lang.limits import read_json_file
 from mplang.m8194h.compiler import DEFAULT_TEMPS, BuildResult, Options, compile_source
 from mplang.m8194h.encode import EncodeError, Encoder
 from mplang.m8194h.flash import FlashImage, FlashProgram, load_image
@@ -104,7 +104,7 @@ def disassemble_file(path: Path, temps: range = DEFAULT_TEMPS,
 
 def _variant(path: Path) -> str | None:
     try:
-        data = load_json(path.read_text(encoding="utf-8", errors="replace"))
+        data = read_json_file(path)
         target = data.get("target", {})
         value = target.get("variant") if isinstance(target, dict) else None
         return value if value in ("et", "rs") else None

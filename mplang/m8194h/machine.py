@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from mplang.family.face import MachineError
+from mplang.lang.sources import read_regular_bytes
 from mplang.m8194h.sim.axes import AXES
 from mplang.m8194h.sim.controller import VirtualController
 from mplang.m8194h.sim.motion import MotionModel
@@ -151,7 +152,7 @@ def load_machine(path: Path, *, project: bool = False) -> MachineSetup:
 
 def _read(path: Path) -> tuple[dict[str, Any], _Where]:
     try:
-        text = path.read_bytes().decode("utf-8")
+        text = read_regular_bytes(path).decode("utf-8")
     except OSError as exc:
         raise MachineError(f"{path}: cannot read: {exc.strerror or exc}") from None
     except UnicodeDecodeError:

@@ -23,6 +23,7 @@ from typing import Any
 from mplang.family.registry import family_of_target, known_targets, target_title
 from mplang.ir.unit import SlotPin
 from mplang.lang.diagnostics import Span
+from mplang.lang.sources import read_regular_bytes
 
 PROJECT_FILE = "mpc.toml"
 DEFAULT_RECORD = ".mpc/flash-record.json"
@@ -215,7 +216,7 @@ class _Locator:
 
 def _read(path: Path) -> tuple[dict[str, Any], _Locator]:
     try:
-        text = path.read_bytes().decode("utf-8")
+        text = read_regular_bytes(path).decode("utf-8")
     except OSError as exc:
         raise ProjectError(f"{path}: cannot read: {exc.strerror or exc}") from None
     except UnicodeDecodeError:

@@ -62,10 +62,10 @@ def _image_family(path: Path) -> Family:
     first registered family when it names none or cannot be read (whose loader then says
     what is wrong)."""
     from mplang.family.registry import families, family_of_target, family_of_title
-    from mplang.lang.limits import load_json
+    from mplang.lang.limits import read_json_file
 
     try:
-        data = load_json(path.read_text(encoding="utf-8", errors="replace"))
+        data = read_json_file(path)
     except (OSError, ValueError):  # bad syntax or nested too deep: the loader says so
         data = None
     target = data.get("target") if isinstance(data, dict) else None

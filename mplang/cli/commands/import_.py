@@ -39,6 +39,7 @@ def command(file: str, output: str | None, encoding: str | None, check: bool) ->
     """
     import codecs
 
+    from mplang.lang.sources import read_regular_bytes
     from mplang.m8194h.importc import convert, read_c_file
 
     if encoding is not None:
@@ -49,7 +50,7 @@ def command(file: str, output: str | None, encoding: str | None, check: bool) ->
                                      param_hint="--encoding") from None
     path = Path(file)
     try:
-        data = path.read_bytes()
+        data = read_regular_bytes(path)
     except OSError as exc:
         style.error(f"{file}: cannot read: {exc.strerror or exc}")
         sys.exit(EXIT_NO_INPUT)

@@ -16,7 +16,7 @@ from typing import Any
 from mplang.family.face import BadImage
 from mplang.ir import catalogue as catalogue_module
 from mplang.ir.catalogue import Catalogue
-from mplang.lang.limits import load_json
+from mplang.lang.limits import read_json_file
 from mplang.m8194h.compiler import IMAGE_FORMAT, BuildResult
 from mplang.m8194h.encode import Encoder
 from mplang.m8194h.modbus import MAX_WRITE_REGISTERS
@@ -270,9 +270,8 @@ def _triggers_from_json(raw: object, fail: Callable[[str, str], ImageError]
 
 def load_image(path: Path, catalogue: Catalogue | None = None) -> FlashImage:
     """Read and check an image JSON file. OSError if unreadable, ImageError if not an image."""
-    text = path.read_bytes().decode("utf-8", errors="replace")
     try:
-        data = load_json(text)
+        data = read_json_file(path)
     except json.JSONDecodeError as exc:
         raise ImageError(f"{path}:{exc.lineno}:{exc.colno}: not JSON: {exc.msg}") from None
     except ValueError as exc:  # nested too deep, or a number Python will not convert

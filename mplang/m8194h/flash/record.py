@@ -20,7 +20,7 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-from mplang.lang.limits import load_json
+from mplang.lang.limits import MAX_JSON_BYTES, load_json
 
 RECORD_FORMAT = "mpc-flash-record/1"
 
@@ -123,6 +123,9 @@ def _existing(path: Path) -> dict[str, Any] | str | None:
         return "is not a regular file"
     if info.st_size == 0:
         return None
+    if info.st_size > MAX_JSON_BYTES:
+        return (f"is not an mpc flash record ({info.st_size:,} bytes, more than the "
+                f"{MAX_JSON_BYTES:,} mpc reads of a JSON file)")
     try:
         data = load_json(path.read_bytes().decode("utf-8"))
     except OSError as exc:

@@ -19,7 +19,7 @@ from pathlib import Path
 
 from mplang.family.face import Companion
 from mplang.family.ptylink import PtyLink
-from mplang.lang.limits import load_json
+from mplang.lang.limits import read_json_file
 from mplang.m8194h.modbus import DeviceFace, Server, SimClock, serve_rtu, serve_tcp, stop
 from mplang.m8194h.sim.controller import VirtualController
 from mplang.m8194h.sim.preload import ServiceError as ServiceError
@@ -52,7 +52,7 @@ class Endpoints:
 
 def load_memory(controller: VirtualController, path: Path) -> None:
     try:
-        load_json(path.read_text(encoding="utf-8", errors="replace"))  # depth bounded first
+        read_json_file(path)  # size and depth bounded first
         controller.restore(path)
     except OSError as exc:
         raise ServiceError(f"{path}: cannot read macro memory: {exc.strerror or exc}",
