@@ -31,7 +31,8 @@ from mplang.m8194h.sim.controller import AXIS_NAMES, Frame, RunResult, VirtualCo
 from mplang.m8194h.sim.failure import Place
 from mplang.m8194h.sim.preload import ServiceError, preload
 
-MAX_TIME_S = 3600.0  # as `mpc run --max-time`: a program that never ends stops here (R202)
+MAX_TIME_S = 3600.0  # a program that never ends stops here (R202); above `mpc run`'s 120 s,
+# so a session stepping through a long job does not run out
 _DEVICE_NAME = re.compile(r"(b?)VAR(\d+)", re.IGNORECASE)
 # DI status bits of an axis (input register 16+axis), as the virtual controller sets them
 # (`axis_io.report`): (name, bit, active when the bit is 1)

@@ -4,8 +4,9 @@
 as `mpc run` reads them); `call` the program to run (`MPn` or a name; default: the first MP
 of the first file); `stopOnEntry`; `machine` a machine file; `target` (default: the
 project's, else et); `cwd` the directory relative paths start from; `maxTime` the simulated
-seconds after which a program that never ends is stopped (R202), 3600 by default as for
-`mpc run`. Every problem is a `LaunchError` whose message is the editor's error text.
+seconds after which a program that never ends is stopped (R202), 3600 by default (longer
+than `mpc run`'s 120: a session spent stepping through a long job should not run out).
+Every problem is a `LaunchError` whose message is the editor's error text.
 """
 
 from __future__ import annotations
