@@ -2,9 +2,18 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
+from hypothesis import settings
+
+# Property tests draw the same examples on every run, so the suite (and CI) is repeatable and
+# a failure can be run again; MPLANG_HYPOTHESIS=explore draws fresh ones, for hunting (the
+# fuzz tests of tests/test_fuzz_inputs.py take MPLANG_FUZZ=N for the same).
+settings.register_profile("repeatable", derandomize=True, database=None)
+settings.register_profile("explore", database=None)
+settings.load_profile(os.environ.get("MPLANG_HYPOTHESIS", "repeatable"))
 
 
 @pytest.fixture(autouse=True)

@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 from mplang.tools.dap import expr
 from mplang.tools.dap.framing import MAX_HEADER_LINE, Dropped, Reader, Writer
 
-FAST = settings(max_examples=150, deadline=None, database=None)
+FAST = settings(max_examples=150, deadline=None, database=None, derandomize=True)
 
 
 def frame(message: dict[str, object]) -> bytes:
@@ -42,7 +42,8 @@ def test_base_protocol_framing_survives_any_bytes(data: bytes) -> None:
 
 
 @FAST
-@given(st.lists(st.text(st.characters(blacklist_characters=":\r\n"), max_size=60),
+@given(st.lists(st.text(st.characters(blacklist_characters=":\r\n",
+                                      blacklist_categories=("Cs",)), max_size=60),
                 max_size=5))
 def test_base_protocol_a_request_after_garbage_lines_is_read(garbage: list[str]) -> None:
     request = {"seq": 1, "type": "request", "command": "threads"}
