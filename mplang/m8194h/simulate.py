@@ -114,6 +114,11 @@ def serve_devices(build: FamilyBuild | None, request: ServeRequest, say: Say) ->
         raise ServiceError("usage", "--monitor watches one device: serve the fleet without "
                            "it and watch a device with `mpc monitor --tcp HOST:PORT`")
     count = request.devices
+    first = (request.tcp or DEFAULT_TCP)[1]
+    if first and first + count - 1 > 65535:
+        raise ServiceError("usage", f"--devices {count} from port {first} needs ports "
+                           f"{first}-{first + count - 1}, past 65535, the last TCP port: "
+                           f"start at {65536 - count} at most, or at 0 (any free ports)")
     if request.memory is not None:
         if request.memory.exists() and not request.memory.is_dir():
             raise ServiceError("usage", f"--memory {request.memory}: with --devices it names "

@@ -133,6 +133,9 @@ def test_devices_take_tcp_only_and_a_directory_for_their_memory(tmp_path: Path) 
     single = mpc("sim", "--tcp", "0", "--memory", str(tmp_path), "--duration", "0",
                  cwd=tmp_path)
     assert single.returncode == EXIT_USAGE and "is a directory" in single.stderr
+    past = mpc("sim", "--devices", "3", "--tcp", "127.0.0.1:65534", "--duration", "0",
+               cwd=tmp_path)
+    assert past.returncode == EXIT_USAGE and "past 65535" in past.stderr
     watched = mpc("sim", "--devices", "2", "--tcp", "0", "--monitor", "0", "--duration", "0",
                   cwd=tmp_path)
     assert watched.returncode == EXIT_USAGE and "watches one device" in watched.stderr
