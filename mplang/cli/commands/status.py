@@ -142,7 +142,10 @@ class _StatusUI:
         self.werror = werror
 
     def say(self, text: str) -> None:
-        click.echo(f"mpc status: {text}", err=True)
+        """A line of the status; an error reads `mpc: error: ...` as every command's do."""
+        from mplang.cli.progress import narration
+
+        click.echo(narration("mpc status", text), err=True)
 
     def out(self, text: str) -> None:
         click.echo(text, nl=False)

@@ -144,7 +144,7 @@ def test_status_and_flash_refuse_bad_identity_and_report_no_device(tmp_path: Pat
         probe.bind(("127.0.0.1", 0))
         closed = probe.getsockname()[1]
     gone = mpc(work, "status", "--tcp", f"127.0.0.1:{closed}")
-    assert gone.returncode == EXIT_NO_DEVICE and "no device" in gone.stderr
+    assert gone.returncode == EXIT_NO_DEVICE and "mpc: error: no device" in gone.stderr
     bad = mpc(work, "flash", "job.mp", "--tcp", f"127.0.0.1:{closed}", "--identity", "MD0-MD3")
     assert bad.returncode == EXIT_USAGE and "at least 8" in bad.stderr
     csim = mpc(work, "status", "--serial", str(tmp_path / "tty"), "--target", "csim")
