@@ -195,6 +195,30 @@ def report(result: HasDiagnostics, werror: bool, ignore: frozenset[str] = frozen
     return EXIT_OK
 
 
+class DeviceUI:
+    """How a command that talks to a device (`mpc flash`, `mpc status`) shows what the
+    family's work says: its lines on standard error (an error as `mpc: error: ...`, as every
+    command's), its output on standard output, and the build's diagnostics, which end the
+    command when they fail it."""
+
+    def __init__(self, command: str, werror: bool) -> None:
+        self.command = command
+        self.werror = werror
+
+    def say(self, text: str) -> None:
+        from mplang.cli.progress import narration
+
+        click.echo(narration(self.command, text), err=True)
+
+    def out(self, text: str) -> None:
+        click.echo(text, nl=False)
+
+    def checked(self, build: HasDiagnostics) -> None:
+        code = report(build, self.werror)
+        if code:
+            sys.exit(code)
+
+
 class LazyChoice(click.Choice[str]):
     """A choice whose values beyond `first` come from `rest()` only when they are needed
     (an unknown value, help, completion): `--target` lists the family packages' targets

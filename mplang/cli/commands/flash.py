@@ -20,13 +20,13 @@ import click
 from mplang.cli.common import (
     FLASH_EXIT,
     BuildSetup,
+    DeviceUI,
     InputError,
     build_setup,
     chosen_device,
     device_options,
     guarded,
     project_option,
-    report,
     with_common,
 )
 from mplang.cli.families import (
@@ -37,7 +37,6 @@ from mplang.cli.families import (
     select,
 )
 from mplang.cli.shell import complete_paths
-from mplang.family.face import FamilyBuild
 from mplang.family.registry import families
 from mplang.tools.project import Project, ProjectError, Target, load_fleet
 
@@ -150,7 +149,7 @@ def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | N
         fleet=fleet is not None, stop_running=stop_running,
         identity=manifest_range, identity_where=manifest_where)
     try:
-        outcome = family.flash_devices(job, _FlashUI(setup.werror))
+        outcome = family.flash_devices(job, _FlashUI("mpc flash", setup.werror))
     except CommandError as exc:
         raise click_error(exc) from None
     sys.exit(FLASH_EXIT[outcome])
@@ -237,24 +236,8 @@ def _targets(project: Project | None, tcp: tuple[str, int] | None, serial: str |
                            "(mpc.toml) or --fleet FILE")
 
 
-class _FlashUI:
-    """The family's flash, as the terminal shows it."""
-
-    def __init__(self, werror: bool) -> None:
-        self.werror = werror
-
-    def say(self, text: str) -> None:
-        from mplang.cli.progress import narration
-
-        click.echo(narration("mpc flash", text), err=True)
-
-    def out(self, text: str) -> None:
-        click.echo(text, nl=False)
-
-    def checked(self, build: FamilyBuild) -> None:
-        code = report(build, self.werror)
-        if code:
-            sys.exit(code)
+class _FlashUI(DeviceUI):
+    """The family's flash, as the terminal shows it: `DeviceUI` and a progress bar."""
 
     def progress(self, reports: Callable[[], Sequence[Any]]) -> _Progress:
         from mplang.cli.progress import FlashDisplay

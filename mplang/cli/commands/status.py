@@ -16,18 +16,17 @@ from mplang.cli.common import (
     EXIT_OK,
     EXIT_OUT_OF_SYNC,
     BuildSetup,
+    DeviceUI,
     InputError,
     build_setup,
     chosen_device,
     device_options,
     guarded,
     project_option,
-    report,
     with_common,
 )
 from mplang.cli.families import Family, click_error, identity_choice, select
 from mplang.cli.shell import complete_paths
-from mplang.family.face import FamilyBuild
 from mplang.tools.project import ProjectError, Target, load_fleet
 
 STATUS_EXIT = {"in-sync": EXIT_OK, "out-of-sync": EXIT_OUT_OF_SYNC, "no-device": EXIT_NO_DEVICE}
@@ -117,7 +116,7 @@ def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | N
         identity=manifest_range, identity_where=manifest_where,
         fleet=fleet is not None, devices=devices or [device], jobs=jobs)
     try:
-        outcome = family.status_device(job, _StatusUI(setup.werror))
+        outcome = family.status_device(job, DeviceUI("mpc status", setup.werror))
     except CommandError as exc:
         raise click_error(exc) from None
     sys.exit(STATUS_EXIT[outcome])
@@ -135,22 +134,3 @@ def _family(setup: BuildSetup, device: Target) -> Family:
     paths = [device.image] if device.image is not None else list(device.sources) or setup.paths
     return select(paths, device.target or setup.options.target,
                   setup.target_given or device.target is not None).family
-
-
-class _StatusUI:
-    def __init__(self, werror: bool) -> None:
-        self.werror = werror
-
-    def say(self, text: str) -> None:
-        """A line of the status; an error reads `mpc: error: ...` as every command's do."""
-        from mplang.cli.progress import narration
-
-        click.echo(narration("mpc status", text), err=True)
-
-    def out(self, text: str) -> None:
-        click.echo(text, nl=False)
-
-    def checked(self, build: FamilyBuild) -> None:
-        code = report(build, self.werror)
-        if code:
-            sys.exit(code)
