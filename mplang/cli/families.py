@@ -115,6 +115,15 @@ def select(paths: list[Path], target: str, target_given: bool) -> Selection:
     return Selection(chosen, target, False, paths)
 
 
+def device_selection(setup: BuildSetup, device: project_module.Target) -> Selection:
+    """The family and sources of one device of `mpc flash`, `status` or `monitor`: its own
+    target (mpc.toml [targets.NAME]), else --target or the project's; its image or sources,
+    else the command's FILEs (`select`)."""
+    paths = [device.image] if device.image is not None else list(device.sources) or setup.paths
+    return select(paths, device.target or setup.options.target,
+                  setup.target_given or device.target is not None)
+
+
 def _owners(option: str, attribute: str) -> str:
     """The families that take `option` (their `BUILD_OPTIONS` or `SERVE_OPTIONS`)."""
     return " and ".join(f.TITLE for f in families() if option in getattr(f, attribute))

@@ -32,6 +32,7 @@ from mplang.cli.common import (
 from mplang.cli.families import (
     Selection,
     click_error,
+    device_selection,
     identity_choice,
     refuse_options,
     select,
@@ -208,9 +209,7 @@ def _selection(setup: BuildSetup, device: Target, cli_target: bool) -> Selection
     if own is not None and cli_target and setup.options.target != own:
         raise click.UsageError(f"--target {setup.options.target} contradicts target = "
                                f"\"{own}\" of [targets.{device.name}]")
-    target = own if own is not None else setup.options.target
-    paths = [device.image] if device.image is not None else list(device.sources) or setup.paths
-    return select(paths, target, setup.target_given or own is not None)
+    return device_selection(setup, device)
 
 
 def _targets(project: Project | None, tcp: tuple[str, int] | None, serial: str | None,

@@ -23,7 +23,7 @@ from mplang.cli.common import (
     project_option,
     with_common,
 )
-from mplang.cli.families import build_checked, select
+from mplang.cli.families import build_checked, device_selection
 from mplang.cli.shell import complete_paths
 from mplang.family.face import (
     Companion,
@@ -140,10 +140,8 @@ def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | N
                         allow_outside_includes, werror, need_sources=False)
     project = setup.project
     device = chosen_device(tcp, serial, unit, baud, parity, stopbits, to, project)
-    paths = list(device.sources) or setup.paths
-    selection = select(paths, device.target or setup.options.target,
-                       setup.target_given or device.target is not None)
-    family = selection.family
+    selection = device_selection(setup, device)
+    paths, family = selection.paths, selection.family
     if family.watch is None:
         refuse_family(family, "mpc monitor")
     require_aiohttp("mpc monitor")

@@ -25,7 +25,7 @@ from mplang.cli.common import (
     project_option,
     with_common,
 )
-from mplang.cli.families import Family, click_error, identity_choice, select
+from mplang.cli.families import Family, click_error, device_selection, identity_choice
 from mplang.cli.shell import complete_paths
 from mplang.tools.project import ProjectError, Target, load_fleet
 
@@ -131,6 +131,4 @@ STATUS_OPTIONS = (("--unit", "unit"), ("--word-order", "word_order"), ("--retrie
 def _family(setup: BuildSetup, device: Target) -> Family:
     """The controller family of one device: its own target, else the sources' or
     --target's (`families.select`)."""
-    paths = [device.image] if device.image is not None else list(device.sources) or setup.paths
-    return select(paths, device.target or setup.options.target,
-                  setup.target_given or device.target is not None).family
+    return device_selection(setup, device).family
