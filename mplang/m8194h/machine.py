@@ -14,14 +14,13 @@ from __future__ import annotations
 
 import math
 import re
-import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from mplang.family.face import MachineError
-from mplang.lang.sources import read_regular_bytes
+from mplang.lang.tomlfile import TomlFileError, TomlLines, read_toml
 from mplang.m8194h.sim.axes import AXES
 from mplang.m8194h.sim.controller import VirtualController
 from mplang.m8194h.sim.motion import MotionModel
@@ -37,8 +36,6 @@ AXIS_KEYS = frozenset({"limit-plus", "limit-minus", "near-home", "home", "index"
 INDEX_KEYS = frozenset({"period", "at", "width"})
 POSITION_RANGE = (-(1 << 31), (1 << 31) - 1)
 _DEFAULT = AxisSensors()
-_TABLE_LINE = re.compile(r"^\s*\[+\s*([^\]]+?)\s*\]+")
-_KEY_LINE = re.compile(r"^\s*(\"[^\"]*\"|'[^']*'|[A-Za-z0-9_-]+)\s*=")
 _AT = re.compile(r"at\s+(\S+?)\s*(ms|s)\s+(.+)", re.IGNORECASE | re.DOTALL)
 _WHEN = re.compile(r"when\s+(\w+)\s*(>=|<=|>|<)\s*(\S+?)\s+([A-Za-z].*)",
                    re.IGNORECASE | re.DOTALL)
@@ -69,34 +66,12 @@ class MachineSetup:
     watches: tuple[Watch, ...] = ()
 
 
-class _Where:
+class _Where(TomlLines):
     """The line of `[table]`, `key =` or a string in the file, for messages."""
 
     def __init__(self, path: Path, text: str) -> None:
+        super().__init__(text)
         self.path = path
-        self.lines = text.splitlines()
-
-    def line(self, table: str, key: str | None = None, needle: str | None = None) -> int:
-        current, found = "", 1
-        for number, raw in enumerate(self.lines, start=1):
-            header = _TABLE_LINE.match(raw)
-            if header and not raw.lstrip().startswith(("\"", "'")):
-                current = ".".join(p.strip().strip("\"'") for p in header.group(1).split("."))
-                if current == table:
-                    found = number
-                    if key is None:
-                        return number
-                continue
-            if current != table:
-                continue
-            match = _KEY_LINE.match(raw)
-            if match and key is not None and match.group(1).strip("\"'") == key:
-                found = number
-                if needle is None:
-                    return number
-            if needle is not None and found > 1 and needle in raw:
-                return number
-        return found
 
     def error(self, table: str, key: str | None, message: str,
               needle: str | None = None) -> MachineError:
@@ -152,21 +127,9 @@ def load_machine(path: Path, *, project: bool = False) -> MachineSetup:
 
 def _read(path: Path) -> tuple[dict[str, Any], _Where]:
     try:
-        text = read_regular_bytes(path).decode("utf-8")
-    except OSError as exc:
-        raise MachineError(f"{path}: cannot read: {exc.strerror or exc}") from None
-    except UnicodeDecodeError:
-        raise MachineError(f"{path}: not UTF-8 text") from None
-    except ValueError as exc:  # a name the system cannot take (a NUL)
-        raise MachineError(f"{str(path)!r}: cannot read: {exc}") from None
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        match = re.search(r"line (\d+)", str(exc))
-        line = match.group(1) if match else str(max(1, len(text.splitlines())))
-        raise MachineError(f"{path}:{line}: not valid TOML: {exc}") from None
-    except ValueError:  # tomllib converts numbers with int(): at most 4,300 digits
-        raise MachineError(f"{path}: a number too long for any setting") from None
+        data, text = read_toml(path)
+    except TomlFileError as exc:
+        raise MachineError(str(exc)) from None
     return data, _Where(path, text)
 
 

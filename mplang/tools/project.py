@@ -14,7 +14,6 @@ from __future__ import annotations
 import errno
 import os
 import re
-import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -23,7 +22,7 @@ from typing import Any
 from mplang.family.registry import family_of_target, known_targets, target_title
 from mplang.ir.unit import SlotPin
 from mplang.lang.diagnostics import Span
-from mplang.lang.sources import read_regular_bytes
+from mplang.lang.tomlfile import TomlFileError, TomlLines, read_toml
 
 PROJECT_FILE = "mpc.toml"
 DEFAULT_RECORD = ".mpc/flash-record.json"
@@ -41,8 +40,6 @@ PROJECT_KEYS = frozenset({"sources", "target", "word-order", "temp-vars", "var-p
                           "allow-outside-includes", "werror"})
 FLASH_KEYS = frozenset({"record", "timeout", "retries", "set-word-order", "identity"})
 SLOT_TEXT = re.compile(r"(MP|ISR)\s*(\d+)", re.IGNORECASE)
-TABLE_LINE = re.compile(r"^\s*\[+\s*([^\]]+?)\s*\]+")
-KEY_LINE = re.compile(r"^\s*(\"[^\"]*\"|'[^']*'|[A-Za-z0-9_-]+)\s*=")
 
 
 class ProjectError(ValueError):
@@ -179,32 +176,12 @@ def find_project(start: Path) -> Path | None:
     return None
 
 
-class _Locator:
+class _Locator(TomlLines):
     """Finds the line of `[table]` / `key =` in the TOML text, for messages."""
 
     def __init__(self, path: Path, text: str) -> None:
+        super().__init__(text)
         self.path = path
-        self.lines = text.splitlines()
-
-    def line(self, table: str, key: str | None = None) -> int:
-        current = ""
-        table_line = 1
-        for number, raw in enumerate(self.lines, start=1):
-            text = raw.split("#", 1)[0] if not raw.lstrip().startswith(("\"", "'")) else raw
-            header = TABLE_LINE.match(text)
-            if header:
-                current = ".".join(part.strip().strip("\"'") for part in
-                                   header.group(1).split("."))
-                if current == table:
-                    table_line = number
-                    if key is None:
-                        return number
-                continue
-            match = KEY_LINE.match(text)
-            if match and current == table and key is not None \
-                    and match.group(1).strip("\"'") == key:
-                return number
-        return table_line
 
     def span(self, table: str, key: str | None = None) -> Span:
         return Span(str(self.path), self.line(table, key))
@@ -216,23 +193,9 @@ class _Locator:
 
 def _read(path: Path) -> tuple[dict[str, Any], _Locator]:
     try:
-        text = read_regular_bytes(path).decode("utf-8")
-    except OSError as exc:
-        raise ProjectError(f"{path}: cannot read: {exc.strerror or exc}") from None
-    except UnicodeDecodeError:
-        raise ProjectError(f"{path}: not UTF-8 text") from None
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        match = re.search(r"line (\d+)", str(exc))
-        line = f":{match.group(1)}" if match else \
-            f":{max(1, len(text.splitlines()))}" if "end of document" in str(exc) else ""
-        raise ProjectError(f"{path}{line}: not valid TOML: {exc}") from None
-    except ValueError:  # tomllib converts numbers with int(): at most 4,300 digits
-        longest = max(re.finditer(r"[0-9_]+", text), key=lambda m: len(m.group()))
-        number = text.count("\n", 0, longest.start()) + 1
-        raise ProjectError(f"{path}:{number}: a number of {len(longest.group())} digits: "
-                           "no setting takes one") from None
+        data, text = read_toml(path)
+    except TomlFileError as exc:
+        raise ProjectError(str(exc)) from None
     return data, _Locator(path, text)
 
 
