@@ -31,11 +31,11 @@ from mplang.csim.service import serve
 from mplang.csim.status import status as status_device
 
 disassemble = None
+"""No image format to read back: a CSIM lists its program itself (ULP)."""
 load_machine = None
 NO_MACHINE = ("the virtual CSIM has no limit or home switches to place, and its inputs 1-8 "
               "hold one state for a whole run (docs/csim.md)")
 """No `--machine`: why not, for the command line's refusal."""
-"""No image format to read back: a CSIM lists its program itself (ULP)."""
 debug = None
 """No `mpc dap`: the virtual CSIM runs its command lines with no place to stop (`NO_DEBUG`)."""
 NO_DEBUG = ("the virtual CSIM runs its command lines with no place to stop at a source "

@@ -31,14 +31,14 @@ from mplang.fatek.run import FamilyRun, NoSuchTable, run_build
 serve = None
 """No device service: nothing can reach a FATEK positioning table (`NO_TRANSPORT`)."""
 flash_devices = None
-status_device = None  # no status reads: see docs/cli.md (mpc status)
 """Nothing to flash into (`NO_TRANSPORT`; `FLASH_INSTEAD` says what to do)."""
+status_device = None  # no status reads: see docs/cli.md (mpc status)
 disassemble = None
+"""No image to read back: the listing is the program."""
 load_machine = None
 NO_MACHINE = ("a FATEK table describes its machine in the listing itself: SIM lines drive the "
               "DOG, limit and PG0 inputs and timed contacts (docs/fatek.md)")
 """No `--machine`: why not, for the command line's refusal."""
-"""No image to read back: the listing is the program."""
 debug = None
 """No `mpc dap`: the virtual FBs-PLC runs a positioning table a step at a time with no place
 to stop between steps (`NO_DEBUG`)."""
