@@ -31,6 +31,7 @@ if TYPE_CHECKING:  # every family package has the face the CLI uses
     import mplang.csim
     import mplang.fatek
     import mplang.m8194h
+    from mplang.cli.runwatch import RunWatch
 
     _M8194H: Family = mplang.m8194h
     _FATEK: Family = mplang.fatek
@@ -226,6 +227,22 @@ def machine_for(selection: Selection, machine_file: Path | None,
         return load(project.path, True)
     except MachineError as exc:
         raise BadMachine(str(exc)) from None
+
+
+def watched_run(command: str, selection: Selection, setup: BuildSetup, call: str | None,
+                max_time: float, sample_period: float | None,
+                machine_file: Path | None) -> tuple[FamilyRun, RunWatch]:
+    """`mpc run` / `mpc plot`: build and run on the machine of `machine_for`, with the
+    status line on a terminal and Ctrl-C stopping the run (`mplang.cli.runwatch`); the run,
+    and the watch that saw it (whether and where Ctrl-C ended it)."""
+    from mplang.cli.runwatch import RunWatch
+
+    machine = machine_for(selection, machine_file, setup.project)
+    watch = RunWatch(command)
+    with watch.active():
+        run = build_and_run(selection, setup, call, max_time, sample_period, machine=machine,
+                            watch=watch)
+    return run, watch
 
 
 def build_and_run(selection: Selection, setup: BuildSetup, call: str | None, max_time: float,

@@ -20,8 +20,8 @@ from mplang.cli.common import (
     project_option,
     with_common,
 )
-from mplang.cli.families import build_and_run, choose, machine_for
-from mplang.cli.runwatch import RunWatch, exit_code, given, max_time_option, out_of_time_hint
+from mplang.cli.families import choose, watched_run
+from mplang.cli.runwatch import exit_code, given, max_time_option, out_of_time_hint
 from mplang.cli.shell import complete_paths
 
 if TYPE_CHECKING:
@@ -98,11 +98,8 @@ def command(ctx: click.Context, files: tuple[str, ...], call: str | None, output
                         allow_outside_includes, werror)
     selection = choose(setup)
     check_output_place(Path(output))
-    machine = machine_for(selection, machine_file, setup.project)
-    watch = RunWatch("mpc plot")
-    with watch.active():  # the status line on a terminal; Ctrl-C stops the run
-        run = build_and_run(selection, setup, call, max_time, trace_period, machine=machine,
-                            watch=watch)
+    run, watch = watched_run("mpc plot", selection, setup, call, max_time, trace_period,
+                             machine_file)
     interrupted = watch.interrupted and not run.finished
     trace = run.trace
     assert trace is not None  # asked for with trace_period

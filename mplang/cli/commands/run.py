@@ -19,9 +19,8 @@ from mplang.cli.common import (
     project_option,
     with_common,
 )
-from mplang.cli.families import build_and_run, choose, machine_for
+from mplang.cli.families import choose, watched_run
 from mplang.cli.runwatch import (
-    RunWatch,
     exit_code,
     given,
     max_time_option,
@@ -83,11 +82,8 @@ def command(ctx: click.Context, files: tuple[str, ...], call: str | None, as_jso
         check_trace_place(trace_file)
     period = None if trace_file is None \
         else DEFAULT_PERIOD if trace_period is None else trace_period
-    machine = machine_for(selection, machine_file, setup.project)
-    watch = RunWatch("mpc run")
-    with watch.active():  # the status line on a terminal; Ctrl-C stops the run
-        run = build_and_run(selection, setup, call, max_time, period, machine=machine,
-                            watch=watch)
+    run, watch = watched_run("mpc run", selection, setup, call, max_time, period,
+                             machine_file)
     interrupted = watch.interrupted and not run.finished
     trace = run.trace
     if trace_file is not None and trace is not None:
