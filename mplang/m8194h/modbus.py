@@ -610,6 +610,14 @@ class DeviceLink:
         return False
 
     # -------------------------------------------------------------------- requests
+    def _no_answer(self, describe: str, lost: asyncio.Event) -> LinkError:
+        """No answer came: the connection was lost on the way, or the device kept quiet."""
+        if lost.is_set():
+            self._unsettle(lost=True)
+            return LinkLost(f"{describe}: connection lost")
+        self._unsettle()
+        return LinkTimeout(f"{describe}: no answer within {self.endpoint.timeout:g} s")
+
     async def _exchange(self, request: Callable[[Client], Awaitable[ModbusPDU]],
                         function_code: int, address: int,
                         matches: Callable[[ModbusPDU], bool], fence: bool = True
@@ -636,22 +644,12 @@ class DeviceLink:
             if not guard.expired():  # a socket timeout inside pymodbus: the link failed
                 self._unsettle(lost=True)
                 raise LinkLost(f"{describe}: {exc}") from None
-            if lost.is_set():
-                self._unsettle(lost=True)
-                raise LinkLost(f"{describe}: connection lost") from None
-            self._unsettle()
-            raise LinkTimeout(f"{describe}: no answer within {self.endpoint.timeout:g} s"
-                              ) from None
+            raise self._no_answer(describe, lost) from None
         except ConnectionException as exc:
             self._unsettle(lost=True)
             raise LinkLost(f"{describe}: connection lost ({exc})") from None
         except ModbusIOException:
-            if lost.is_set():
-                self._unsettle(lost=True)
-                raise LinkLost(f"{describe}: connection lost") from None
-            self._unsettle()
-            raise LinkTimeout(f"{describe}: no answer within {self.endpoint.timeout:g} s"
-                              ) from None
+            raise self._no_answer(describe, lost) from None
         except (ModbusException, OSError) as exc:
             self._unsettle(lost=True)
             raise LinkLost(f"{describe}: {exc}") from None
