@@ -7,6 +7,7 @@ from __future__ import annotations
 import asyncio
 import re
 import signal
+from collections.abc import Awaitable, Callable
 
 from mplang.family.face import FamilyBuild, Say, ServeRequest, ServiceError
 from mplang.m8194h.image import BuildResult
@@ -90,17 +91,7 @@ def serve(build: FamilyBuild | None, request: ServeRequest, say: Say) -> None:
         parity=request.parity, stopbits=request.stopbits, speed=request.speed, memory=memory,
         duration=request.duration, verbose=request.verbose, companion=request.companion)
 
-    async def main_task() -> None:
-        stop_event = asyncio.Event()
-        loop = asyncio.get_running_loop()
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            loop.add_signal_handler(sig, stop_event.set)
-        await service.serve(options, controller, say, stop_event)
-
-    try:
-        asyncio.run(main_task())
-    except service.ServiceError as exc:
-        raise ServiceError("memory" if exc.kind == "memory" else "transport", str(exc)) from None
+    _until_stopped(lambda stop_event: service.serve(options, controller, say, stop_event))
 
 
 def serve_devices(build: FamilyBuild | None, request: ServeRequest, say: Say) -> None:
@@ -155,12 +146,20 @@ def serve_devices(build: FamilyBuild | None, request: ServeRequest, say: Say) ->
         tcp=request.tcp or DEFAULT_TCP, speed=request.speed, memory=request.memory,
         duration=request.duration, verbose=request.verbose, devices=count)
 
+    _until_stopped(lambda stop_event: service.serve_fleet(options, controllers, say,
+                                                          stop_event))
+
+
+def _until_stopped(serving: Callable[[asyncio.Event], Awaitable[None]]) -> None:
+    """Run a service until Ctrl-C, SIGTERM or its own end; its failures as `ServiceError`s
+    ("memory" for a memory file, "transport" for the ports)."""
+
     async def main_task() -> None:
         stop_event = asyncio.Event()
         loop = asyncio.get_running_loop()
         for sig in (signal.SIGINT, signal.SIGTERM):
             loop.add_signal_handler(sig, stop_event.set)
-        await service.serve_fleet(options, controllers, say, stop_event)
+        await serving(stop_event)
 
     try:
         asyncio.run(main_task())

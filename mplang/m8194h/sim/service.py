@@ -101,12 +101,9 @@ async def serve(options: SimOptions, controller: VirtualController,
             endpoints.serial = link.client_end if link else port_name
             settings = f"{options.baudrate} 8{options.parity}{options.stopbits}"
             announce(f"Modbus RTU on {endpoints.serial} (unit {options.unit}, {settings})")
-        loop = asyncio.get_running_loop()
-        deadline = None if options.duration is None else loop.time() + options.duration
-        while not stop_event.is_set():
-            timeout = 0.05 if deadline is None else max(0.0, min(0.05, deadline - loop.time()))
-            with contextlib.suppress(TimeoutError):
-                await asyncio.wait_for(stop_event.wait(), timeout)
+
+        def tick() -> None:
+            nonlocal saved
             face.catch_up()
             if options.verbose:
                 while controller.log:
@@ -114,8 +111,8 @@ async def serve(options: SimOptions, controller: VirtualController,
             if options.memory is not None and controller.memory_version != saved:
                 save_memory(controller, options.memory)
                 saved = controller.memory_version
-            if deadline is not None and loop.time() >= deadline:
-                break
+
+        await _ticking(tick, stop_event, options.duration)
     finally:
         if options.verbose:  # what the device did since the last tick, before it stops
             while controller.log:
@@ -127,6 +124,21 @@ async def serve(options: SimOptions, controller: VirtualController,
             link.close()
         if options.memory is not None and controller.memory_version != saved:
             save_memory(controller, options.memory)
+
+
+async def _ticking(tick: Callable[[], None], stop_event: asyncio.Event,
+                   duration: float | None) -> None:
+    """Call `tick` every 50 ms (the devices catch up with the wall clock, their logs and
+    memory files follow) until `stop_event` or the end of `duration` seconds."""
+    loop = asyncio.get_running_loop()
+    deadline = None if duration is None else loop.time() + duration
+    while not stop_event.is_set():
+        timeout = 0.05 if deadline is None else max(0.0, min(0.05, deadline - loop.time()))
+        with contextlib.suppress(TimeoutError):
+            await asyncio.wait_for(stop_event.wait(), timeout)
+        tick()
+        if deadline is not None and loop.time() >= deadline:
+            break
 
 
 def save_memory(controller: VirtualController, path: Path) -> None:
@@ -184,20 +196,16 @@ async def serve_fleet(options: SimOptions, controllers: list[VirtualController],
             servers.append(listening)
             ports.append(bound)
             announce(f"Modbus TCP on {host}:{bound} (device {k + 1} of {count}, any unit id)")
-        loop = asyncio.get_running_loop()
-        deadline = None if options.duration is None else loop.time() + options.duration
-        while not stop_event.is_set():
-            timeout = 0.05 if deadline is None else max(0.0, min(0.05, deadline - loop.time()))
-            with contextlib.suppress(TimeoutError):
-                await asyncio.wait_for(stop_event.wait(), timeout)
+
+        def tick() -> None:
             for k, face in enumerate(faces):
                 face.catch_up()
                 if options.verbose:
                     while face.controller.log:
                         announce(f"device {k + 1}: {face.controller.log.popleft()}")
             save_changed()
-            if deadline is not None and loop.time() >= deadline:
-                break
+
+        await _ticking(tick, stop_event, options.duration)
     finally:
         for server in servers:
             await stop(server)
