@@ -82,7 +82,9 @@ def post(url: str, body: object, content_type: str = "application/json") -> tupl
         with urllib.request.urlopen(request, timeout=10) as answer:
             return answer.status, json.loads(answer.read().decode())
     except urllib.error.HTTPError as err:
-        return err.code, json.loads(err.read().decode())
+        body = err.read().decode()
+        return err.code, json.loads(body) if err.headers.get_content_type() == \
+            "application/json" else body
 
 
 def state_until(url: str, wanted: Callable[[dict[str, Any]], bool],

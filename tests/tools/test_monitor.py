@@ -134,6 +134,10 @@ def test_manual_12_3_writes_with_allow_write(tmp_path: Path) -> None:
             missing = post(url + "api/call", {"program": "MP999"})
             assert missing[0] == 400 and "no MP 'MP999'" in missing[1]["error"]
             assert post(url + "api/stop", "stop", "text/plain")[0] == 415
+            deep = post(url + "api/var", "[" * 100_000)  # nested past any decoder's depth
+            assert deep[0] == 400 and "not JSON" in deep[1]["error"]
+            huge = post(url + "api/var", '{"name": "laps", "value": 1}' + " " * (2 << 20))
+            assert huge[0] == 413  # aiohttp's body limit, 1 MiB
             assert post(url + "api/var", {"name": "target", "value": 0})[0] == 200
             state_until(url, lambda s: s["variables"][0]["value"] == 0)
             assert post(url + "api/call", {"program": "MP42"})[0] == 200

@@ -25,6 +25,7 @@ from typing import Any
 from aiohttp import WSMsgType, web
 
 from mplang.family.face import CommandError, DeviceUnreachable, LiveDevice
+from mplang.lang.limits import load_json
 
 PERIOD_S = 0.05  # 20 polls a second while the device answers
 RETRY_S = 0.5  # between attempts while it does not
@@ -173,8 +174,8 @@ class Monitor:
         if request.content_type != "application/json":
             return web.json_response({"error": "send the request as application/json"},
                                      status=415)
-        try:
-            args = await request.json() if request.can_read_body else {}
+        try:  # nesting bounded before decoding: a hostile body is a 400, never a 500
+            args = load_json(await request.text()) if request.can_read_body else {}
         except ValueError:
             return web.json_response({"error": "the body is not JSON"}, status=400)
         if not isinstance(args, dict):
