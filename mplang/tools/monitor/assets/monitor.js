@@ -5,6 +5,7 @@
 
 const LAMPS = [["limit_plus", true], ["limit_minus", true], ["near_home", false],
   ["home", false], ["index", false], ["alarm", true], ["emg", true], ["inpos", false]];
+const PATH_LIMIT = 100000;  // points kept, as the server keeps (a long watch stays bounded)
 const path = [];  // [x, y, z] logic positions
 let pathEnd = 0;  // the absolute index after the last point received
 let drawPending = false;
@@ -120,6 +121,7 @@ function showVars(vars) {
 function addPoints(from, points) {
   if (from > pathEnd) { path.length = 0; }  // the server dropped points we never had
   for (const p of points) path.push(p);
+  if (path.length > PATH_LIMIT) path.splice(0, path.length - PATH_LIMIT / 2);  // as the server
   pathEnd = from + points.length;
   if (!drawPending) { drawPending = true; requestAnimationFrame(draw); }
 }
