@@ -12,7 +12,7 @@ included, is reached through one face (`mplang.family.face.Family`) found in one
 from __future__ import annotations
 
 import sys
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -210,10 +210,10 @@ def machine_for(selection: Selection, machine_file: Path | None,
 
     family = selection.family
     if machine_file is None and (project is None or not project.machine):
-        return None  # (asked only now: a family may predate the machine face)
-    load: Callable[[Path, bool], object] | None = getattr(family, "load_machine", None)
+        return None
+    load = family.load_machine
     if load is None:
-        reason = getattr(family, "NO_MACHINE", "") or "its virtual device has no machine"
+        reason = family.NO_MACHINE or "its virtual device has no machine"
         if machine_file is not None:
             raise click.UsageError(f"--machine: {selection.describe} runs take no machine "
                                    f"file: {reason}")
@@ -255,10 +255,7 @@ def build_and_run(selection: Selection, setup: BuildSetup, call: str | None, max
     build = build_checked(selection, setup)
     try:
         run = family.run_build(build, call, max_time, sample_period=sample_period,
-                               watch=watch) \
-            if machine is None else family.run_build(build, call, max_time,
-                                                     sample_period=sample_period,
-                                                     machine=machine, watch=watch)
+                               machine=machine, watch=watch)
     except family.NoSuchProgram as exc:
         raise click.BadParameter(str(exc), param_hint="--call") from None
     except family.RunSetupError as exc:

@@ -32,7 +32,13 @@ FLASHES_FLEETS = False
 FLASH_INSTEAD = "Copy the listing by hand"
 serve = None
 flash_devices = None
+status_device = None
 disassemble = None
+debug = None
+NO_DEBUG = "a toy runs its moves at once"
+watch = None
+load_machine = None
+NO_MACHINE = "a toy has no switches"
 
 __all__ = ["NoSuchProgram", "RunSetupError"]
 
@@ -100,7 +106,8 @@ class ToyRun(SampledRun):
 
 
 def run_build(build: ToyBuild, call: str | None, max_time: float, *,
-              sample_period: float | None = None, watch: Watch | None = None) -> ToyRun:
+              sample_period: float | None = None, machine: object | None = None,
+              watch: Watch | None = None) -> ToyRun:
     if call not in (None, "main"):
         raise NoSuchProgram(f"no program {call!r}; callable: main")
     position, samples = 0.0, [(0.0, {"X": 0.0})]
