@@ -122,6 +122,29 @@ class Profile:
         """`XZ` or `AXIS_XZ` -> 0x5; `INITIAL_XZ` -> 0x15; None if not an axis name."""
         return self._axis_codes.get(name.upper())
 
+    def allowed_axes(self, kind: str, values: tuple[int, ...] = ()) -> frozenset[int]:
+        """The axis codes a parameter of `kind` (axis, axis1, axis1_or_none, axis_it) takes,
+        narrowed to its catalogue `values`: worked out once per kind and values, as every
+        axis argument of a build asks."""
+        key = (kind, values)
+        found = self._allowed_axes.get(key)
+        if found is None:
+            singles = set(self.axes.values())
+            offset = int(self.raw["axes"]["initial_table_offset"])
+            allowed = {
+                "axis": set(range(1, 16)),
+                "axis1": singles,
+                "axis1_or_none": singles | {0},
+                "axis_it": set(range(1, 16)) | {c + offset for c in range(1, 16)},
+            }[kind]
+            found = self._allowed_axes[key] = frozenset(allowed & set(values) if values
+                                                        else allowed)
+        return found
+
+    @cached_property
+    def _allowed_axes(self) -> dict[tuple[str, tuple[int, ...]], frozenset[int]]:
+        return {}
+
     @cached_property
     def _axis_codes(self) -> dict[str, int | None]:
         """Every spelling `_axis_code` reads, worked out once (every axis argument of a

@@ -8,36 +8,12 @@ statements and blocks; `configure.InitLowerer` reuses the argument checks for IN
 
 from __future__ import annotations
 
-from collections.abc import Iterable
-from functools import lru_cache
-
 from mplang.ir.catalogue import Command, Param
 from mplang.ir.fold import walk_expr
 from mplang.ir.macro import BVarRef, LoweredProgram, MacroLine, Operand, ProgramRef, VarRef
 from mplang.ir.scope import BVAR_RE, PROGRAM_RE, ConstError, Scope, did_you_mean, temps_for
 from mplang.lang import ast
 from mplang.lang.diagnostics import Span
-
-
-def _allowed_axes(singles: Iterable[int], offset: int, kind: str,
-                  values: tuple[int, ...]) -> frozenset[int]:
-    """The axis codes a parameter of `kind` takes (its catalogue `values` narrow them);
-    worked out once per kind and value list, not on every argument."""
-    return _allowed_axes_of(frozenset(singles), offset, kind, values)
-
-
-@lru_cache(maxsize=64)
-def _allowed_axes_of(singles: frozenset[int], offset: int, kind: str,
-                     values: tuple[int, ...]) -> frozenset[int]:
-    allowed = {
-        "axis": set(range(1, 16)),
-        "axis1": set(singles),
-        "axis1_or_none": singles | {0},
-        "axis_it": set(range(1, 16)) | {c + offset for c in range(1, 16)},
-    }[kind]
-    if values:
-        allowed &= set(values)
-    return frozenset(allowed)
 
 
 class OperandLowerer:
@@ -507,8 +483,7 @@ class OperandLowerer:
                           f"in a program ({where})", hint="configure the initial table from "
                           "the host; in a program use X, Y, Z, U")
             return None
-        if value not in _allowed_axes(self.profile.axes.values(), offset, param.kind,
-                                      tuple(param.values or ())):
+        if value not in self.profile.allowed_axes(param.kind, param.values):
             if param.values:
                 names = ", ".join(self.profile.axis_name(v) for v in sorted(param.values))
                 self.sink.add("E413", span, f"{where} must be one of {names}, not "
