@@ -227,8 +227,14 @@ def run_build(build: BuildResult, call: str | None = None, first_file: str | Non
     slot = pick_program(build, call, first_file)
     controller.call(slot)
 
+    places: dict[Place | None, SourcePlace] = {}  # a trace asks at every sample
+
     def where() -> SourcePlace:
-        return source_place(build, running_place(controller))
+        place = running_place(controller)
+        found = places.get(place)
+        if found is None:
+            found = places[place] = source_place(build, place)
+        return found
 
     if trace_period is None:
         if watch is None and math.isfinite(max_time):
