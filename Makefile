@@ -62,6 +62,7 @@ bench: $(STAMP)
 	$(BIN)/python bench/interp.py
 	$(BIN)/python bench/modbus.py
 	$(BIN)/python bench/flash.py
+	$(BIN)/python bench/soak.py
 
 clean:
 	rm -rf $(VENV) build *.egg-info

@@ -19,6 +19,7 @@ from __future__ import annotations
 import asyncio
 import logging
 import time
+from collections import deque
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
 
@@ -68,6 +69,9 @@ out. Tests make a device busy with it."""
 MAX_LINES_PER_CATCH_UP = 200_000
 DEVICE_FAILURE = 0x04  # SLAVE DEVICE FAILURE: what a fault inside one request answers
 LOG = logging.getLogger("mplang.sim")
+# Refusals kept for tests and diagnosis, newest last: a server that keeps every refused request
+# (and the frames its traceback holds, about 2 KB each) grows without end under random frames.
+REFUSALS_KEPT = 1000
 READ_COILS, READ_DISCRETE, READ_HOLDING, READ_INPUT = 1, 2, 3, 4
 WRITE_COIL, WRITE_REGISTER, WRITE_COILS, WRITE_REGISTERS = 5, 6, 15, 16
 
@@ -101,7 +105,14 @@ class DeviceFace:
         self.clock = clock or SimClock(origin_sim=controller.clock)
         self.interpose = interpose
         self.requests = 0
-        self.refusals: list[Refusal] = []
+        self.refused = 0  # every refusal since the start; `refusals` holds the latest only
+        self.refusals: deque[Refusal] = deque(maxlen=REFUSALS_KEPT)
+
+    def _refuse(self, refusal: Refusal) -> ExcCodes:
+        """Keep `refusal` without the frames its traceback holds; the exception to answer."""
+        self.refused += 1
+        self.refusals.append(refusal.with_traceback(None))
+        return ExcCodes(refusal.code)
 
     def catch_up(self) -> None:
         """Run the controller up to the present moment. A program that needs more lines than
@@ -124,26 +135,23 @@ class DeviceFace:
             written = None if values is None else [int(v) for v in values]
             injected = self.interpose(function_code, address, written)
             if injected:
-                self.refusals.append(Refusal(injected, reason="injected by interpose"))
-                return ExcCodes(injected)
+                return self._refuse(Refusal(injected, reason="injected by interpose"))
         try:
             self._serve(function_code, start_address, address, count, current, values)
         except Refusal as refusal:
-            self.refusals.append(refusal)
-            return ExcCodes(refusal.code)
+            return self._refuse(refusal)
         except Exception as err:  # a fault inside one request: SLAVE DEVICE FAILURE
             LOG.warning("internal fault serving FC%d at %d: %r", function_code, address, err,
                         exc_info=err)
             self.controller.log.append(f"{self.controller.clock:.4f} s: internal fault "
                                        f"serving FC{function_code} at {address}: {err!r}")
-            self.refusals.append(Refusal(DEVICE_FAILURE, reason=f"internal fault: {err!r}"))
-            return ExcCodes(DEVICE_FAILURE)
+            return self._refuse(Refusal(DEVICE_FAILURE, reason=f"internal fault: {err!r}"))
         return None
 
     def refuse_function(self, function_code: int) -> None:
         """A request whose function code the device does not serve (exception 1 follows)."""
         self.requests += 1
-        self.refusals.append(self.registers.unsupported(function_code))
+        self._refuse(self.registers.unsupported(function_code))
 
     def _serve(self, fc: int, start: int, address: int, count: int, current: list[int],
                values: list[int] | list[bool] | None) -> None:
