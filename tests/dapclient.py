@@ -27,6 +27,7 @@ class DapClient:
         self.seq = 0
         self.disconnected = False
         self.stderr = bytearray()  # drained, so a chatty adapter never blocks on a full pipe
+        self.stderr_grew = threading.Condition()
         threading.Thread(target=self._read, daemon=True).start()
         threading.Thread(target=self._drain, daemon=True).start()
 
@@ -34,7 +35,16 @@ class DapClient:
         stream = self.proc.stderr
         assert stream is not None
         while chunk := stream.read1(65536):
-            self.stderr += chunk
+            with self.stderr_grew:
+                self.stderr += chunk
+                self.stderr_grew.notify_all()
+
+    def logged(self, text: str) -> str:
+        """Wait (bounded) until the adapter's stderr holds `text`; all of it."""
+        with self.stderr_grew:
+            if not self.stderr_grew.wait_for(lambda: text.encode() in self.stderr, WAIT_S):
+                raise AssertionError(f"{text!r} not on stderr: {bytes(self.stderr[-2000:])!r}")
+            return self.stderr.decode("utf-8", "replace")
 
     def _read(self) -> None:
         stream = self.proc.stdout

@@ -74,22 +74,27 @@ class Session:
 
     # ------------------------------------------------------------- messages
     def handle(self, message: bytes | Dropped) -> None:
-        """Answer one message; a malformed one gets an error response too."""
+        """Answer one message. Input that is no message is dropped with a line on stderr
+        (there is no request to answer); a JSON object with a `seq` that is no request gets
+        an error response too, as its sender may wait for one."""
         if isinstance(message, Dropped):
-            self._error(0, "", f"malformed message dropped: {message.reason}")
+            LOG.warning("dropped input: %s", message.reason)
             return
         try:
             request = json.loads(message)
-        except (ValueError, RecursionError) as exc:
-            self._error(0, "", f"malformed message: not JSON ({exc})")
+        except (ValueError, RecursionError) as exc:  # UnicodeDecodeError is a ValueError
+            LOG.warning("dropped a message that is not JSON: %s: %s", type(exc).__name__, exc)
             return
         seq = request.get("seq") if isinstance(request, dict) else None
-        seq = seq if isinstance(seq, int) and not isinstance(seq, bool) else 0
         if not isinstance(request, dict) or request.get("type") != "request" \
                 or not isinstance(request.get("command"), str):
-            self._error(seq, "", "malformed message: not a DAP request (an object with "
-                        "\"type\": \"request\" and a \"command\")")
+            problem = ("malformed message: not a DAP request (an object with \"type\": "
+                       "\"request\" and a \"command\")")
+            LOG.warning("dropped input: %s", problem)
+            if isinstance(seq, int) and not isinstance(seq, bool):
+                self._error(seq, "", problem)
             return
+        seq = seq if isinstance(seq, int) and not isinstance(seq, bool) else 0
         command = request["command"]
         args = request.get("arguments", {})
         if not isinstance(args, dict):
