@@ -55,3 +55,15 @@ def test_evaluate_conditions_as_breakpoints_write_them() -> None:
         assert expr.evaluate(expr.parse(text), values.get) == expected, text
     assert expr.names(expr.parse("a + VAR3 * b")) == ["a", "VAR3", "b"]
 
+
+def test_evaluate_an_axis_counter_by_a_dotted_name() -> None:
+    values = {"X.LP": 1200, "rows": 2}
+    assert expr.evaluate(expr.parse("X.LP / rows"), values.get) == 600
+    assert expr.names(expr.parse("X.LP + Y.EP * rows")) == ["X.LP", "Y.EP", "rows"]
+    for text in ("X.LP.more", "f(x).LP"):
+        try:
+            expr.parse(text)
+        except expr.ExpressionError as exc:
+            assert "X.LP" in str(exc) or "not a variable" in str(exc)
+        else:
+            raise AssertionError(f"{text!r} was read")
