@@ -428,7 +428,15 @@ def test_hostile_input_is_answered_without_a_crash(dap: DapClient) -> None:
             ("evaluate", {"expression": 7}, "'expression' must be a string"),
             ("evaluate", {"expression": "1 / 0"}, "division by zero"),
             ("exceptionInfo", {"threadId": 1}, "did not stop on a run-time error"),
-            ("launch", {"program": "rows.mp"}, "one per session")):
+            ("launch", {"program": "rows.mp"}, "one per session"),
+            ("setVariable", {"variablesReference": 999, "name": "x", "value": "1"},
+             "no variables with reference 999"),
+            ("breakpointLocations", {"source": 3, "line": 1}, "needs a 'source' object"),
+            ("setFunctionBreakpoints", {"breakpoints": [{"name": 5}]},
+             "list of objects with a 'name'"),
+            ("setDataBreakpoints", {"breakpoints": "VAR1"}, "list of objects with a 'dataId'"),
+            ("dataBreakpointInfo", {"name": 7}, "'name' must be a string"),
+            ("restart", {"arguments": [1]}, "'arguments' must be an object")):
         answer = dap.request(command, arguments)
         assert not answer["success"] and message in answer["message"], answer
     elsewhere = set_lines(dap, Path("/nowhere.mp"), {"line": 3})
@@ -541,9 +549,10 @@ def test_logpoints_interpolate_names_and_never_stop(dap: DapClient, project: Pat
     assert not placed[1]["verified"] and "no variable 'nosuch'" in placed[1]["message"]
     ok(dap.request("configurationDone"))
     assert dap.event("exited")["body"]["exitCode"] == 0
-    told = [dap.event("output")["body"]["output"] for _ in range(5)]
-    assert told == [f"row {n}: {{total}} = {sum(range(n))}, X at 0, VAR400 {n * 10}\n"
-                    for n in range(1, 6)]
+    told = [dap.event("output")["body"] for _ in range(5)]
+    assert [t["output"] for t in told] == [
+        f"row {n}: {{total}} = {sum(range(n))}, X at 0, VAR400 {n * 10}\n" for n in range(1, 6)]
+    assert (told[0]["line"], told[0]["source"]["path"]) == (11, str(project / "rows.mp"))
     assert not any(e["event"] == "stopped" for e in dap.events)
 
 

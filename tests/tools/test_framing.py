@@ -287,3 +287,12 @@ def test_reader_at_the_end_of_input_inside_a_message() -> None:
         "the input ended 8 bytes short of a body"]
     assert [getattr(m, "reason", m) for m in read_all(b"Content-Length: 10\r\n")] == [
         "the input ended inside a header"]
+
+
+def test_mpc_dap_needs_no_pygls() -> None:
+    """The adapter and its reader import nothing of the `lsp` extra."""
+    code = ("import sys, mplang.tools.dap, mplang.cli.commands.dap; "
+            "print(sorted(m for m in sys.modules if m.split('.')[0] in ('pygls', 'lsprotocol')))")
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                            timeout=WAIT_S, check=True)
+    assert result.stdout.strip() == "[]"

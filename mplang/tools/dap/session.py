@@ -339,7 +339,7 @@ class Session:
                 answers.append(answer)
                 continue
             answer.update(line=at, column=self.debuggee.column(file, at))
-            point, problem = self._point(number, wanted, f"{file}:{at}")
+            point, problem = self._point(number, wanted, {"source": source, "line": at})
             if point is None:
                 answer.update(verified=False, message=problem)
             else:
@@ -351,10 +351,10 @@ class Session:
             self.debuggee.set_breakpoints(file, placed)
         return answers
 
-    def _point(self, number: int, wanted: Mapping[str, Any], where: str
+    def _point(self, number: int, wanted: Mapping[str, Any], where: Mapping[str, Any]
                ) -> tuple[Breakpoint | None, str]:
-        """A breakpoint from its `condition`, `hitCondition` and `logMessage`, or why it
-        cannot be one."""
+        """A breakpoint from its `condition`, `hitCondition` and `logMessage` (its output
+        names the place `where`: a source and line), or why it cannot be one."""
         condition, problem = self._condition(wanted.get("condition"))
         if problem is not None:
             return None, problem
@@ -390,7 +390,8 @@ class Session:
                                        "X.LP, X.EP, X.CV)")
         return tree
 
-    def _logger(self, text: object, where: str) -> tuple[Callable[[], None] | None, str | None]:
+    def _logger(self, text: object, where: Mapping[str, Any]
+                ) -> tuple[Callable[[], None] | None, str | None]:
         """A logpoint's message as the output it sends (each `{expression}` replaced by its
         value, `{{` and `}}` by braces), or why it cannot be one."""
         if text is None or (isinstance(text, str) and not text.strip()):
@@ -423,7 +424,8 @@ class Session:
 
         def log() -> None:
             self.event("output", {"category": "console",
-                                  "output": "".join(value(p) for p in parts) + "\n"})
+                                  "output": "".join(value(p) for p in parts) + "\n",
+                                  **{k: v for k, v in where.items() if v}})
         return log, None
 
     def _file(self, source: Mapping[str, Any]) -> str | None:
@@ -479,7 +481,8 @@ class Session:
                                 f"no program {wanted['name'][:80]!r} in this build (MPn, "
                                 "ISRn or a program's name)"})
                 continue
-            point, problem = self._point(number, wanted, entry.name)
+            point, problem = self._point(number, wanted, {"source": self._source(entry.file),
+                                                          "line": entry.line})
             answer: dict[str, Any] = {"id": number, "verified": point is not None,
                                       "line": entry.line, "column": entry.column,
                                       "source": self._source(entry.file)}
@@ -517,7 +520,7 @@ class Session:
         answers: list[dict[str, Any]] = []
         for number, wanted in zip(ids, asked, strict=True):
             found = self.debuggee.variable(wanted["dataId"])
-            point, problem = self._point(number, wanted, wanted["dataId"])
+            point, problem = self._point(number, wanted, {})
             if wanted.get("accessType", "write") != "write":
                 point, problem = None, "only a write (a change of the value) is watched"
             elif found is None:
