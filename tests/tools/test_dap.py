@@ -661,3 +661,18 @@ def test_restart_a_program_that_runs(dap: DapClient) -> None:
     ok(dap.request("pause", {"threadId": 1}))
     assert dap.event("stopped")["body"]["reason"] == "pause"
     assert frames(dap)[0][:2] == ("MP40 forever", "forever.mp")
+
+
+def test_function_breakpoint_on_an_isr_stops_when_it_fires(dap: DapClient) -> None:
+    sample = ROOT / "samples" / "compare_isr.mp"
+    lines = sample.read_text().splitlines()
+    first = lines.index("ISR 3 glue_valve_open") + 2  # its first command line (1-based)
+    launch(dap, program=str(sample), call="glue_bead")
+    placed = ok(dap.request("setFunctionBreakpoints", {"breakpoints": [
+        {"name": "glue_valve_open"}]}))["breakpoints"]
+    assert placed[0]["verified"] and placed[0]["line"] == first
+    ok(dap.request("configurationDone"))
+    assert dap.event("stopped")["body"]["reason"] == "function breakpoint"
+    (isr, interrupted) = frames(dap)
+    assert isr == ("ISR3 glue_valve_open (interrupt)", str(sample), first)
+    assert interrupted[0] == "MP93 glue_bead"
