@@ -17,10 +17,12 @@ from typing import Protocol
 
 from mplang.family.run_error import RunError
 
-MODES = ("continue", "next", "in", "out")
+MODES = ("continue", "next", "in", "out", "entry")
 """How a debuggee resumes: to the next breakpoint; to the next source line of this program
 or its caller (step over); to the next source line anywhere (into a CALL); to the next
-source line of the caller (step out)."""
+source line of the caller (step out); "entry" stops where it is, before the first line
+(`stopOnEntry`). Until the first resume nothing has run, so a breakpoint on the first line
+(or on the called program's entry) stops a "continue" there."""
 
 
 class DebugSetupError(ValueError):

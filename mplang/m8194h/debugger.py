@@ -111,6 +111,7 @@ class Session:
         self.finished_ok = False
         self._stop: Stopped | None = None
         self._skip: tuple[Frame, int] | None = None
+        self._fresh = True  # nothing has run yet
         self._mode = "continue"
         self._depth = 0
         self._interrupted: Callable[[], bool] = lambda: False
@@ -268,7 +269,12 @@ class Session:
         if self.ended or not controller.stack:
             return self._end()
         frame = controller.stack[-1]
-        self._skip, self._mode, self._depth = (frame, frame.pc), mode, len(controller.stack)
+        fresh, self._fresh = self._fresh, False
+        if mode == "entry":
+            return Stopped("entry", controller.clock)
+        # the line it stands at runs first, unless nothing ran yet (its breakpoints count)
+        self._skip = None if fresh else (frame, frame.pc)
+        self._mode, self._depth = mode, len(controller.stack)
         self._interrupted, self._stop = interrupted, None
         self._watched = {name: self.lookup(name) or 0 for name in self.data_points}
         # a plain function: the interrupt prediction deep-copies the motion model, which

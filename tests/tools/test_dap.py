@@ -676,3 +676,19 @@ def test_function_breakpoint_on_an_isr_stops_when_it_fires(dap: DapClient) -> No
     (isr, interrupted) = frames(dap)
     assert isr == ("ISR3 glue_valve_open (interrupt)", str(sample), first)
     assert interrupted[0] == "MP93 glue_bead"
+
+
+@pytest.mark.parametrize("stop_on_entry", [False, True])
+def test_a_breakpoint_on_the_first_line_of_the_called_program(dap: DapClient, project: Path,
+                                                              stop_on_entry: bool) -> None:
+    """Without stopOnEntry it stops there; after an entry stop it is not hit a second time
+    at the same place (the line runs when the program continues)."""
+    launch(dap, program="rows.mp", call="main", stopOnEntry=stop_on_entry)
+    placed = set_lines(dap, project / "rows.mp", {"line": 15}, {"line": 25})
+    ok(dap.request("configurationDone"))
+    stop = dap.event("stopped")["body"]
+    assert stop["reason"] == ("entry" if stop_on_entry else "breakpoint")
+    assert frames(dap) == [("MP60 main", "rows.mp", 15)]
+    stop = resume(dap, "continue")
+    assert stop["hitBreakpointIds"] == [placed[1]["id"]]
+    assert frames(dap) == [("MP60 main", "rows.mp", 25)]

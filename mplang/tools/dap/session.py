@@ -76,10 +76,9 @@ class Session:
         self.function_request: tuple[list[Any], list[int]] = ([], [])
         self.data_request: tuple[list[Any], list[int]] = ([], [])
         self.refs: dict[int, tuple[str, ...]] = {}  # a variablesReference: its scope's path
-        self._entry_points: dict[str, list[Breakpoint]] = {}  # function breakpoints placed
         self.next_breakpoint = 1
         self.done = False
-        self._resume: str | Stopped | None = None
+        self._resume: str | None = None
         self.handlers: dict[str, Callable[[dict[str, Any]], dict[str, Any] | None]] = {
             "initialize": self.initialize, "launch": self.launch,
             "attach": self.attach, "setBreakpoints": self.set_breakpoints,
@@ -148,10 +147,8 @@ class Session:
         self.writer.send({"type": "response", "request_seq": seq, "success": True,
                           "command": command, **({"body": body} if body is not None else {})})
         after, self._resume = self._resume, None
-        if isinstance(after, Stopped):
-            self._stopped(after)
-        elif after == "entry":
-            self._stopped(Stopped("entry", self._debuggee().time_s))
+        if after == "entry":
+            self._stopped(self._debuggee().resume("entry", self.pause.is_set))
         elif after is not None:
             self._run(after)
         if command == "launch":
@@ -232,19 +229,13 @@ class Session:
         self._place_all()
         self._resume = self._first_resume()
 
-    def _first_resume(self) -> str | Stopped | None:
-        """How the program starts: stopped on entry (asked for, or a function breakpoint
-        on the called program), else running."""
+    def _first_resume(self) -> str | None:
+        """How the program starts: stopped on entry if asked, else running (a breakpoint on
+        its first line or its entry stops it there)."""
         debuggee = self._debuggee()
         if debuggee.finished or self.running:
             return None
-        if self.stop_on_entry:
-            return "entry"
-        first = debuggee.stack()[0].name
-        hit = tuple(point.id for point in self._entry_points.get(first, ()) if point.reached())
-        if hit:
-            return Stopped("function breakpoint", debuggee.time_s, breakpoints=hit)
-        return "continue"
+        return "entry" if self.stop_on_entry else "continue"
 
     def attach(self, _args: dict[str, Any]) -> None:
         raise RequestError("mpc dap launches a program on the virtual controller; it cannot "
@@ -470,9 +461,9 @@ class Session:
 
     def _place_functions(self, asked: list[Any], ids: list[int]) -> list[dict[str, Any]]:
         """Breakpoints on programs' entries, by name; the answers."""
-        self._entry_points = {}
         if self.debuggee is None:
             return self._unplaced(ids)
+        placed: dict[str, list[Breakpoint]] = {}
         answers: list[dict[str, Any]] = []
         for number, wanted in zip(ids, asked, strict=True):
             entry = self.debuggee.program(wanted["name"])
@@ -489,9 +480,9 @@ class Session:
             if point is None:
                 answer["message"] = problem
             else:
-                self._entry_points.setdefault(entry.name, []).append(point)
+                placed.setdefault(entry.name, []).append(point)
             answers.append(answer)
-        self.debuggee.set_function_breakpoints(self._entry_points)
+        self.debuggee.set_function_breakpoints(placed)
         return answers
 
     def data_breakpoint_info(self, args: dict[str, Any]) -> dict[str, Any]:
