@@ -1,5 +1,7 @@
 """A Debug Adapter Protocol client for the tests: `mpc dap` as a subprocess over its stdio,
-as an editor runs it."""
+as an editor runs it. Every message it receives is checked against the protocol's JSON schema
+(tests/data/debugAdapterProtocol.json, microsoft/debug-adapter-protocol) before a test sees it.
+"""
 
 from __future__ import annotations
 
@@ -8,9 +10,13 @@ import queue
 import subprocess
 import sys
 import threading
+from functools import cache
 from pathlib import Path
 from typing import Any
 
+import jsonschema
+
+SCHEMA = Path(__file__).parent / "data" / "debugAdapterProtocol.json"
 WAIT_S = 60.0  # a bound on a message that never comes (a hang fails instead of blocking)
 
 
@@ -27,6 +33,7 @@ class DapClient:
         self.seq = 0
         self.disconnected = False
         self.stderr = bytearray()  # drained, so a chatty adapter never blocks on a full pipe
+        self.stderr_grew = threading.Condition()
         threading.Thread(target=self._read, daemon=True).start()
         threading.Thread(target=self._drain, daemon=True).start()
 
@@ -34,7 +41,16 @@ class DapClient:
         stream = self.proc.stderr
         assert stream is not None
         while chunk := stream.read1(65536):
-            self.stderr += chunk
+            with self.stderr_grew:
+                self.stderr += chunk
+                self.stderr_grew.notify_all()
+
+    def logged(self, text: str) -> str:
+        """Wait (bounded) until the adapter's stderr holds `text`; all of it."""
+        with self.stderr_grew:
+            if not self.stderr_grew.wait_for(lambda: text.encode() in self.stderr, WAIT_S):
+                raise AssertionError(f"{text!r} not on stderr: {bytes(self.stderr[-2000:])!r}")
+            return self.stderr.decode("utf-8", "replace")
 
     def _read(self) -> None:
         stream = self.proc.stdout
@@ -59,6 +75,7 @@ class DapClient:
         if message is None:
             raise AssertionError(f"mpc dap closed its output; stderr: "
                                  f"{bytes(self.stderr[-2000:])!r}")
+        check_schema(message)
         return message
 
     def send_raw(self, data: bytes) -> None:
@@ -117,3 +134,35 @@ class DapClient:
         finally:
             if self.proc.stdout is not None:
                 self.proc.stdout.close()
+
+
+@cache
+def _schema() -> dict[str, Any]:
+    schema: dict[str, Any] = json.loads(SCHEMA.read_text())
+    return schema
+
+
+def definition(message: dict[str, Any]) -> str:
+    """The schema's definition of a message: `StoppedEvent`, `ThreadsResponse`,
+    `ErrorResponse` for a failed request; the generic one for a name it does not define."""
+    definitions = _schema()["definitions"]
+    if message.get("type") == "event":
+        name = str(message.get("event", ""))
+        specific = name[:1].upper() + name[1:] + "Event"
+        return specific if specific in definitions else "Event"
+    if message.get("type") == "response":
+        if not message.get("success"):
+            return "ErrorResponse"
+        name = str(message.get("command", ""))
+        specific = name[:1].upper() + name[1:] + "Response"
+        return specific if specific in definitions else "Response"
+    return "ProtocolMessage"
+
+
+def check_schema(message: dict[str, Any]) -> None:
+    """Fail with the schema's words if `message` is not valid DAP."""
+    schema = {**_schema(), "$ref": f"#/definitions/{definition(message)}"}
+    errors = sorted(jsonschema.Draft4Validator(schema).iter_errors(message), key=str)
+    if errors:
+        raise AssertionError(f"not valid DAP ({definition(message)}): "
+                             f"{[e.message for e in errors[:3]]} in {message}")

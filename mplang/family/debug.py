@@ -17,10 +17,12 @@ from typing import Protocol
 
 from mplang.family.run_error import RunError
 
-MODES = ("continue", "next", "in", "out")
+MODES = ("continue", "next", "in", "out", "entry")
 """How a debuggee resumes: to the next breakpoint; to the next source line of this program
 or its caller (step over); to the next source line anywhere (into a CALL); to the next
-source line of the caller (step out)."""
+source line of the caller (step out); "entry" stops where it is, before the first line
+(`stopOnEntry`). Until the first resume nothing has run, so a breakpoint on the first line
+(or on the called program's entry) stops a "continue" there."""
 
 
 class DebugSetupError(ValueError):
@@ -41,8 +43,9 @@ class StackEntry:
 
 @dataclass(frozen=True)
 class Stopped:
-    """Why a resume ended: `reason` is "entry", "breakpoint", "step", "pause", "exception"
-    (a run-time finding, in `error`) or "exited" (the program finished or failed before)."""
+    """Why a resume ended: `reason` is "entry", "breakpoint", "function breakpoint", "data
+    breakpoint", "step", "pause", "exception" (a run-time finding, in `error`) or "exited"
+    (the program finished or failed before)."""
 
     reason: str
     time_s: float
@@ -63,13 +66,36 @@ class Item:
 
 @dataclass
 class Breakpoint:
-    """A breakpoint as the debugger asks for it: `condition` (None: always) is asked each
-    time the line is reached and may raise ValueError (then it stops, to show the problem)."""
+    """A breakpoint as the debugger asks for it (on a line, on a program's entry, or on a
+    variable's change). Each time it is reached, `condition` (None: always) is asked and may
+    raise ValueError (then it stops, to show the problem, kept in `hits`); when it holds,
+    `count` goes up and `hit_condition` (None: always) is asked with it. A logpoint (`log`
+    set) then calls `log` instead of stopping."""
 
     id: int
-    line: int
+    line: int = 0
     condition: Callable[[], bool] | None = None
     hits: list[str] = field(default_factory=list)  # why a condition failed, once
+    hit_condition: Callable[[int], bool] | None = None
+    log: Callable[[], None] | None = None
+    count: int = 0
+
+    def reached(self) -> bool:
+        """Whether it stops the program now (counting the hit, telling a logpoint)."""
+        if self.condition is not None:
+            try:
+                if not self.condition():
+                    return False
+            except (ValueError, ArithmeticError) as exc:
+                self.hits.append(str(exc))
+                return True
+        self.count += 1
+        if self.hit_condition is not None and not self.hit_condition(self.count):
+            return False
+        if self.log is not None:
+            self.log()
+            return False
+        return True
 
 
 class Debuggee(Protocol):
@@ -128,6 +154,36 @@ class Debuggee(Protocol):
     def lookup(self, name: str) -> int | None:
         """The value of a variable by its declared name or device name (`VAR12`), None
         for a name the build does not know."""
+        ...
+
+    def column(self, file: str, line: int) -> int:
+        """Where the statement on `line` of `file` starts (1-based), for a breakpoint's and
+        a stop's column."""
+        ...
+
+    def program(self, name: str) -> StackEntry | None:
+        """A program of the build by name (`MP60`, `main`, `MP60 main`, `ISR3`): its name as
+        the stack shows it and the place of its first line; None if there is none."""
+        ...
+
+    def set_function_breakpoints(self, points: Mapping[str, Sequence[Breakpoint]]) -> None:
+        """Replace the breakpoints on programs' entries (keyed by `program(...).name`)."""
+        ...
+
+    def variable(self, name: str) -> str | None:
+        """The device name (`VAR400`, `bVAR3`) of a variable the program can change, by its
+        declared or device name; None for another name."""
+        ...
+
+    def set_data_breakpoints(self, points: Mapping[str, Sequence[Breakpoint]]) -> None:
+        """Replace the breakpoints on variables' changes (keyed by `variable(...)`): a resume
+        stops before the first source line that starts after the value changed."""
+        ...
+
+    def set_value(self, path: Sequence[str], name: str, value: int) -> Item:
+        """Write `value` to entry `name` of the scope (or entry) `path` as a host can
+        (`("Variables",)`, `("Axes", "X")`): the entry as it reads now. ValueError when the
+        device lets no host write it."""
         ...
 
 

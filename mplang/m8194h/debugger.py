@@ -21,6 +21,8 @@ from pathlib import Path
 from mplang.family.debug import Breakpoint, DebugSetupError, Item, StackEntry, Stopped
 from mplang.family.face import RunSetupError
 from mplang.family.run_error import RunError, SourcePlace
+from mplang.ir import catalogue
+from mplang.ir.lower import wrap32
 from mplang.ir.macro import BVarRef, VarRef
 from mplang.lang.sources import LIBRARY_PREFIX, library_files
 from mplang.m8194h.image import BuildResult
@@ -33,6 +35,8 @@ from mplang.m8194h.sim.preload import ServiceError, preload
 
 MAX_TIME_S = 3600.0  # a program that never ends stops here (R202); above `mpc run`'s 120 s,
 # so a session stepping through a long job does not run out
+# The axis counters a host may set, by the command it uses (scope "rtc": sent over Modbus)
+_HOST_SETS = {"LP": "RSM_SET_LP", "EP": "RSM_SET_EP"}
 _DEVICE_NAME = re.compile(r"(b?)VAR(\d+)", re.IGNORECASE)
 # DI status bits of an axis (input register 16+axis), as the virtual controller sets them
 # (`axis_io.report`): (name, bit, active when the bit is 1)
@@ -47,6 +51,7 @@ class _Line:
 
     place: SourcePlace
     starts: bool  # the first macro line of its source line: a place to stop
+    column: int  # where the statement of its source line starts (1-based)
 
 
 def apply_machine(controller: VirtualController, machine: Path | None) -> None:
@@ -98,11 +103,15 @@ class Session:
                       for key, table in controller.tables.items()}
         self.breakpoints: dict[str, dict[tuple[str, int, int], list[Breakpoint]]] = {}
         self.at_points: dict[tuple[str, int, int], list[Breakpoint]] = {}
+        self.entry_points: dict[tuple[str, int], Sequence[Breakpoint]] = {}
+        self.data_points: dict[str, Sequence[Breakpoint]] = {}
+        self._watched: dict[str, int] = {}  # each watched variable's value when last seen
         self.error: RunError | None = None
         self.ended = False
         self.finished_ok = False
         self._stop: Stopped | None = None
         self._skip: tuple[Frame, int] | None = None
+        self._fresh = True  # nothing has run yet
         self._mode = "continue"
         self._depth = 0
         self._interrupted: Callable[[], bool] = lambda: False
@@ -114,7 +123,9 @@ class Session:
                   for pc in range(count)]
         places.append(self.report.source_of(Place(kind, slot, -1)))  # the END line
         return [_Line(place, pc == 0 or pc == count or
-                      (place.file, place.line) != (places[pc - 1].file, places[pc - 1].line))
+                      (place.file, place.line) != (places[pc - 1].file, places[pc - 1].line),
+                      self.column(place.file, place.line) if place.file and place.line
+                      else place.column or 1)
                 for pc, place in enumerate(places)]
 
     # ------------------------------------------------------------- the face's questions
@@ -160,16 +171,97 @@ class Session:
                           for key, found in table.items()}
 
     def lookup(self, name: str) -> int | None:
+        axis, dot, counter = name.partition(".")
+        if dot:
+            return self._counter(axis.upper(), counter.upper())
+        found = self.variable(name)
+        if found is None:
+            return None
+        values, index = self._cell(found)
+        return values[index]
+
+    def _counter(self, axis: str, counter: str) -> int | None:
+        """An axis's LP, EP or CV (pulses per second, whole) now; None for another name."""
+        if axis not in AXIS_NAMES or counter not in ("LP", "EP", "CV"):
+            return None
+        index, now = AXIS_NAMES.index(axis), self.controller.clock
+        if counter == "CV":
+            return int(self.controller.motion.cv(1 << index, now))
+        report = self.controller.motion.axis_report(index, now)
+        return int(report.lp if counter == "LP" else report.ep)
+
+    def variable(self, name: str) -> str | None:
         controller = self.controller
         match = _DEVICE_NAME.fullmatch(name)
         if match:
-            values = controller.bvars if match.group(1) else controller.vars
-            index = int(match.group(2))
-            return values[index] if index < len(values) else None
+            byte, index = bool(match.group(1)), int(match.group(2))
+            values = controller.bvars if byte else controller.vars
+            return f"{'bVAR' if byte else 'VAR'}{index}" if index < len(values) else None
         for variable in (*self.build.variables, *self.build.aliases):
             if variable.name.lower() == name.lower() and variable.index < len(controller.vars):
-                return controller.vars[variable.index]
+                return f"VAR{variable.index}"
         return None
+
+    def _cell(self, device_name: str) -> tuple[list[int], int]:
+        """The value list and index of a device name `variable` gave."""
+        if device_name.startswith("b"):
+            return self.controller.bvars, int(device_name.removeprefix("bVAR"))
+        return self.controller.vars, int(device_name.removeprefix("VAR"))
+
+    def column(self, file: str, line: int) -> int:
+        lines = self.build.sources.get(file, [])
+        text = lines[line - 1] if 0 < line <= len(lines) else ""
+        return len(text) - len(text.lstrip()) + 1 if text.strip() else 1
+
+    def program(self, name: str) -> StackEntry | None:
+        wanted = " ".join(name.split()).upper()
+        for image in self.build.programs:
+            kind, slot = image.program.kind, image.placement.slot
+            device = f"{kind.upper()}{slot}"
+            full = f"{device} {image.program.name}".upper() if image.program.name else device
+            if wanted in (device, full, (image.program.name or device).upper()) \
+                    and (kind, slot) in self.lines:
+                place = self.lines[(kind, slot)][0]
+                return StackEntry(self._name(place.place.program, kind), place.place.file,
+                                  place.place.line, place.column, kind)
+        return None
+
+    def set_function_breakpoints(self, points: Mapping[str, Sequence[Breakpoint]]) -> None:
+        found: dict[tuple[str, int], Sequence[Breakpoint]] = {}
+        for name, placed in points.items():
+            match = re.match(r"(MP|ISR)(\d+)", name)
+            if match:
+                found[(match.group(1).lower(), int(match.group(2)))] = placed
+        self.entry_points = found
+
+    def set_data_breakpoints(self, points: Mapping[str, Sequence[Breakpoint]]) -> None:
+        self.data_points = dict(points)
+
+    def set_value(self, path: Sequence[str], name: str, value: int) -> Item:
+        if tuple(path) == ("Variables",):
+            found = self.variable(name)
+            if found is None:
+                raise ValueError(f"no variable {name!r} in this build")
+            values, index = self._cell(found)
+            values[index] = value & 0xFF if found.startswith("b") else wrap32(value)
+            return Item(name, str(values[index]),
+                        number=found if found.lower() != name.lower() else "")
+        if len(path) == 2 and path[0] == "Axes" and path[1] in AXIS_NAMES:
+            axis = AXIS_NAMES.index(path[1])
+            if name not in _HOST_SETS:
+                raise ValueError(f"{path[1]} {name} is read only: a host sets an axis's "
+                                 "logical position (LP) and encoder position (EP)")
+            command = catalogue.load("m8194h").by_vendor[_HOST_SETS[name]]
+            low, high = command.params[-1].min, command.params[-1].max
+            if (low is not None and value < low) or (high is not None and value > high):
+                raise ValueError(f"{name} {value} is out of the device's range {low}..{high} "
+                                 f"({command.name}, section {command.section})")
+            setter = self.controller.motion.set_lp if name == "LP" else \
+                self.controller.motion.set_ep
+            setter(1 << axis, value, self.controller.clock)
+            report = self.controller.motion.axis_report(axis, self.controller.clock)
+            return Item(name, str(report.lp if name == "LP" else report.ep))
+        raise ValueError(f"{' '.join(path)} {name} is read only")
 
     # ------------------------------------------------------------------ running
     def resume(self, mode: str, interrupted: Callable[[], bool]) -> Stopped:
@@ -177,8 +269,14 @@ class Session:
         if self.ended or not controller.stack:
             return self._end()
         frame = controller.stack[-1]
-        self._skip, self._mode, self._depth = (frame, frame.pc), mode, len(controller.stack)
+        fresh, self._fresh = self._fresh, False
+        if mode == "entry":
+            return Stopped("entry", controller.clock)
+        # the line it stands at runs first, unless nothing ran yet (its breakpoints count)
+        self._skip = None if fresh else (frame, frame.pc)
+        self._mode, self._depth = mode, len(controller.stack)
         self._interrupted, self._stop = interrupted, None
+        self._watched = {name: self.lookup(name) or 0 for name in self.data_points}
         # a plain function: the interrupt prediction deep-copies the motion model, which
         # reaches the controller; a function is copied as itself, a bound method is not
         controller.before_line = lambda frame: self._before(frame)
@@ -223,11 +321,14 @@ class Session:
         line = self.lines[(table.kind, table.slot)][frame.pc]
         if not line.starts:
             return False
-        points = self.at_points.get((table.kind, table.slot, frame.pc))
-        if points:
-            hit = tuple(point.id for point in points if _holds(point))
+        for reason, points in (
+                ("data breakpoint", self._changed()),
+                ("function breakpoint", self.entry_points.get((table.kind, table.slot), ())
+                 if frame.pc == 0 else ()),
+                ("breakpoint", self.at_points.get((table.kind, table.slot, frame.pc), ()))):
+            hit = tuple(point.id for point in points if point.reached())
             if hit:
-                self._stop = Stopped("breakpoint", self.controller.clock, breakpoints=hit)
+                self._stop = Stopped(reason, self.controller.clock, breakpoints=hit)
                 return True
         depth = len(self.controller.stack)
         mode = self._mode
@@ -254,10 +355,21 @@ class Session:
             pc = frame.pc if above is None or (above.table.kind == "isr" and frame.wait is
                                                None) else frame.pc - 1
             lines = self.lines[(frame.table.kind, frame.table.slot)]
-            place = lines[max(0, min(pc, len(lines) - 1))].place
+            line = lines[max(0, min(pc, len(lines) - 1))]
+            place = line.place
             entries.append(StackEntry(self._name(place.program, frame.table.kind), place.file,
-                                      place.line, place.column, frame.table.kind))
+                                      place.line, line.column, frame.table.kind))
         return entries
+
+    def _changed(self) -> list[Breakpoint]:
+        """The data breakpoints of the variables that changed since last seen."""
+        changed: list[Breakpoint] = []
+        for name, points in self.data_points.items():
+            value = self.lookup(name) or 0
+            if value != self._watched.get(name):
+                self._watched[name] = value
+                changed += points
+        return changed
 
     @staticmethod
     def _name(program: str, kind: str) -> str:
@@ -324,19 +436,6 @@ class Session:
         for group in range(8):
             items.append(Item(f"FRnet DO{group}", f"{controller.frnet[group]:016b}"))
         return items
-
-
-def _holds(point: Breakpoint) -> bool:
-    """A breakpoint's condition now; a condition that cannot be evaluated stops, so the
-    user sees why (its message is kept in `hits`)."""
-    if point.condition is None:
-        return True
-    try:
-        return point.condition()
-    except (ValueError, ArithmeticError) as exc:
-        point.hits.append(str(exc))
-        return True
-
 
 
 def _kind(program: str) -> str:

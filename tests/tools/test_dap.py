@@ -401,12 +401,12 @@ def test_launch_of_a_build_with_errors_names_the_line(dap: DapClient, project: P
 
 
 def test_hostile_input_is_answered_without_a_crash(dap: DapClient) -> None:
-    dap.send_raw(b"garbage without a colon\r\n\r\n")
-    assert "not a header line" in dap.response(0)["message"]
-    dap.send_raw(b"Content-Length: nope\r\n\r\n")
-    assert "not a byte count" in dap.response(0)["message"]
-    dap.send_raw(b"Content-Length: 9\r\n\r\n{not json")
-    assert "not JSON" in dap.response(0)["message"]
+    for data, logged in ((b"garbage without a colon\r\n\r\n", "not a header line"),
+                         (b"Content-Length: nope\r\n\r\n", "not a byte count"),
+                         (b"Content-Length: 9\r\n\r\n{not json", "not JSON")):
+        dap.send_raw(data)  # dropped, with a line on stderr; the next request is answered
+        assert ok(dap.request("threads")) == {"threads": []}
+        dap.logged(logged)
     dap.send({"seq": 90, "type": "event", "event": "x"})
     assert "not a DAP request" in dap.response(90)["message"]
     dap.send({"seq": 91, "type": "request", "command": "launch", "arguments": [1]})
@@ -428,7 +428,15 @@ def test_hostile_input_is_answered_without_a_crash(dap: DapClient) -> None:
             ("evaluate", {"expression": 7}, "'expression' must be a string"),
             ("evaluate", {"expression": "1 / 0"}, "division by zero"),
             ("exceptionInfo", {"threadId": 1}, "did not stop on a run-time error"),
-            ("launch", {"program": "rows.mp"}, "one per session")):
+            ("launch", {"program": "rows.mp"}, "one per session"),
+            ("setVariable", {"variablesReference": 999, "name": "x", "value": "1"},
+             "no variables with reference 999"),
+            ("breakpointLocations", {"source": 3, "line": 1}, "needs a 'source' object"),
+            ("setFunctionBreakpoints", {"breakpoints": [{"name": 5}]},
+             "list of objects with a 'name'"),
+            ("setDataBreakpoints", {"breakpoints": "VAR1"}, "list of objects with a 'dataId'"),
+            ("dataBreakpointInfo", {"name": 7}, "'name' must be a string"),
+            ("restart", {"arguments": [1]}, "'arguments' must be an object")):
         answer = dap.request(command, arguments)
         assert not answer["success"] and message in answer["message"], answer
     elsewhere = set_lines(dap, Path("/nowhere.mp"), {"line": 3})
@@ -462,3 +470,225 @@ def test_mpc_dap_in_a_terminal_says_how_to_use_it() -> None:
         os.close(terminal)
     assert result.returncode == 2
     assert "start it from an editor" in result.stderr and result.stdout == ""
+
+
+# ------------------------------------------------ the conventions of debugpy and CodeLLDB
+def test_initialize_advertises_each_capability(project: Path) -> None:
+    client = DapClient(project)
+    try:
+        body = ok(client.request("initialize", {"adapterID": "mpc"}))
+        for capability in ("supportsSetVariable", "supportsLogPoints",
+                           "supportsHitConditionalBreakpoints", "supportsDataBreakpoints",
+                           "supportsFunctionBreakpoints", "supportsRestartRequest",
+                           "supportsBreakpointLocationsRequest", "supportsConditionalBreakpoints",
+                           "supportsConfigurationDoneRequest", "supportsTerminateRequest"):
+            assert body[capability] is True, capability
+        ok(client.request("disconnect"))
+    finally:
+        assert client.close() == 0
+
+
+def test_statement_start_columns_and_breakpoint_locations(dap: DapClient,
+                                                          project: Path) -> None:
+    """`total = total + rows_done` is reported at `total`, not at its right-hand side."""
+    launch(dap, program="rows.mp", call="main")
+    placed = set_lines(dap, project / "rows.mp", {"line": 11})
+    assert (placed[0]["line"], placed[0]["column"]) == (11, 5)
+    where = ok(dap.request("breakpointLocations", {"source": {"path": str(project / "rows.mp")},
+                                                   "line": 8, "endLine": 16}))
+    assert where["breakpoints"] == [{"line": 11, "column": 5}, {"line": 12, "column": 1},
+                                    {"line": 15, "column": 5}, {"line": 16, "column": 5}]
+    ok(dap.request("configurationDone"))
+    dap.event("stopped")
+    body = ok(dap.request("stackTrace", {"threadId": 1}))
+    assert [(f["line"], f["column"]) for f in body["stackFrames"]] == [(11, 5), (19, 9)]
+
+
+def test_set_variable_in_variables_and_axes(dap: DapClient, project: Path) -> None:
+    launch(dap, program="rows.mp", call="main")
+    set_lines(dap, project / "rows.mp", {"line": 25})
+    ok(dap.request("configurationDone"))
+    dap.event("stopped")
+    scopes = {s["name"]: s["variablesReference"]
+              for s in ok(dap.request("scopes", {"frameId": 1}))["scopes"]}
+    answer = ok(dap.request("setVariable", {"variablesReference": scopes["Variables"],
+                                            "name": "total", "value": "rows_done * 200"}))
+    assert answer == {"value": "1000", "type": "VAR401"}
+    assert [v["value"] for v in variables(dap, "Variables") if v["name"] == "total"] == ["1000"]
+    axes = variables(dap, "Axes")
+    assert all("type" not in a for a in axes)  # no `"type": null`
+    x = axes[0]["variablesReference"]
+    assert ok(dap.request("setVariable", {"variablesReference": x, "name": "LP",
+                                          "value": "-2500"}))["value"] == "-2500"
+    assert ok(dap.request("setVariable", {"variablesReference": x, "name": "EP",
+                                          "value": "77"}))["value"] == "77"
+    parts = ok(dap.request("variables", {"variablesReference": x}))["variables"]
+    assert [(p["name"], p["value"]) for p in parts[:2]] == [("LP", "-2500"), ("EP", "77")]
+    assert ok(dap.request("evaluate", {"expression": "X.LP + X.EP"}))["result"] == "-2423"
+    for reference, name, value, message in (
+            (x, "CV", "5", "read only"),
+            (x, "LP", "3000000000", "out of the device's range"),
+            (scopes["Axes"], "X", "1", "read only"),
+            (scopes["Inputs"], "X DI", "1", "read only"),
+            (scopes["Variables"], "total", "nosuch + 1", "no variable 'nosuch'"),
+            (scopes["Variables"], "nosuch", "1", "no 'nosuch' in Variables")):
+        answer = dap.request("setVariable", {"variablesReference": reference, "name": name,
+                                             "value": value})
+        assert not answer["success"] and message in answer["message"], answer
+    resume(dap, "next")  # the program goes on from the values set
+    assert ok(dap.request("evaluate", {"expression": "total"}))["result"] == "1100"
+
+
+def test_logpoints_interpolate_names_and_never_stop(dap: DapClient, project: Path) -> None:
+    launch(dap, program="rows.mp", call="main")
+    placed = set_lines(dap, project / "rows.mp",
+                       {"line": 11, "logMessage": "row {rows_done}: {{total}} = {total}, "
+                        "X at {X.LP}, VAR400 {VAR400 * 10}"},
+                       {"line": 12, "logMessage": "{nosuch}"})
+    assert placed[0]["verified"]
+    assert not placed[1]["verified"] and "no variable 'nosuch'" in placed[1]["message"]
+    ok(dap.request("configurationDone"))
+    assert dap.event("exited")["body"]["exitCode"] == 0
+    told = [dap.event("output")["body"] for _ in range(5)]
+    assert [t["output"] for t in told] == [
+        f"row {n}: {{total}} = {sum(range(n))}, X at 0, VAR400 {n * 10}\n" for n in range(1, 6)]
+    assert (told[0]["line"], told[0]["source"]["path"]) == (11, str(project / "rows.mp"))
+    assert not any(e["event"] == "stopped" for e in dap.events)
+
+
+@pytest.mark.parametrize(("condition", "rows"), [("3", [3]), ("==2", [2]), (">=4", [4, 5]),
+                                                 ("%2", [2, 4]), ("<2", [1])])
+def test_hit_conditions_count_the_hits(dap: DapClient, project: Path, condition: str,
+                                       rows: list[int]) -> None:
+    launch(dap, program="rows.mp", call="main")
+    set_lines(dap, project / "rows.mp", {"line": 11, "hitCondition": condition})
+    ok(dap.request("configurationDone"))
+    seen = []
+    for _ in rows:
+        assert dap.event("stopped")["body"]["reason"] == "breakpoint"
+        seen.append(int(ok(dap.request("evaluate", {"expression": "rows_done"}))["result"]))
+        ok(dap.request("continue", {"threadId": 1}))
+    assert dap.event("exited")["body"]["exitCode"] == 0
+    assert seen == rows
+
+
+def test_hit_condition_that_is_no_count_is_said(dap: DapClient, project: Path) -> None:
+    launch(dap, program="rows.mp", call="main")
+    placed = set_lines(dap, project / "rows.mp", {"line": 11, "hitCondition": "%0"},
+                       {"line": 16, "hitCondition": "often"},
+                       {"line": 18, "condition": "rows_done > 1", "hitCondition": "2"})
+    assert [p["verified"] for p in placed] == [False, False, True]
+    assert "hit condition '%0'" in placed[0]["message"]
+    ok(dap.request("configurationDone"))
+    dap.event("stopped")  # the second time rows_done > 1 holds there: rows_done is 3
+    assert ok(dap.request("evaluate", {"expression": "rows_done"}))["result"] == "3"
+
+
+def test_data_breakpoints_stop_when_a_variable_changes(dap: DapClient, project: Path) -> None:
+    launch(dap, program="rows.mp", call="main", stopOnEntry=True)
+    ok(dap.request("configurationDone"))
+    dap.event("stopped")
+    scopes = {s["name"]: s["variablesReference"]
+              for s in ok(dap.request("scopes", {"frameId": 1}))["scopes"]}
+    info = ok(dap.request("dataBreakpointInfo", {"variablesReference": scopes["Variables"],
+                                                 "name": "total"}))
+    assert info["dataId"] == "VAR401" and info["accessTypes"] == ["write"]
+    axis = ok(dap.request("dataBreakpointInfo", {"variablesReference": scopes["Axes"],
+                                                 "name": "X"}))
+    assert axis["dataId"] is None and "only a variable" in axis["description"]
+    placed = ok(dap.request("setDataBreakpoints", {"breakpoints": [
+        {"dataId": "VAR401", "accessType": "write", "hitCondition": ">=2"},
+        {"dataId": "VAR999999"}, {"dataId": "VAR400", "accessType": "read"}]}))["breakpoints"]
+    assert [p["verified"] for p in placed] == [True, False, False]
+    assert "only a write" in placed[2]["message"]
+    totals = []
+    for _ in range(4):  # total changes in add_row from the second row on (0 + 1 is 1...)
+        stop = resume(dap, "continue")
+        assert stop["reason"] == "data breakpoint" and stop["hitBreakpointIds"] == \
+            [placed[0]["id"]]
+        totals.append(int(ok(dap.request("evaluate", {"expression": "total"}))["result"]))
+        assert frames(dap)[0][2] == 12  # before the line after the write: END MP
+    assert totals == [3, 6, 10, 15]
+    ok(dap.request("setDataBreakpoints", {"breakpoints": []}))
+    ok(dap.request("continue", {"threadId": 1}))
+    assert dap.event("exited")["body"]["exitCode"] == 0
+
+
+def test_function_breakpoints_stop_on_entry_to_a_program(dap: DapClient) -> None:
+    launch(dap, program="rows.mp", call="main")
+    placed = ok(dap.request("setFunctionBreakpoints", {"breakpoints": [
+        {"name": "main"}, {"name": "MP10", "hitCondition": "5"},
+        {"name": "nosuch"}]}))["breakpoints"]
+    assert [p["verified"] for p in placed] == [True, True, False]
+    assert (placed[0]["line"], placed[0]["source"]["name"]) == (15, "rows.mp")
+    assert "no program 'nosuch'" in placed[2]["message"]
+    ok(dap.request("configurationDone"))
+    stop = dap.event("stopped")["body"]  # the launched program itself, on entry
+    assert stop["reason"] == "function breakpoint" and stop["hitBreakpointIds"] == \
+        [placed[0]["id"]]
+    assert frames(dap) == [("MP60 main", "rows.mp", 15)]
+    stop = resume(dap, "continue")
+    assert stop["reason"] == "function breakpoint"
+    assert frames(dap) == [("MP10 add_row", "rows.mp", 11), ("MP60 main", "rows.mp", 19)]
+    assert ok(dap.request("evaluate", {"expression": "rows_done"}))["result"] == "5"
+
+
+def test_restart_runs_the_program_again_with_its_breakpoints(dap: DapClient,
+                                                             project: Path) -> None:
+    launch(dap, program="rows.mp", call="main")
+    placed = set_lines(dap, project / "rows.mp", {"line": 11, "hitCondition": "2"})
+    ok(dap.request("configurationDone"))
+    dap.event("stopped")
+    assert ok(dap.request("evaluate", {"expression": "rows_done"}))["result"] == "2"
+    ok(dap.request("restart", {"arguments": {"program": "rows.mp", "call": "main"}}))
+    assert "MP60 main" in dap.event("process")["body"]["name"]
+    stop = dap.event("stopped")["body"]  # the hit count starts again
+    assert stop["hitBreakpointIds"] == [placed[0]["id"]]
+    assert ok(dap.request("evaluate", {"expression": "rows_done"}))["result"] == "2"
+    ok(dap.request("restart"))  # the launch's arguments again
+    dap.event("stopped")
+    assert frames(dap)[0] == ("MP10 add_row", "rows.mp", 11)
+    bad = dap.request("restart", {"arguments": {"program": "nosuch.mp"}})
+    assert not bad["success"] and "nosuch.mp: no such file" in bad["message"]
+
+
+def test_restart_a_program_that_runs(dap: DapClient) -> None:
+    """The running program is stopped without a `stopped` event and started again."""
+    launch(dap, program="forever.mp")
+    ok(dap.request("configurationDone"))
+    ok(dap.request("restart"))
+    assert not any(e["event"] in ("stopped", "exited") for e in dap.events)
+    ok(dap.request("pause", {"threadId": 1}))
+    assert dap.event("stopped")["body"]["reason"] == "pause"
+    assert frames(dap)[0][:2] == ("MP40 forever", "forever.mp")
+
+
+def test_function_breakpoint_on_an_isr_stops_when_it_fires(dap: DapClient) -> None:
+    sample = ROOT / "samples" / "compare_isr.mp"
+    lines = sample.read_text().splitlines()
+    first = lines.index("ISR 3 glue_valve_open") + 2  # its first command line (1-based)
+    launch(dap, program=str(sample), call="glue_bead")
+    placed = ok(dap.request("setFunctionBreakpoints", {"breakpoints": [
+        {"name": "glue_valve_open"}]}))["breakpoints"]
+    assert placed[0]["verified"] and placed[0]["line"] == first
+    ok(dap.request("configurationDone"))
+    assert dap.event("stopped")["body"]["reason"] == "function breakpoint"
+    (isr, interrupted) = frames(dap)
+    assert isr == ("ISR3 glue_valve_open (interrupt)", str(sample), first)
+    assert interrupted[0] == "MP93 glue_bead"
+
+
+@pytest.mark.parametrize("stop_on_entry", [False, True])
+def test_a_breakpoint_on_the_first_line_of_the_called_program(dap: DapClient, project: Path,
+                                                              stop_on_entry: bool) -> None:
+    """Without stopOnEntry it stops there; after an entry stop it is not hit a second time
+    at the same place (the line runs when the program continues)."""
+    launch(dap, program="rows.mp", call="main", stopOnEntry=stop_on_entry)
+    placed = set_lines(dap, project / "rows.mp", {"line": 15}, {"line": 25})
+    ok(dap.request("configurationDone"))
+    stop = dap.event("stopped")["body"]
+    assert stop["reason"] == ("entry" if stop_on_entry else "breakpoint")
+    assert frames(dap) == [("MP60 main", "rows.mp", 15)]
+    stop = resume(dap, "continue")
+    assert stop["hitBreakpointIds"] == [placed[1]["id"]]
+    assert frames(dap) == [("MP60 main", "rows.mp", 25)]

@@ -1,72 +1,15 @@
-"""`mpc dap`'s input, in-process and property-based (bounded): the framing survives any
-bytes and finds the next well-formed message after garbage; expressions (conditions,
-evaluate) either read or say why, never anything else."""
+"""`mpc dap`'s expressions, in-process and property-based (bounded): conditions, evaluate
+and logpoints either read or say why, never anything else. Its messages are read by the
+reader both editor protocols share (tests/tools/test_framing.py)."""
 
 from __future__ import annotations
-
-import io
-import json
 
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from mplang.tools.dap import expr
-from mplang.tools.dap.framing import MAX_HEADER_LINE, Dropped, Reader, Writer
 
 FAST = settings(max_examples=150, deadline=None, database=None, derandomize=True)
-
-
-def frame(message: dict[str, object]) -> bytes:
-    body = json.dumps(message).encode()
-    return b"Content-Length: %d\r\n\r\n" % len(body) + body
-
-
-def read_all(data: bytes) -> list[bytes | Dropped]:
-    """Every body and drop the reader gives for `data`; each call consumes input, so the
-    number of calls is bounded by its length."""
-    reader = Reader(io.BytesIO(data))
-    found: list[bytes | Dropped] = []
-    for _ in range(len(data) + 2):
-        message = reader.next()
-        if message is None:
-            return found
-        found.append(message)
-    raise AssertionError("the reader did not reach the end of its input")
-
-
-@FAST
-@given(st.binary(max_size=2000))
-def test_base_protocol_framing_survives_any_bytes(data: bytes) -> None:
-    for message in read_all(data):
-        assert isinstance(message, (bytes, Dropped))
-
-
-@FAST
-@given(st.lists(st.text(st.characters(blacklist_characters=":\r\n",
-                                      blacklist_categories=("Cs",)), max_size=60),
-                max_size=5))
-def test_base_protocol_a_request_after_garbage_lines_is_read(garbage: list[str]) -> None:
-    request = {"seq": 1, "type": "request", "command": "threads"}
-    data = b"".join(line.encode() + b"\r\n" for line in garbage) + b"\r\n" + frame(request)
-    bodies = [m for m in read_all(data) if isinstance(m, bytes)]
-    assert bodies == [json.dumps(request).encode()]
-
-
-def test_base_protocol_oversized_header_and_body_are_dropped_unread() -> None:
-    huge_line = b"X" * (MAX_HEADER_LINE * 3) + b"\r\n"
-    data = huge_line + b"Content-Length: 99999999999\r\n\r\n" + frame({"seq": 2})
-    found = read_all(data)
-    assert isinstance(found[0], Dropped) and "longer than" in found[0].reason
-    assert found[1:] == [] or all(isinstance(m, Dropped) for m in found[1:])
-
-
-def test_base_protocol_writer_frames_and_numbers_messages() -> None:
-    out = io.BytesIO()
-    writer = Writer(out)
-    writer.send({"type": "event", "event": "initialized"})
-    writer.send({"type": "event", "event": "terminated"})
-    bodies = read_all(out.getvalue())
-    assert [json.loads(b)["seq"] for b in bodies if isinstance(b, bytes)] == [1, 2]
 
 
 @FAST
@@ -111,3 +54,16 @@ def test_evaluate_conditions_as_breakpoints_write_them() -> None:
                            ("rows_done >= 4 || missing", 1), ("-rows_done", -4)):
         assert expr.evaluate(expr.parse(text), values.get) == expected, text
     assert expr.names(expr.parse("a + VAR3 * b")) == ["a", "VAR3", "b"]
+
+
+def test_evaluate_an_axis_counter_by_a_dotted_name() -> None:
+    values = {"X.LP": 1200, "rows": 2}
+    assert expr.evaluate(expr.parse("X.LP / rows"), values.get) == 600
+    assert expr.names(expr.parse("X.LP + Y.EP * rows")) == ["X.LP", "Y.EP", "rows"]
+    for text in ("X.LP.more", "f(x).LP"):
+        try:
+            expr.parse(text)
+        except expr.ExpressionError as exc:
+            assert "X.LP" in str(exc) or "not a variable" in str(exc)
+        else:
+            raise AssertionError(f"{text!r} was read")

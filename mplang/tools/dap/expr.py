@@ -1,7 +1,8 @@
 """Expressions of `mpc dap`: conditional breakpoints, `evaluate`, watches and hovers.
 
 An expression is written as in a `.mp` program: variables by their declared names or
-device names (`rows_done`, `VAR12`, `bVAR3`), integers, `+ - * / & |` with the device's
+device names (`rows_done`, `VAR12`, `bVAR3`), an axis's counters (`X.LP`, `X.EP`, `X.CV`),
+integers, `+ - * / & |` with the device's
 arithmetic (C division, 32-bit wrap: `mplang.ir.fold.apply_operator`), comparisons
 `== != < <= > >=`, `and`/`or`/`not` (also `&&`, `||`, `!`) and parentheses. Comparisons give
 1 or 0. Python's own parser reads it and only those node kinds are allowed, so an expression
@@ -52,9 +53,12 @@ def parse(text: str) -> ast.expr:
     except (ValueError, RecursionError, MemoryError) as exc:  # NUL bytes, deep nesting
         raise ExpressionError(f"cannot read {text.strip()[:80]!r}: {exc}") from None
     for node in ast.walk(tree):
+        if isinstance(node, ast.Attribute) and not isinstance(node.value, ast.Name):
+            raise ExpressionError(f"{ast.unparse(node)!r}: a dotted name is an axis and its "
+                                  "counter, such as X.LP")
         if not isinstance(node, (ast.BinOp, ast.UnaryOp, ast.BoolOp, ast.Compare, ast.Name,
-                                 ast.Constant, ast.Load, ast.operator, ast.unaryop,
-                                 ast.boolop, ast.cmpop)):
+                                 ast.Attribute, ast.Constant, ast.Load, ast.operator,
+                                 ast.unaryop, ast.boolop, ast.cmpop)):
             raise ExpressionError(f"{ast.unparse(node)!r} is not a variable, a number or an "
                                   "operator of an expression")
         if isinstance(node, ast.BinOp) and type(node.op) not in _BINARY:
@@ -71,8 +75,18 @@ def parse(text: str) -> ast.expr:
 
 
 def names(tree: ast.expr) -> list[str]:
-    """The variable names an expression reads, in order."""
-    return [node.id for node in ast.walk(tree) if isinstance(node, ast.Name)]
+    """The variable names an expression reads, in order (`X.LP` as one name)."""
+    inner = {id(node.value) for node in ast.walk(tree) if isinstance(node, ast.Attribute)}
+    return [_name(node) for node in ast.walk(tree)
+            if isinstance(node, ast.Attribute) or (isinstance(node, ast.Name)
+                                                   and id(node) not in inner)]
+
+
+def _name(node: ast.Name | ast.Attribute) -> str:
+    if isinstance(node, ast.Attribute):
+        assert isinstance(node.value, ast.Name)  # `parse` allows `name.name` only
+        return f"{node.value.id}.{node.attr}"
+    return node.id
 
 
 def evaluate(tree: ast.expr, lookup: Lookup) -> int:
@@ -88,11 +102,12 @@ def _value(tree: ast.expr, lookup: Lookup) -> int:
     if isinstance(tree, ast.Constant):
         assert isinstance(tree.value, int)  # `parse` allows integers only
         return tree.value
-    if isinstance(tree, ast.Name):
-        value = lookup(tree.id)
+    if isinstance(tree, (ast.Name, ast.Attribute)):
+        name = _name(tree)
+        value = lookup(name)
         if value is None:
-            raise ExpressionError(f"no variable {tree.id!r} in this build (a declared VAR or "
-                                  "ALIAS name, or VARn)")
+            raise ExpressionError(f"no variable {name!r} in this build (a declared VAR or "
+                                  "ALIAS name, VARn, or an axis's X.LP, X.EP, X.CV)")
         return value
     if isinstance(tree, ast.UnaryOp):
         operand = _value(tree.operand, lookup)
