@@ -66,6 +66,22 @@ def start_monitor(cwd: Path, *args: str, stderr: IO[str] | None = None,
     raise AssertionError(f"mpc monitor did not start (exit {proc.returncode}): {seen}")
 
 
+def start_sim_monitor(cwd: Path, *args: str) -> tuple[subprocess.Popen[str], str]:
+    """`mpc sim --tcp 127.0.0.1:0 ARGS... --monitor 0`: the process and its dashboard's
+    URL."""
+    proc = subprocess.Popen([sys.executable, "-m", "mplang", "sim", "--tcp", "127.0.0.1:0",
+                             *args, "--monitor", "0"], stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True, cwd=cwd)
+    assert proc.stdout is not None
+    seen = []
+    for line in proc.stdout:
+        seen.append(line)
+        if "dashboard on " in line:
+            return proc, line.split("dashboard on ", 1)[1].split()[0]
+    proc.wait(10)
+    raise AssertionError(f"mpc sim --monitor did not start (exit {proc.returncode}): {seen}")
+
+
 def limit_open_files(soft: int, pid: int = 0) -> None:
     """Lower the soft open-file limit of process `pid` (0: this one), as `ulimit -n` does."""
     import resource

@@ -102,7 +102,10 @@ function showFrnet(groups) {
   box.replaceChildren(...groups.map((word, g) => {
     const line = document.createElement("div");
     line.className = "group";
-    line.append(`DI${g + 8} `);
+    const label = document.createElement("span");
+    label.className = "label";
+    label.textContent = `DI${g + 8}`;
+    line.append(label);
     for (let bit = 0; bit < 16; bit++) line.append(lamp(Boolean((word >> bit) & 1), false,
       `group ${g + 8} bit ${bit}`));
     return line;
@@ -165,6 +168,7 @@ function ticks(lo, step, n) {
 }
 
 const PLOT = { left: 64, right: 14, top: 12, bottom: 40 };  // room for tick labels and titles
+const MIN_SPAN = 100;  // pulses: a path standing still is a point on a readable scale
 
 // Axes with ticks, grid and titles on `canvas` for the data ranges `xs`/`ys` (ticks in data
 // units); maps data to pixels. The ticks and titles are also the canvas's data-* attributes.
@@ -221,9 +225,9 @@ function drawXY() {
   ctx.clearRect(0, 0, xy.width, xy.height);
   const [x0, x1] = range(path.map((p) => p[0]), [0, 1000]);
   const [y0, y1] = range(path.map((p) => p[1]), [0, 1000]);
-  const step = tickStep(Math.max(x1 - x0, y1 - y0), 5);
+  const step = tickStep(Math.max(MIN_SPAN, x1 - x0, y1 - y0), 5);
   const xlo = Math.floor(x0 / step) * step, ylo = Math.floor(y0 / step) * step;
-  const n = Math.max(1, Math.ceil((x1 - xlo) / step), Math.ceil((y1 - ylo) / step));
+  const n = Math.max(5, Math.ceil((x1 - xlo) / step), Math.ceil((y1 - ylo) / step));
   const [px, py] = axes(xy, ticks(xlo, step, n), ticks(ylo, step, n), "X (pulses)",
     "Y (pulses)");
   if (path.length === 0) return;
@@ -240,10 +244,10 @@ function drawZ() {
   const z = $("z"), ctx = z.getContext("2d");
   ctx.clearRect(0, 0, z.width, z.height);
   const [z0, z1] = range(path.map((p) => p[2]), [0, 1000]);
-  const zStep = tickStep(z1 - z0, 4), zlo = Math.floor(z0 / zStep) * zStep;
+  const zStep = tickStep(Math.max(MIN_SPAN, z1 - z0), 4), zlo = Math.floor(z0 / zStep) * zStep;
   const iStep = tickStep(Math.max(1, path.length - 1), 5);
   const [px, py] = axes(z, ticks(0, iStep, Math.max(1, Math.ceil((path.length - 1) / iStep))),
-    ticks(zlo, zStep, Math.max(1, Math.ceil((z1 - zlo) / zStep))), "path point",
+    ticks(zlo, zStep, Math.max(4, Math.ceil((z1 - zlo) / zStep))), "path point",
     "Z (pulses)");
   line(ctx, path.map((p, i) => [px(i), py(p[2])]), "#8e44ad");
 }
