@@ -10,6 +10,7 @@ from __future__ import annotations
 import asyncio
 import errno
 import ipaddress
+import re
 from collections.abc import Callable
 from typing import Any
 
@@ -21,6 +22,7 @@ WILDCARDS = ("0.0.0.0", "::", "")
 MAX_CONNECTIONS = 256  # far more than a few pages and scripts need
 MIN_CONNECTIONS = 8
 MAX_BACKLOG = 128  # aiohttp's own default
+PORT_DIGITS = re.compile(r"[1-9][0-9]{0,4}")
 
 
 def split_host(value: str) -> tuple[str, int | None] | None:
@@ -42,8 +44,8 @@ def split_host(value: str) -> tuple[str, int | None] | None:
         return None
     if not rest:
         return name, None
-    digits = rest[1:]
-    if rest[0] != ":" or not digits.isdigit() or len(digits) > 5 or int(digits) > 65535:
+    digits = rest[1:]  # ASCII digits in their one spelling: no "08194", no "８１９４"
+    if rest[0] != ":" or not PORT_DIGITS.fullmatch(digits) or int(digits) > 65535:
         return None
     return name, int(digits)
 
