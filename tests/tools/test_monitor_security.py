@@ -7,7 +7,9 @@ half-open connections under a lowered open-file limit.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import re
+import selectors
 import socket
 from collections.abc import Iterator
 from pathlib import Path
@@ -170,19 +172,36 @@ def test_a_write_needs_this_sessions_token(dashboard: str, tmp_path: Path) -> No
 
 
 def half_open(port: int, count: int) -> list[socket.socket]:
-    """`count` connections that send the start of a request's headers and never the end
-    (a connection the dashboard refuses or closes is dropped from the list)."""
-    held = []
+    """`count` connections, opened all at once, that send the start of a request's headers
+    and never the end (one the dashboard does not accept within 10 s, or refuses, is
+    dropped from the list)."""
+    opening = []
     for _ in range(count):
         sock = socket.socket()
-        sock.settimeout(30)
-        try:
-            sock.connect(("127.0.0.1", port))
-            sock.sendall(f"GET /api/state HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\n".encode())
-        except OSError:
+        sock.setblocking(False)
+        sock.connect_ex(("127.0.0.1", port))
+        opening.append(sock)
+    held = []
+    with selectors.DefaultSelector() as selector:
+        for sock in opening:
+            selector.register(sock, selectors.EVENT_WRITE)
+        while selector.get_map() and (ready := selector.select(timeout=10)):
+            for key, _events in ready:
+                sock = key.fileobj
+                assert isinstance(sock, socket.socket)
+                selector.unregister(sock)
+                if sock.getsockopt(socket.SOL_SOCKET, socket.SO_ERROR) == 0:
+                    sock.setblocking(True)
+                    sock.settimeout(30)
+                    with contextlib.suppress(OSError):  # closed by the dashboard already
+                        sock.sendall(f"GET /api/state HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\n"
+                                     .encode())
+                        held.append(sock)
+                        continue
+                sock.close()
+    for sock in opening:
+        if sock not in held:
             sock.close()
-            continue
-        held.append(sock)
     return held
 
 
