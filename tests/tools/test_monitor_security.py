@@ -159,6 +159,10 @@ def test_a_write_needs_this_sessions_token(dashboard: str, tmp_path: Path) -> No
     for sent in (None, "", token[:-1], token + "x", token.upper()):
         status, answer = post(dashboard + "api/emergency-stop", {}, token=sent)
         assert status == 403 and "X-MPC-Token" in answer["error"], sent
+    with socket.create_connection(("127.0.0.1", port), timeout=30) as sock:  # not UTF-8
+        sock.sendall(f"POST /api/stop HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nConnection: "
+                     "close\r\nContent-Length: 0\r\nX-MPC-Token: ".encode() + b"\xff\xfe\r\n\r\n")
+        assert sock.recv(4096).startswith(b"HTTP/1.1 403 ")
     assert get(dashboard + "api/state")[1]["emergency"] is False
     _status, head, _body = raw(port, "GET", "/", f"127.0.0.1:{port}")
     assert "X-Frame-Options: DENY" in head and "frame-ancestors 'none'" in head

@@ -206,8 +206,8 @@ class Monitor:
         if not self.allow_write:
             return web.json_response({"error": "read-only: writing needs mpc monitor "
                                       "--allow-write"}, status=403)
-        if not hmac.compare_digest(request.headers.get(TOKEN_HEADER, "").encode(),
-                                   self.token.encode()):
+        sent = request.headers.get(TOKEN_HEADER, "").encode("utf-8", "surrogateescape")
+        if not hmac.compare_digest(sent, self.token.encode()):  # in constant time
             return web.json_response({"error": f"refused: a write needs this session's "
                                       f"token in {TOKEN_HEADER} (the page sends it; a "
                                       "script gets it from GET /api/session)"}, status=403)
