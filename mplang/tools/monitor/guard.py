@@ -191,9 +191,9 @@ class Gate:
         soft = soft_file_limit()
         self.cap = max(MIN_CONNECTIONS, min(self.cap, connection_cap(soft, backlog),
                                             len(self.open) - len(self.open) // 4))
-        self._say("files", f"out of file descriptors (open-file limit {soft}): the "
-                  f"dashboard now keeps at most {self.cap} connections (raise the limit "
-                  "with ulimit -n)")
+        limit = f" (open-file limit {soft})" if soft is not None else ""
+        self._say("files", f"out of file descriptors{limit}: the dashboard now keeps at "
+                  f"most {self.cap} connections (raise the limit with ulimit -n)")
         self.shed(self.cap)
 
     def loop_errors(self, previous: Callable[[asyncio.AbstractEventLoop, dict[str, Any]],
