@@ -11,7 +11,7 @@ import urllib.error
 import urllib.request
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import IO, Any
 
 JOB = """VAR laps
 VAR target @ VAR20
@@ -46,11 +46,16 @@ def mpc(cwd: Path, *args: str) -> subprocess.CompletedProcess[str]:
                           text=True, timeout=60, cwd=cwd)
 
 
-def start_monitor(cwd: Path, *args: str) -> tuple[subprocess.Popen[str], str]:
-    """`mpc monitor --port 0 ARGS...`; the process and the dashboard's URL it prints."""
+def start_monitor(cwd: Path, *args: str, stderr: IO[str] | None = None,
+                  open_files: int | None = None) -> tuple[subprocess.Popen[str], str]:
+    """`mpc monitor --port 0 ARGS...`; the process and the dashboard's URL it prints.
+    Standard error goes to `stderr` when given (else with standard output); `open_files`
+    lowers the process's open-file limit (RLIMIT_NOFILE, soft) before it starts."""
     proc = subprocess.Popen([sys.executable, "-m", "mplang", "monitor", "--port", "0", *args],
-                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                            cwd=cwd)
+                            stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT if stderr is None else stderr, text=True,
+                            cwd=cwd, preexec_fn=None if open_files is None else
+                            (lambda: limit_open_files(open_files)))
     assert proc.stdout is not None
     seen = []
     for line in proc.stdout:
@@ -59,6 +64,30 @@ def start_monitor(cwd: Path, *args: str) -> tuple[subprocess.Popen[str], str]:
             return proc, line.split("dashboard on ", 1)[1].split()[0]
     proc.wait(10)
     raise AssertionError(f"mpc monitor did not start (exit {proc.returncode}): {seen}")
+
+
+def start_sim_monitor(cwd: Path, *args: str) -> tuple[subprocess.Popen[str], str]:
+    """`mpc sim --tcp 127.0.0.1:0 ARGS... --monitor 0`: the process and its dashboard's
+    URL."""
+    proc = subprocess.Popen([sys.executable, "-m", "mplang", "sim", "--tcp", "127.0.0.1:0",
+                             *args, "--monitor", "0"], stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True, cwd=cwd)
+    assert proc.stdout is not None
+    seen = []
+    for line in proc.stdout:
+        seen.append(line)
+        if "dashboard on " in line:
+            return proc, line.split("dashboard on ", 1)[1].split()[0]
+    proc.wait(10)
+    raise AssertionError(f"mpc sim --monitor did not start (exit {proc.returncode}): {seen}")
+
+
+def limit_open_files(soft: int, pid: int = 0) -> None:
+    """Lower the soft open-file limit of process `pid` (0: this one), as `ulimit -n` does."""
+    import resource
+
+    hard = resource.prlimit(pid, resource.RLIMIT_NOFILE)[1]
+    resource.prlimit(pid, resource.RLIMIT_NOFILE, (soft, hard))
 
 
 def get(url: str) -> tuple[int, Any]:
@@ -74,10 +103,22 @@ def get(url: str) -> tuple[int, Any]:
             "application/json" else body
 
 
-def post(url: str, body: object, content_type: str = "application/json") -> tuple[int, Any]:
+def session_token(url: str) -> str:
+    """The dashboard's write token, as a script gets it (GET /api/session)."""
+    status, answer = get(url + "api/session")
+    assert status == 200, answer
+    return str(answer["token"])
+
+
+def post(url: str, body: object, content_type: str = "application/json",
+         token: str | None = None, headers: dict[str, str] | None = None) -> tuple[int, Any]:
+    """POST with the session's `token` (none: a write without it) and any other headers;
+    the status and the JSON (or text) answer."""
     data = body.encode() if isinstance(body, str) else json.dumps(body).encode()
-    request = urllib.request.Request(url, data=data, method="POST",
-                                     headers={"Content-Type": content_type})
+    sent = {"Content-Type": content_type, **(headers or {})}
+    if token is not None:
+        sent["X-MPC-Token"] = token
+    request = urllib.request.Request(url, data=data, method="POST", headers=sent)
     try:
         with urllib.request.urlopen(request, timeout=10) as answer:
             return answer.status, json.loads(answer.read().decode())

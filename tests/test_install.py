@@ -30,7 +30,7 @@ def test_wheel_contains_grammar_and_stdlib(wheel: Path) -> None:
     assert "mplang/grammar/mplang.lark" in names
     assert "mplang/stdlib/m8194h/commands.toml" in names
     assert "mplang/stdlib/m8194h/device.toml" in names
-    for asset in ("index.html", "monitor.js", "monitor.css"):  # mpc monitor serves them
+    for asset in ("index.html", "monitor.js", "monitor.css", "favicon.svg"):  # served
         assert f"mplang/tools/monitor/assets/{asset}" in names
 
 

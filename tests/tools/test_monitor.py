@@ -22,6 +22,7 @@ from monitorproc import (
     get,
     mpc,
     post,
+    session_token,
     start_monitor,
     state_until,
     stop,
@@ -82,7 +83,7 @@ def test_manual_12_1_api_state_over_http_read_only(tmp_path: Path) -> None:
                 urllib.request.urlopen(rebound, timeout=10)
                 raise AssertionError("a request for another host name was answered")
             except urllib.error.HTTPError as err:
-                assert err.code == 403 and "evil.example" in err.read().decode()
+                assert err.code == 421 and "evil.example" in err.read().decode()
             assert get(url.replace("127.0.0.1", "localhost") + "api/state")[0] == 200
             for endpoint, body in (("call", {"program": "square"}), ("stop", {}),
                                    ("var", {"name": "laps", "value": 3}),
@@ -108,39 +109,42 @@ def test_manual_12_3_writes_with_allow_write(tmp_path: Path) -> None:
                                      "--allow-write")
         try:
             assert state_until(url, lambda s: s["connected"])["write"] is True
-            status, answer = post(url + "api/var", {"name": "target", "value": "-1234"})
+            token = session_token(url)
+            status, answer = post(url + "api/var", {"name": "target", "value": "-1234"},
+                                  token=token)
             assert status == 200 and answer["done"] == "target (VAR20) = -1234"
             state_until(url, lambda s: {v["name"]: v["value"] for v in s["variables"]}
                         ["target"] == -1234)
-            status, answer = post(url + "api/call", {"program": "square"})
+            status, answer = post(url + "api/call", {"program": "square"}, token=token)
             assert status == 200 and "MP41 square" in answer["done"]
             running = state_until(url, lambda s: s["running"]["mp"] == 41)
             assert running["running"]["program"] == "MP41 square"
             assert running["running"]["source"] == f"job.mp:{SQUARE_LINE}"
             state_until(url, lambda s: s["axes"][0]["lp"] > 0)
-            status, answer = post(url + "api/stop", {})
+            status, answer = post(url + "api/stop", {}, token=token)
             assert status == 200 and "MP_TERMINATE" in answer["done"]
             stopped = state_until(url, lambda s: s["running"]["mp"] == 0
                                   and all(a["state"] == "stopped" for a in s["axes"]))
             assert stopped["axes"][0]["lp"] < 4000  # stopped before the end of its move
-            assert post(url + "api/emergency-stop", {})[0] == 200
+            assert post(url + "api/emergency-stop", {}, token=token)[0] == 200
             state_until(url, lambda s: s["emergency"] is True)
-            assert post(url + "api/clear-emergency", {})[0] == 200
+            assert post(url + "api/clear-emergency", {}, token=token)[0] == 200
             state_until(url, lambda s: s["emergency"] is False)
-            bad = post(url + "api/var", {"name": "nosuch", "value": 1})
+            bad = post(url + "api/var", {"name": "nosuch", "value": 1}, token=token)
             assert bad[0] == 400 and "no variable 'nosuch'" in bad[1]["error"]
-            big = post(url + "api/var", {"name": "laps", "value": 1 << 40})
+            big = post(url + "api/var", {"name": "laps", "value": 1 << 40}, token=token)
             assert big[0] == 400 and "32-bit" in big[1]["error"]
-            missing = post(url + "api/call", {"program": "MP999"})
+            missing = post(url + "api/call", {"program": "MP999"}, token=token)
             assert missing[0] == 400 and "no MP 'MP999'" in missing[1]["error"]
-            assert post(url + "api/stop", "stop", "text/plain")[0] == 415
-            deep = post(url + "api/var", "[" * 100_000)  # nested past any decoder's depth
+            assert post(url + "api/stop", "stop", "text/plain", token=token)[0] == 415
+            deep = post(url + "api/var", "[" * 100_000, token=token)  # past any decoder
             assert deep[0] == 400 and "not JSON" in deep[1]["error"]
-            huge = post(url + "api/var", '{"name": "laps", "value": 1}' + " " * (2 << 20))
+            huge = post(url + "api/var", '{"name": "laps", "value": 1}' + " " * (2 << 20),
+                        token=token)
             assert huge[0] == 413  # aiohttp's body limit, 1 MiB
-            assert post(url + "api/var", {"name": "target", "value": 0})[0] == 200
+            assert post(url + "api/var", {"name": "target", "value": 0}, token=token)[0] == 200
             state_until(url, lambda s: s["variables"][0]["value"] == 0)
-            assert post(url + "api/call", {"program": "MP42"})[0] == 200
+            assert post(url + "api/call", {"program": "MP42"}, token=token)[0] == 200
             failed = state_until(url, lambda s: s["execution_error"]["error"] != 0)
             error = failed["execution_error"]
             assert (error["mp"], error["error"]) == (42, 0x03)
@@ -265,7 +269,8 @@ def test_sim_monitor_serves_the_dashboard_of_its_device(tmp_path: Path) -> None:
         assert url.startswith("http://127.0.0.1:"), url
         state = state_until(url, lambda s: s["connected"])
         assert state["write"] is True and state["programs"][0]["name"] == "square"
-        assert post(url + "api/call", {"program": "square"})[0] == 200
+        token = session_token(url)
+        assert post(url + "api/call", {"program": "square"}, token=token)[0] == 200
         moved = state_until(url, lambda s: s["path_points"] > 2)
         assert moved["running"]["program"] == "MP41 square"
     finally:
@@ -291,7 +296,8 @@ def test_manual_12_1_monitor_over_modbus_rtu(tmp_path: Path) -> None:
         try:
             state = state_until(url, lambda s: s["connected"])
             assert port in state["device"] and state["identity"]["module_id"] == 0x44
-            assert post(url + "api/var", {"name": "laps", "value": 7})[0] == 200
+            token = session_token(url)
+            assert post(url + "api/var", {"name": "laps", "value": 7}, token=token)[0] == 200
             state_until(url, lambda s: s["variables"][1]["value"] == 7)
         finally:
             stop(monitor)

@@ -112,7 +112,8 @@ def _open(url: str) -> None:
               "other machines watch (and, with --allow-write, drive) the device.")
 @click.option("--open", "open_browser", is_flag=True, help="Open the page in a browser.")
 @click.option("--allow-write", is_flag=True,
-              help="Offer the writes: call a program, set a VAR, stop, emergency stop.")
+              help="Offer the writes: call a program, set a VAR, stop, emergency stop "
+              "(each with this session's token, which the page carries; docs/monitor.md).")
 @click.option("--timeout", type=click.FloatRange(min=0.01, max=60), default=0.5,
               show_default=True, help="Seconds to wait for each answer.")
 @click.option("--retries", type=click.IntRange(0, 100), default=0, show_default=True,

@@ -5,10 +5,12 @@ path points added since the last message) and, with `allow_write`, the write end
 without it they answer 403. A device that cannot be read is a state like any other
 (`connected` false, `error` saying why), never an exception out of the poll.
 
-Writes must be JSON (`Content-Type: application/json`), which a page of another origin can
-only send after a CORS preflight this server never grants, and an `Origin` header, when
-sent, must be this server's own. Served on loopback, it answers only requests that name a
-loopback host.
+Safe by construction (docs/monitor.md, "Security"; the checks are `guard`): every request
+must name this dashboard in `Host` (an exact list: 421 otherwise) and, when it carries an
+`Origin`, be from a page this dashboard served (403); a write must also carry the
+session's token (`X-MPC-Token`, 403 without it), which only the page and a same-origin
+`GET /api/session` give out. Connections are bounded (`guard.Gate`) and a request's
+headers and body must arrive in time.
 """
 
 from __future__ import annotations
@@ -16,7 +18,10 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import errno
+import hmac
 import json
+import secrets
+import sys
 import time
 from collections.abc import AsyncIterator, Awaitable, Callable
 from importlib import resources
@@ -26,14 +31,33 @@ from aiohttp import WSMsgType, web
 
 from mplang.family.face import CommandError, DeviceUnreachable, LiveDevice
 from mplang.lang.limits import load_json
+from mplang.tools.monitor.guard import (
+    Gate,
+    Names,
+    backlog_for,
+    connection_cap,
+    soft_file_limit,
+)
 
 PERIOD_S = 0.05  # 20 polls a second while the device answers
 RETRY_S = 0.5  # between attempts while it does not
 PATH_LIMIT = 100_000  # path points kept; the oldest half goes when it is reached
-ASSETS = {"monitor.js": "text/javascript", "monitor.css": "text/css"}
+ASSETS = {"monitor.js": "text/javascript", "monitor.css": "text/css",
+          "favicon.svg": "image/svg+xml"}
 ACTIONS = {"call": "call", "var": "set_var", "stop": "stop",
            "emergency-stop": "emergency_stop", "clear-emergency": "clear_emergency"}
 LOOPBACK = ("127.0.0.1", "localhost", "::1")
+TOKEN_HEADER = "X-MPC-Token"
+TOKEN_SLOT = "__MPC_TOKEN__"  # where index.html receives the session's token
+HEADER_TIMEOUT_S = 10.0  # a connection's next request must arrive whole within this
+BODY_TIMEOUT_S = 10.0  # a write's body, once its headers are in
+SECURITY_HEADERS = {
+    "X-Content-Type-Options": "nosniff",  # no answer of ours runs as another page's script
+    "X-Frame-Options": "DENY",  # no other page frames the buttons (clickjacking)
+    "Content-Security-Policy": "frame-ancestors 'none'",
+    "Referrer-Policy": "no-referrer",
+    "Cache-Control": "no-store",  # the page carries the session's token
+}
 
 
 class MonitorError(Exception):
@@ -49,12 +73,14 @@ class Monitor:
     """The polled state of one device, its tool path, and the clients watching it."""
 
     def __init__(self, device: LiveDevice, *, allow_write: bool, period: float = PERIOD_S,
-                 title: str = "", local_names_only: bool = True) -> None:
+                 title: str = "", names: Names, gate: Gate) -> None:
         self.device = device
         self.allow_write = allow_write
         self.period = period
         self.title = title
-        self.local_names_only = local_names_only  # served on loopback: see `_local`
+        self.names = names  # what Host and Origin may name
+        self.gate = gate  # the connections, bounded
+        self.token = secrets.token_urlsafe(32)  # this process's; see `write`
         self.lock = asyncio.Lock()  # one request at a time on the device's link
         self.state: dict[str, Any] = {"connected": False, "error": "connecting",
                                       "seq": 0, "updated": None, "write": allow_write,
@@ -118,8 +144,19 @@ class Monitor:
 
     # ------------------------------------------------------------------ handlers
     async def page(self, _request: web.Request) -> web.Response:
-        return web.Response(body=_asset("index.html"), content_type="text/html",
-                            charset="utf-8")
+        """The page, carrying the session's token (only a page of this origin can read
+        it)."""
+        body = _asset("index.html").replace(TOKEN_SLOT.encode(), self.token.encode())
+        return web.Response(body=body, content_type="text/html", charset="utf-8")
+
+    async def favicon(self, _request: web.Request) -> web.Response:
+        return web.Response(body=_asset("favicon.svg"), content_type="image/svg+xml")
+
+    async def session(self, _request: web.Request) -> web.Response:
+        """The token for a script (curl, a host program) that drives the writes; a page of
+        another origin is refused before it gets here, and could not read the answer."""
+        return web.json_response({"token": self.token, "header": TOKEN_HEADER,
+                                  "write": self.allow_write})
 
     async def asset(self, request: web.Request) -> web.Response:
         name = request.match_info["name"]
@@ -164,18 +201,29 @@ class Monitor:
                 break
 
     async def write(self, request: web.Request) -> web.Response:
+        """One write to the device. Host and Origin were checked by `_guard`; here the
+        session's token, then the body (which must arrive within BODY_TIMEOUT_S)."""
         if not self.allow_write:
             return web.json_response({"error": "read-only: writing needs mpc monitor "
                                       "--allow-write"}, status=403)
-        origin = request.headers.get("Origin")
-        if origin is not None and origin.split("://", 1)[-1] != request.host:
-            return web.json_response({"error": f"refused: a write from {origin}"},
-                                     status=403)
+        sent = request.headers.get(TOKEN_HEADER, "").encode("utf-8", "surrogateescape")
+        if not hmac.compare_digest(sent, self.token.encode()):  # in constant time
+            return web.json_response({"error": f"refused: a write needs this session's "
+                                      f"token in {TOKEN_HEADER} (the page sends it; a "
+                                      "script gets it from GET /api/session)"}, status=403)
         if request.content_type != "application/json":
             return web.json_response({"error": "send the request as application/json"},
                                      status=415)
+        try:
+            text = await asyncio.wait_for(request.text(), BODY_TIMEOUT_S) \
+                if request.can_read_body else ""
+        except TimeoutError:
+            response = web.json_response({"error": f"the body did not arrive within "
+                                          f"{BODY_TIMEOUT_S:g} s"}, status=408)
+            response.force_close()
+            return response
         try:  # nesting bounded before decoding: a hostile body is a 400, never a 500
-            args = load_json(await request.text()) if request.can_read_body else {}
+            args = load_json(text) if text else {}
         except ValueError:
             return web.json_response({"error": "the body is not JSON"}, status=400)
         if not isinstance(args, dict):
@@ -191,47 +239,80 @@ class Monitor:
         return web.json_response({"ok": True, "done": done})
 
     @web.middleware
-    async def _local(self, request: web.Request,
+    async def _guard(self, request: web.Request,
                      handler: Callable[[web.Request], Awaitable[web.StreamResponse]]
                      ) -> web.StreamResponse:
-        """On loopback, answer only requests that name this machine (Host: 127.0.0.1,
-        localhost, [::1]): a page of another site whose name was made to point here (DNS
-        rebinding) names its own."""
-        if self.local_names_only and not is_loopback(request.url.host or ""):
-            return web.json_response({"error": f"refused: the dashboard is served to "
-                                      f"this machine, not to {request.host}"}, status=403)
-        return await handler(request)
+        """Every route: the request must name this dashboard in Host (a page of another
+        site whose name was made to point here, DNS rebinding, names its own: 421) and,
+        when it has an Origin (browsers send one with every write and WebSocket
+        handshake), come from a page this dashboard served (403). The connection is busy
+        (not to be shed by the Gate) until it is answered."""
+        self.gate.busy(request.protocol)
+        try:
+            host = request.headers.get("Host", "")
+            if not self.names.host_ok(host):
+                return web.json_response({"error": f"refused: the dashboard does not answer "
+                                          f"to the host name {host!r}"}, status=421)
+            origin = request.headers.get("Origin")
+            if origin is not None and not self.names.origin_ok(origin):
+                return web.json_response({"error": f"refused: a request from a page of "
+                                          f"{origin}, not of this dashboard"}, status=403)
+            return await handler(request)
+        finally:
+            self.gate.idle(request.protocol)
+
+    @staticmethod
+    async def _headers(_request: web.Request, response: web.StreamResponse) -> None:
+        response.headers.update(SECURITY_HEADERS)
 
     def app(self) -> web.Application:
-        app = web.Application(middlewares=[self._local])
+        app = web.Application(middlewares=[self._guard])
+        app.on_response_prepare.append(self._headers)
         app.router.add_get("/", self.page)
+        app.router.add_get("/favicon.ico", self.favicon)
         app.router.add_get("/assets/{name}", self.asset)
         app.router.add_get("/api/state", self.api_state)
+        app.router.add_get("/api/session", self.session)
         app.router.add_get("/ws", self.websocket)
         app.router.add_post("/api/{action:" + "|".join(ACTIONS) + "}", self.write)
         return app
 
 
+def warn(text: str) -> None:
+    """One warning line on standard error (the dashboard's trouble that is not an exit)."""
+    print(f"mpc monitor: warning: {text}", file=sys.stderr, flush=True)
+
+
 @contextlib.asynccontextmanager
 async def serving(device: LiveDevice, host: str, port: int, *, allow_write: bool,
-                  title: str = "", period: float = PERIOD_S) -> AsyncIterator[
+                  title: str = "", period: float = PERIOD_S,
+                  say_warning: Callable[[str], None] = warn) -> AsyncIterator[
                       tuple[Monitor, str]]:
     """Serve the dashboard of `device` on host:port (0: any free port) while the block
     runs; yields the monitor and its URL. MonitorError when it cannot listen."""
+    soft = soft_file_limit()
+    backlog = backlog_for(soft)
+    names, gate = Names(host), Gate(connection_cap(soft, backlog), say_warning)
     monitor = Monitor(device, allow_write=allow_write, period=period, title=title,
-                      local_names_only=is_loopback(host))
-    runner = web.AppRunner(monitor.app(), access_log=None, handle_signals=False)
+                      names=names, gate=gate)
+    runner = web.AppRunner(monitor.app(), access_log=None, handle_signals=False,
+                           keepalive_timeout=HEADER_TIMEOUT_S)
     await runner.setup()
+    assert runner.server is not None
+    gate.attach(runner.server)
     try:
-        await web.TCPSite(runner, host, port, shutdown_timeout=0.5).start()
+        await web.TCPSite(runner, host, port, shutdown_timeout=0.5, backlog=backlog).start()
     except OSError as exc:
         await runner.cleanup()
         device.close()
         reason = "the port is in use (another mpc monitor? choose one with --port)" \
             if exc.errno == errno.EADDRINUSE else exc.strerror or str(exc)
         raise MonitorError(f"cannot serve the dashboard on {host}:{port}: {reason}") from None
-    bound = runner.addresses[0][1] if runner.addresses else port
+    names.port = bound = runner.addresses[0][1] if runner.addresses else port
     shown = f"[{host}]" if ":" in host else host
+    loop = asyncio.get_running_loop()
+    previous = loop.get_exception_handler()
+    loop.set_exception_handler(gate.loop_errors(previous, backlog))
     poll = asyncio.ensure_future(monitor.poll_forever())
     try:
         yield monitor, f"http://{shown}:{bound}/"
@@ -240,6 +321,7 @@ async def serving(device: LiveDevice, host: str, port: int, *, allow_write: bool
         with contextlib.suppress(asyncio.CancelledError):
             await poll
         await runner.cleanup()
+        loop.set_exception_handler(previous)
         device.close()
 
 
@@ -268,4 +350,5 @@ def run(device: LiveDevice, host: str, port: int, *, allow_write: bool, title: s
 
 
 def is_loopback(host: str) -> bool:
-    return host in LOOPBACK or host.startswith("127.")
+    """Whether the dashboard bound to `host` is out of other machines' reach."""
+    return host.strip("[]") in LOOPBACK or host.startswith("127.")

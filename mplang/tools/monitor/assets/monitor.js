@@ -1,6 +1,7 @@
 // mpc monitor: the page's half. State arrives over the WebSocket /ws (one message per poll
-// of the device); writes go to the POST endpoints, which the server refuses (403) unless
-// it was started with --allow-write. Nothing here loads from the network.
+// of the device); writes go to the POST endpoints with the session's token (which the
+// server put in the page's <meta name="mpc-token">) in X-MPC-Token; the server refuses
+// them (403) unless it was started with --allow-write. Nothing here loads from the network.
 "use strict";
 
 const LAMPS = [["limit_plus", true], ["limit_minus", true], ["near_home", false],
@@ -10,6 +11,7 @@ const path = [];  // [x, y, z] logic positions
 let pathEnd = 0;  // the absolute index after the last point received
 let drawPending = false;
 let names = "";  // the variable names the table was built for
+const TOKEN = document.querySelector("meta[name=mpc-token]").content;
 
 function $(id) { return document.getElementById(id); }
 
@@ -38,7 +40,8 @@ function showState(s) {
   const run = s.running;
   text("program", run.program || "nothing");
   text("source", run.source || (run.program ? "(sources not given)" : "-"));
-  text("state", `${s.state.name} (input 100 = ${s.state.value})`);
+  text("run-state", runState(s));
+  text("state", `(device state ${s.state.name}, input 100 = ${s.state.value})`);
   const e = s.execution_error;
   text("exec-error", e.error ? `0x${e.error.toString(16).padStart(2, "0")} ${e.text}` +
     ` in ${e.isr ? "ISR" + e.isr : "MP" + e.mp} line ${e.line}` +
@@ -57,6 +60,20 @@ function showState(s) {
       list.append(option);
     }
   }
+}
+
+// What the controller is doing, in words: the program that runs (holding 8; input 24 when
+// what runs now is another, an ISR above it), a download, an emergency stop, or nothing.
+function runState(s) {
+  const run = s.running;
+  if (s.emergency) return "emergency stop: nothing may run";
+  if (s.state.name !== "ready") return `${s.state.name} in progress`;
+  if (run.mp || run.top) {
+    const what = run.program || (run.mp ? `MP${run.mp}` : `ISR${run.top}`);
+    const now = run.mp && run.top && run.top !== run.mp ? ` (now at ${run.top})` : "";
+    return `running ${what}${now}`;
+  }
+  return "idle: no program runs";
 }
 
 function showAxes(axes) {
@@ -85,7 +102,10 @@ function showFrnet(groups) {
   box.replaceChildren(...groups.map((word, g) => {
     const line = document.createElement("div");
     line.className = "group";
-    line.append(`DI${g + 8} `);
+    const label = document.createElement("span");
+    label.className = "label";
+    label.textContent = `DI${g + 8}`;
+    line.append(label);
     for (let bit = 0; bit < 16; bit++) line.append(lamp(Boolean((word >> bit) & 1), false,
       `group ${g + 8} bit ${bit}`));
     return line;
@@ -126,49 +146,124 @@ function addPoints(from, points) {
   if (!drawPending) { drawPending = true; requestAnimationFrame(draw); }
 }
 
-function bounds(values) {
-  let lo = Math.min(...values), hi = Math.max(...values);
-  if (lo === hi) { lo -= 1; hi += 1; }
+// A "nice" tick step (1, 2 or 5 times a power of ten, at least 1 pulse) for about `count`
+// ticks over `span` pulses.
+function tickStep(span, count) {
+  const raw = Math.max(1, span / count);
+  const power = Math.pow(10, Math.floor(Math.log10(raw)));
+  for (const m of [1, 2, 5, 10]) if (m * power >= raw) return m * power;
+  return 10 * power;
+}
+
+function range(values, empty) {
+  if (values.length === 0) return empty;
+  let lo = values[0], hi = values[0];
+  for (const v of values) { if (v < lo) lo = v; if (v > hi) hi = v; }
   return [lo, hi];
+}
+
+// Ticks from `lo` by `step`, `n` steps: the values, and the scale they span.
+function ticks(lo, step, n) {
+  return Array.from({ length: n + 1 }, (_, i) => lo + i * step);
+}
+
+const PLOT = { left: 64, right: 14, top: 12, bottom: 40 };  // room for tick labels and titles
+const MIN_SPAN = 100;  // pulses: a path standing still is a point on a readable scale
+
+// Axes with ticks, grid and titles on `canvas` for the data ranges `xs`/`ys` (ticks in data
+// units); maps data to pixels. The ticks and titles are also the canvas's data-* attributes.
+function axes(canvas, xs, ys, xTitle, yTitle) {
+  const ctx = canvas.getContext("2d");
+  const w = canvas.width - PLOT.left - PLOT.right, h = canvas.height - PLOT.top - PLOT.bottom;
+  const [x0, x1] = [xs[0], xs[xs.length - 1]], [y0, y1] = [ys[0], ys[ys.length - 1]];
+  const px = (x) => PLOT.left + (x - x0) / (x1 - x0) * w;
+  const py = (y) => PLOT.top + h - (y - y0) / (y1 - y0) * h;
+  ctx.font = "11px system-ui, sans-serif";
+  ctx.lineWidth = 1;
+  ctx.strokeStyle = "#e3e6ea";
+  ctx.fillStyle = "#444";
+  ctx.textAlign = "center";
+  ctx.textBaseline = "top";
+  xs.forEach((x, i) => {
+    ctx.beginPath(); ctx.moveTo(px(x), PLOT.top); ctx.lineTo(px(x), PLOT.top + h); ctx.stroke();
+    if (i % Math.ceil(xs.length / 6) === 0 || i === xs.length - 1) {
+      ctx.fillText(String(x), px(x), PLOT.top + h + 4);
+    }
+  });
+  ctx.textAlign = "right";
+  ctx.textBaseline = "middle";
+  ys.forEach((y) => {
+    ctx.beginPath(); ctx.moveTo(PLOT.left, py(y)); ctx.lineTo(PLOT.left + w, py(y)); ctx.stroke();
+    ctx.fillText(String(y), PLOT.left - 4, py(y));
+  });
+  ctx.strokeStyle = "#667";
+  ctx.strokeRect(PLOT.left, PLOT.top, w, h);
+  ctx.textAlign = "center";
+  ctx.textBaseline = "bottom";
+  ctx.fillText(xTitle, PLOT.left + w / 2, canvas.height - 2);
+  ctx.save();
+  ctx.translate(12, PLOT.top + h / 2);
+  ctx.rotate(-Math.PI / 2);
+  ctx.textBaseline = "middle";
+  ctx.fillText(yTitle, 0, 0);
+  ctx.restore();
+  Object.assign(canvas.dataset, { xTitle, yTitle, xTicks: xs.join(","), yTicks: ys.join(",") });
+  return [px, py];
+}
+
+function line(ctx, points, color) {
+  ctx.strokeStyle = color;
+  ctx.lineWidth = 1.5;
+  ctx.beginPath();
+  points.forEach(([x, y], i) => (i ? ctx.lineTo(x, y) : ctx.moveTo(x, y)));
+  ctx.stroke();
+}
+
+// X-Y at one scale for both axes (a square stays square), in pulses; the last point red.
+function drawXY() {
+  const xy = $("xy"), ctx = xy.getContext("2d");
+  ctx.clearRect(0, 0, xy.width, xy.height);
+  const [x0, x1] = range(path.map((p) => p[0]), [0, 1000]);
+  const [y0, y1] = range(path.map((p) => p[1]), [0, 1000]);
+  const step = tickStep(Math.max(MIN_SPAN, x1 - x0, y1 - y0), 5);
+  const xlo = Math.floor(x0 / step) * step, ylo = Math.floor(y0 / step) * step;
+  const n = Math.max(5, Math.ceil((x1 - xlo) / step), Math.ceil((y1 - ylo) / step));
+  const [px, py] = axes(xy, ticks(xlo, step, n), ticks(ylo, step, n), "X (pulses)",
+    "Y (pulses)");
+  if (path.length === 0) return;
+  line(ctx, path.map((p) => [px(p[0]), py(p[1])]), "#1f6feb");
+  const last = path[path.length - 1];
+  ctx.fillStyle = "#c0392b";
+  ctx.beginPath();
+  ctx.arc(px(last[0]), py(last[1]), 4, 0, 2 * Math.PI);
+  ctx.fill();
+}
+
+// Z (pulses) against the path point's number, counted from the first point drawn.
+function drawZ() {
+  const z = $("z"), ctx = z.getContext("2d");
+  ctx.clearRect(0, 0, z.width, z.height);
+  const [z0, z1] = range(path.map((p) => p[2]), [0, 1000]);
+  const zStep = tickStep(Math.max(MIN_SPAN, z1 - z0), 4), zlo = Math.floor(z0 / zStep) * zStep;
+  const iStep = tickStep(Math.max(1, path.length - 1), 5);
+  const [px, py] = axes(z, ticks(0, iStep, Math.max(1, Math.ceil((path.length - 1) / iStep))),
+    ticks(zlo, zStep, Math.max(4, Math.ceil((z1 - zlo) / zStep))), "path point",
+    "Z (pulses)");
+  line(ctx, path.map((p, i) => [px(i), py(p[2])]), "#8e44ad");
 }
 
 function draw() {
   drawPending = false;
   for (const id of ["xy", "z"]) $(id).dataset.points = String(path.length);
-  const xy = $("xy"), ctx = xy.getContext("2d");
-  ctx.clearRect(0, 0, xy.width, xy.height);
-  const z = $("z"), zc = z.getContext("2d");
-  zc.clearRect(0, 0, z.width, z.height);
-  if (path.length === 0) return;
-  const [x0, x1] = bounds(path.map((p) => p[0]));
-  const [y0, y1] = bounds(path.map((p) => p[1]));
-  const span = Math.max(x1 - x0, y1 - y0), pad = 16, size = xy.width - 2 * pad;
-  const sx = (x) => pad + (x - x0) / span * size;
-  const sy = (y) => xy.height - pad - (y - y0) / span * size;
-  ctx.strokeStyle = "#1f6feb";
-  ctx.lineWidth = 1.5;
-  ctx.beginPath();
-  path.forEach((p, i) => (i ? ctx.lineTo(sx(p[0]), sy(p[1])) : ctx.moveTo(sx(p[0]), sy(p[1]))));
-  ctx.stroke();
-  const last = path[path.length - 1];
-  ctx.fillStyle = "#c0392b";
-  ctx.beginPath();
-  ctx.arc(sx(last[0]), sy(last[1]), 4, 0, 2 * Math.PI);
-  ctx.fill();
-  const [z0, z1] = bounds(path.map((p) => p[2]));
-  const zx = (i) => pad + i / Math.max(1, path.length - 1) * (z.width - 2 * pad);
-  const zy = (v) => z.height - pad - (v - z0) / (z1 - z0) * (z.height - 2 * pad);
-  zc.strokeStyle = "#8e44ad";
-  zc.beginPath();
-  path.forEach((p, i) => (i ? zc.lineTo(zx(i), zy(p[2])) : zc.moveTo(zx(i), zy(p[2]))));
-  zc.stroke();
+  drawXY();
+  drawZ();
 }
 
 async function write(endpoint, body) {
   const out = $("write-result");
   try {
     const answer = await fetch("/api/" + endpoint, {
-      method: "POST", headers: { "Content-Type": "application/json" },
+      method: "POST", headers: { "Content-Type": "application/json", "X-MPC-Token": TOKEN },
       body: JSON.stringify(body || {}),
     });
     const data = await answer.json();
@@ -205,4 +300,5 @@ $("stop").addEventListener("click", () => write("stop"));
 $("estop").addEventListener("click", () => write("emergency-stop"));
 $("clear-estop").addEventListener("click", () => write("clear-emergency"));
 $("clear-path").addEventListener("click", () => { path.length = 0; draw(); });
+draw();  // the empty axes, until the first points arrive
 connect();
