@@ -63,7 +63,7 @@ def fleet_file(path: Path, ports: dict[str, int]) -> Path:
 def test_manual_3_19_fleet_status_table_json_and_exit_codes(tmp_path: Path) -> None:
     (tmp_path / "job.mp").write_text(JOB)
     (tmp_path / "other.mp").write_text(OTHER)
-    sims = [start_sim("--duration", "90") for _ in range(3)]
+    sims = [start_sim("--duration", "900") for _ in range(3)]  # a safety net: ended below
     try:
         ports = {"cell1": sims[0][1], "cell2": sims[1][1], "cell3": sims[2][1],
                  "cell4": closed_port()}
