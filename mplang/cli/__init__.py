@@ -21,7 +21,7 @@ Exit codes (also in docs/cli.md):
   12 mpc fmt --check: some files are not formatted
   13 mpc import: converted with omissions (each named on standard error at its C line)
   14 mpc disasm: some frames could not be carried over exactly (named on standard error)
-  15 an optional dependency is not installed (the mplang[plot], [lsp], [monitor] extras)
+  15 an optional dependency is not installed (the plot, lsp, monitor extras)
   70 internal error (a bug in mpc: please report it with the input)
   141 standard output was closed early (`mpc ... | head`): mpc stops quietly
 

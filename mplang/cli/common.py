@@ -60,6 +60,28 @@ class OutputError(click.ClickException):
     exit_code = EXIT_OUTPUT
 
 
+class MissingExtra(click.ClickException):
+    """An optional dependency of a command (one of mplang's extras) is not installed."""
+
+    exit_code = EXIT_MISSING_EXTRA
+
+
+def require_extra(command: str, extra: str, *modules: str) -> None:
+    """Import `modules` (mplang's `extra`) or end `command` saying how to get them: the extra
+    by name and the form that works in a source folder (`pip install '.[plot]'`), since on
+    a public index `mplang[plot]` may name another project's package."""
+    import importlib
+
+    for module in modules:
+        try:
+            importlib.import_module(module)
+        except ImportError as exc:
+            raise MissingExtra(
+                f"{command} needs {modules[0]}, which cannot be imported ({exc}); install the "
+                f"{extra} extra of mplang (in its source folder: pip install '.[{extra}]')"
+            ) from None
+
+
 class BadMachine(click.ClickException):
     """A machine file (`--machine`, an mpc.toml's `[machine]`) that cannot be used."""
 
