@@ -33,9 +33,14 @@ def mpc(cwd: Path, *args: str, stdin: bytes | None = None
 
 
 def start(cwd: Path, *args: str) -> subprocess.Popen[str]:
+    """A long-running command; on Windows in a process group of its own, so that it can be
+    sent Ctrl-Break (Windows sends no SIGINT to another process)."""
+    flags = 0
+    if sys.platform == "win32":
+        flags = subprocess.CREATE_NEW_PROCESS_GROUP
     return subprocess.Popen([sys.executable, "-m", "mplang", *args], cwd=cwd, text=True,
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                            env=windows_like_env())
+                            env=windows_like_env(), creationflags=flags)
 
 
 def first_line_with(proc: subprocess.Popen[str], text: str) -> str:
@@ -51,8 +56,12 @@ def first_line_with(proc: subprocess.Popen[str], text: str) -> str:
 
 
 def stopped(proc: subprocess.Popen[str], sig: signal.Signals) -> tuple[int, str]:
-    """Send `sig` (Ctrl-C is SIGINT); the exit code and the rest of the output."""
-    proc.send_signal(sig)
+    """Send `sig` (Ctrl-C is SIGINT; on Windows Ctrl-Break stands for both); the exit code
+    and the rest of the output."""
+    if sys.platform == "win32":
+        proc.send_signal(signal.CTRL_BREAK_EVENT)
+    else:
+        proc.send_signal(sig)
     try:
         rest, _ = proc.communicate(timeout=WAIT_S)
     finally:
@@ -185,3 +194,14 @@ def test_lsp_and_dap_over_stdio(tmp_path: Path) -> None:
     assert dap.returncode == EXIT_OK, dap.stderr
     answered = {m["command"]: m for m in replies(dap.stdout) if m["type"] == "response"}
     assert answered["initialize"]["success"] and answered["disconnect"]["success"]
+
+
+def test_the_ci_workflow_covers_linux_windows_and_macos() -> None:
+    """The workflow a public host runs: make test on Linux, the lint (mypy as on Windows too)
+    and this file's tests on Windows and macOS."""
+    workflow = (Path(__file__).parent.parent / ".github" / "workflows" / "ci.yml").read_text()
+    assert "runs-on: ubuntu-latest" in workflow and "make test" in workflow
+    assert "os: [windows-latest, macos-latest]" in workflow
+    assert "mypy --platform win32" in workflow and "tests/test_windows_like.py" in workflow
+    makefile = (Path(__file__).parent.parent / "Makefile").read_text()
+    assert "$(BIN)/mypy --platform win32" in makefile
