@@ -205,3 +205,24 @@ def test_the_ci_workflow_covers_linux_windows_and_macos() -> None:
     assert "mypy --platform win32" in workflow and "tests/test_windows_like.py" in workflow
     makefile = (Path(__file__).parent.parent / "Makefile").read_text()
     assert "$(BIN)/mypy --platform win32" in makefile
+
+
+def test_output_survives_a_cp1252_pipe(tmp_path: Path) -> None:
+    """Windows writes pipes in the ANSI code page: a source line quoted back with characters
+    outside it comes out escaped, never as an internal error; JSON stays JSON."""
+    (tmp_path / "axis.mp").write_bytes(
+        "MP 1 a\r\n    FOO X  # Achse → 日本\r\nEND MP\r\n".encode())
+    env = {**windows_like_env(), "PYTHONIOENCODING": "cp1252"}
+    for args in (["lint", "axis.mp"], ["build", "axis.mp", "-o", "axis.json"],
+                 ["lint", "axis.mp", "--format", "json"]):
+        done = subprocess.run([sys.executable, "-m", "mplang", *args], cwd=tmp_path,
+                              capture_output=True, timeout=WAIT_S, env=env)
+        assert done.returncode == 1, (args, done.stderr)  # the unknown command FOO
+        shown = (done.stdout + done.stderr).decode("cp1252")
+        assert "internal error" not in shown and "Traceback" not in shown
+        if "json" in args:
+            (finding,) = json.loads(done.stdout)
+            assert (finding["code"], finding["line"]) == ("E201", 2)
+        else:
+            assert "axis.mp:2:5: error[E201]" in shown
+            assert "# Achse \\u2192 \\u65e5\\u672c" in shown  # the CRLF line, escaped

@@ -101,6 +101,17 @@ def short_help_of(command_name: str) -> str | None:
     return found.group(1).strip() if found else None
 
 
+def _tolerant_output() -> None:
+    """Standard output and error that cannot encode every character (a pipe or console in
+    Windows' cp1252) write what they cannot as escapes (`\\u2192`), never fail: a source
+    line or a file name quoted back may hold any character. UTF-8 streams are left alone."""
+    for stream in (sys.stdout, sys.stderr):
+        reconfigure = getattr(stream, "reconfigure", None)  # None: replaced (tests, pytest)
+        encoding = getattr(stream, "encoding", None) or "utf-8"
+        if reconfigure is not None and not encoding.lower().replace("-", "").startswith("utf"):
+            reconfigure(errors="backslashreplace")
+
+
 class CommandPackage(click.Group):
     """A click group whose commands are the modules of `mplang.cli.commands`."""
 
@@ -137,6 +148,7 @@ class CommandPackage(click.Group):
 
     def main(self, *args: Any, **kwargs: Any) -> Any:
         """The last flush of standard output can meet a closed pipe too: quietly, as well."""
+        _tolerant_output()
         try:
             return super().main(*args, **kwargs)
         finally:
