@@ -12,8 +12,8 @@ SUDO := $(shell [ "$$(id -u)" != 0 ] && command -v sudo >/dev/null 2>&1 && echo 
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
-	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[dev]'
+	$(BIN)/python -m pip install --quiet --upgrade 'pip>=25.1'
+	$(BIN)/python -m pip install --quiet -e '.[plot,lsp,monitor]' --group dev
 	touch $(STAMP)
 
 # The main job: build every sample into one image (listing, link map, image JSON), then run
@@ -49,9 +49,12 @@ tools:
 	  || npm ci --prefix $(VSCODE_EXT) --no-audit --no-fund --loglevel=error >/dev/null \
 	  || echo "make: npm ci in $(VSCODE_EXT) failed; the editor tests will fail"
 
+# mypy twice: for this machine and as on Windows (docs/platforms.md), where pty, termios and
+# the other POSIX-only modules do not exist.
 lint: $(STAMP)
 	$(BIN)/ruff check mplang tests bench
 	$(BIN)/mypy
+	$(BIN)/mypy --platform win32
 
 docs: $(STAMP)
 	$(BIN)/python -m mplang.tools.docgen

@@ -2,7 +2,9 @@
 // The mplang extension: highlighting and folding come from the grammar and the language
 // configuration; this file only starts `mpc lsp` (the compiler's own checks, hover,
 // completion, definitions) over stdio and restarts it when its settings change, and runs
-// `mpc dap` (the same executable) for debug sessions of type `mpc` (docs/debug.md).
+// `mpc dap` (the same executable) for debug sessions of type `mpc` (docs/debug.md), and
+// provides tasks of type `mpc` (`mpc lint`, `mpc build`) whose output the `$mpc` problem
+// matcher of package.json turns into the Problems panel (docs/editors.md).
 
 const os = require('os');
 const path = require('path');
@@ -63,6 +65,61 @@ const debugAdapterFactory = {
   },
 };
 
+const TASK_COMMANDS = ['lint', 'build'];
+
+/**
+ * The command line of an `mpc` task: `mpc lint|build ARGS...`, with the mpc executable of
+ * `mplang.server.path`. Undefined for a command the task type does not have.
+ * @param {string | undefined} setting
+ * @param {string | undefined} workspaceFolder
+ * @param {{command?: unknown, args?: unknown}} definition
+ * @returns {{command: string, args: string[]} | undefined}
+ */
+function taskCommand(setting, workspaceFolder, definition) {
+  if (typeof definition.command !== 'string' || !TASK_COMMANDS.includes(definition.command)) {
+    return undefined;
+  }
+  const options = Array.isArray(definition.args) ? definition.args.map(String) : [];
+  const { command } = serverCommand(setting, workspaceFolder, []);
+  return { command, args: [definition.command, ...options] };
+}
+
+/**
+ * A task that runs `definition` in `folder` and reads its output with `$mpc`.
+ * @param {{type: string, command?: unknown, args?: unknown}} definition
+ * @param {import('vscode').WorkspaceFolder} folder
+ */
+function mpcTask(definition, folder) {
+  const configuration = vscode.workspace.getConfiguration(SECTION);
+  const line = taskCommand(configuration.get(PATH_SETTING), folder.uri.fsPath, definition);
+  if (line === undefined) {
+    return undefined;
+  }
+  const execution = new vscode.ProcessExecution(line.command, line.args,
+    { cwd: folder.uri.fsPath });
+  const task = new vscode.Task(definition, folder, line.args.join(' '), 'mpc', execution,
+    ['$mpc']);
+  if (definition.command === 'build') {
+    task.group = vscode.TaskGroup.Build;
+  }
+  return task;
+}
+
+const taskProvider = {
+  /** `mpc lint` and `mpc build` of each workspace folder (its mpc.toml says what). */
+  provideTasks() {
+    const folders = vscode.workspace.workspaceFolders || [];
+    return folders.flatMap((folder) => TASK_COMMANDS.map(
+      (command) => mpcTask({ type: 'mpc', command }, folder)));
+  },
+  /** A task of tasks.json: `{"type": "mpc", "command": "lint", "args": [...]}`. */
+  resolveTask(task) {
+    const folders = vscode.workspace.workspaceFolders || [];
+    const folder = task.scope && task.scope.uri ? task.scope : folders[0];
+    return folder === undefined ? undefined : mpcTask(task.definition, folder);
+  },
+};
+
 function firstWorkspaceFolder() {
   const folders = vscode.workspace.workspaceFolders;
   return folders && folders.length > 0 ? folders[0].uri.fsPath : undefined;
@@ -117,6 +174,7 @@ async function activate(context) {
   context.subscriptions.push(
     vscode.commands.registerCommand('mplang.restartServer', restartClient),
     vscode.debug.registerDebugAdapterDescriptorFactory('mpc', debugAdapterFactory),
+    vscode.tasks.registerTaskProvider('mpc', taskProvider),
     vscode.workspace.onDidChangeConfiguration((event) => {
       if (event.affectsConfiguration(`${SECTION}.server`)) {
         return restartClient();
@@ -131,4 +189,5 @@ function deactivate() {
   return stopClient();
 }
 
-module.exports = { activate, adapterCommand, deactivate, serverCommand };
+module.exports = { activate, adapterCommand, deactivate, serverCommand, taskCommand,
+  taskProvider };

@@ -21,7 +21,7 @@ Exit codes (also in docs/cli.md):
   12 mpc fmt --check: some files are not formatted
   13 mpc import: converted with omissions (each named on standard error at its C line)
   14 mpc disasm: some frames could not be carried over exactly (named on standard error)
-  15 an optional dependency is not installed (the mplang[plot], [lsp], [monitor] extras)
+  15 an optional dependency is not installed (the plot, lsp, monitor extras)
   70 internal error (a bug in mpc: please report it with the input)
   141 standard output was closed early (`mpc ... | head`): mpc stops quietly
 
@@ -101,6 +101,17 @@ def short_help_of(command_name: str) -> str | None:
     return found.group(1).strip() if found else None
 
 
+def _tolerant_output() -> None:
+    """Standard output and error that cannot encode every character (a pipe or console in
+    Windows' cp1252) write what they cannot as escapes (`\\u2192`), never fail: a source
+    line or a file name quoted back may hold any character. UTF-8 streams are left alone."""
+    for stream in (sys.stdout, sys.stderr):
+        reconfigure = getattr(stream, "reconfigure", None)  # None: replaced (tests, pytest)
+        encoding = getattr(stream, "encoding", None) or "utf-8"
+        if reconfigure is not None and not encoding.lower().replace("-", "").startswith("utf"):
+            reconfigure(errors="backslashreplace")
+
+
 class CommandPackage(click.Group):
     """A click group whose commands are the modules of `mplang.cli.commands`."""
 
@@ -137,6 +148,7 @@ class CommandPackage(click.Group):
 
     def main(self, *args: Any, **kwargs: Any) -> Any:
         """The last flush of standard output can meet a closed pipe too: quietly, as well."""
+        _tolerant_output()
         try:
             return super().main(*args, **kwargs)
         finally:

@@ -60,10 +60,41 @@ class OutputError(click.ClickException):
     exit_code = EXIT_OUTPUT
 
 
+class MissingExtra(click.ClickException):
+    """An optional dependency of a command (one of mplang's extras) is not installed."""
+
+    exit_code = EXIT_MISSING_EXTRA
+
+
+def require_extra(command: str, extra: str, *modules: str) -> None:
+    """Import `modules` (mplang's `extra`) or end `command` saying how to get them: the extra
+    by name and the form that works in a source folder (`pip install '.[plot]'`), since on
+    a public index `mplang[plot]` may name another project's package."""
+    import importlib
+
+    for module in modules:
+        try:
+            importlib.import_module(module)
+        except ImportError as exc:
+            raise MissingExtra(
+                f"{command} needs {modules[0]}, which cannot be imported ({exc}); install the "
+                f"{extra} extra of mplang (in its source folder: pip install '.[{extra}]')"
+            ) from None
+
+
 class BadMachine(click.ClickException):
     """A machine file (`--machine`, an mpc.toml's `[machine]`) that cannot be used."""
 
     exit_code = EXIT_BAD_MACHINE
+
+
+def near_path(path: str | os.PathLike[str]) -> str:
+    """`path` relative to the working directory, for messages and project sources; as it is
+    when it has no such form (on Windows, a path on another drive: relpath raises there)."""
+    try:
+        return os.path.relpath(path)
+    except ValueError:
+        return os.fspath(path)
 
 
 def guarded(func: F) -> F:
@@ -143,9 +174,9 @@ def _own_project(directory: Path, found: list[Path]) -> list[Path]:
         elif nearest is not None:
             skipped[nearest] = skipped.get(nearest, 0) + 1
     for project, count in skipped.items():
-        click.echo(f"mpc: note: {os.path.relpath(project.parent)}: left out ({count} .mp "
+        click.echo(f"mpc: note: {near_path(project.parent)}: left out ({count} .mp "
                    f"file{'s' if count != 1 else ''}), a project of its own "
-                   f"({os.path.relpath(project)}): build it on its own", err=True)
+                   f"({near_path(project)}): build it on its own", err=True)
     return kept
 
 
@@ -490,7 +521,7 @@ def nearest_projects(paths: Sequence[Path]) -> list[tuple[Path | None, list[Path
 
 def _shown_project(setup: BuildSetup) -> str:
     """`FILE (its mpc.toml)` of a build's first file, for messages."""
-    where = os.path.relpath(setup.project.path) if setup.project is not None else "no mpc.toml"
+    where = near_path(setup.project.path) if setup.project is not None else "no mpc.toml"
     return f"{setup.paths[0]} ({where})"
 
 
@@ -514,9 +545,9 @@ def build_setups(ctx: click.Context, files: tuple[str, ...], project_file: Path 
         elif not isolated(ctx):
             found = project_module.find_project(Path.cwd())
             if found is not None:  # named as seen from here, in messages and images
-                project = load_project_file(Path(os.path.relpath(found)))
+                project = load_project_file(Path(near_path(found)))
         if project is not None and project.sources:
-            paths = [Path(os.path.relpath(p)) for p in project.sources]
+            paths = [Path(near_path(p)) for p in project.sources]
         elif project is not None and need_sources:
             raise click.UsageError(f"{project.path}: [project] lists no sources; give FILE...")
         elif need_sources:
@@ -538,7 +569,7 @@ def build_setups(ctx: click.Context, files: tuple[str, ...], project_file: Path 
                        allow_outside_includes, werror)]
     setups = []
     for found, group in nearest_projects(paths):
-        project = None if found is None else load_project_file(Path(os.path.relpath(found)))
+        project = None if found is None else load_project_file(Path(near_path(found)))
         setups.append(_setup(ctx, group, project, target, word_order, temp_vars,
                              allow_outside_includes, werror, keep_pins=False))
     return setups

@@ -18,6 +18,8 @@ from typing import TYPE_CHECKING, Protocol, TextIO
 
 import click
 
+from mplang.cli.style import redraw
+
 if TYPE_CHECKING:
     from click._termui_impl import ProgressBar
 
@@ -92,14 +94,13 @@ class FlashDisplay:
 
     def _clear(self) -> None:
         if self.tty and self._bar_shown:
-            self.stream.write("\r\x1b[2K")
+            redraw(self.stream)
             self._bar_shown = False
 
     def _draw(self) -> None:
         if self.tty and not self._finished:
-            self.stream.write("\r\x1b[2K" + self.status_line())
+            redraw(self.stream, self.status_line())
             self._bar_shown = True
-            self.stream.flush()
 
     async def run(self) -> None:
         """Redraw the bar until cancelled (only on a terminal; elsewhere there is no bar)."""

@@ -28,6 +28,7 @@ from typing import Any, TextIO, TypeVar
 import click
 
 from mplang.cli.common import EXIT_RUN_FAILED
+from mplang.cli.style import CLEAR_LINE, redraw
 from mplang.family.run_error import SourcePlace
 from mplang.family.watch import Where
 
@@ -45,7 +46,7 @@ EXIT_SIGINT = 130
 
 FIRST_DRAW_S = 0.25
 REDRAW_S = 0.2
-CLEAR = "\r\x1b[2K"
+CLEAR = CLEAR_LINE
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -122,15 +123,13 @@ class RunWatch:
         return head + middle + tail
 
     def draw(self, text: str) -> None:
-        self.stream.write(CLEAR + text)
-        self.stream.flush()
+        redraw(self.stream, text)
         self.shown = True
 
     def clear(self) -> None:
         """Erase the status line (the cursor back at the start of the empty line)."""
         if self.shown:
-            self.stream.write(CLEAR)
-            self.stream.flush()
+            redraw(self.stream)
             self.shown = False
 
     def _on_sigint(self, signum: int, frame: FrameType | None) -> None:

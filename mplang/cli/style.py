@@ -59,6 +59,18 @@ def echo(text: str, err: bool = True, nl: bool = True) -> None:
     click.echo(text, err=err, nl=nl, color=color_enabled(err=err))
 
 
+CLEAR_LINE = "\r\x1b[2K"
+"""Back to the start of the terminal line, and erase it: what a status line is redrawn over."""
+
+
+def redraw(stream: TextIO, text: str = "") -> None:
+    """Erase the terminal line `stream` is on and write `text` (no newline) through click,
+    which on Windows consoles turns the escape into console calls (colorama) instead of
+    printing it; only called for a terminal, so the escape is kept (`color=True`)."""
+    click.echo(CLEAR_LINE + text, file=stream, nl=False, color=True)
+    stream.flush()
+
+
 def _paint(text: str, color: bool, fg: str | None = None, bold: bool = False) -> str:
     return click.style(text, fg=fg, bold=bold) if color else text
 

@@ -18,7 +18,7 @@ from mplang.csim.build import CsimProgram
 from mplang.csim.device import CsimServer, Reply, VirtualCsim
 from mplang.family.face import FamilyBuild, Say, ServeRequest, ServiceError
 from mplang.family.linkfail import serial_reason
-from mplang.family.ptylink import PtyLink
+from mplang.family.ptylink import PtyLink, PtyUnavailable
 
 
 def serve(build: FamilyBuild | None, request: ServeRequest, say: Say) -> None:
@@ -58,7 +58,10 @@ def _serve(device: VirtualCsim, request: ServeRequest, say: Say) -> None:
     def tell(line: str, reply: Reply) -> None:
         say(f"{line!r} -> {'; '.join([*reply.data, reply.status])}")
 
-    link = PtyLink() if request.serial == "pty" else None
+    try:
+        link = PtyLink() if request.serial == "pty" else None
+    except PtyUnavailable as exc:  # Windows
+        raise ServiceError("transport", f"cannot open serial port pty: {exc}") from None
     port = link.device_end if link is not None else request.serial
     server = CsimServer(port, baudrate=request.baud, parity=request.parity,
                         stopbits=request.stopbits, device=device,

@@ -8,18 +8,28 @@ byte (start, data, parity and stop bits) and keeps the 3.5-character silence the
 requires before a frame, and no more. The wire keeps its own clock, so the time the two
 ends take to answer is hidden in that silence when it is shorter, and a late wake-up of
 the relay delays one chunk without shifting the ones after it.
+
+Pseudo-terminals are POSIX: on Windows `PtyLink()` raises `PtyUnavailable`, whose message
+names the stand-in there, a com0com-style pair of linked virtual COM ports.
 """
 
 from __future__ import annotations
 
 import math
 import os
-import pty
 import select
+import sys
 import threading
 import time
-import tty
 from dataclasses import dataclass, field
+
+NO_PTY = ("a linked pseudo-terminal pair (--serial pty) needs a POSIX system; on Windows, "
+          "install a pair of linked virtual COM ports (com0com or the like, e.g. COM5<->COM6) "
+          "and give one end with --serial COM5")
+
+
+class PtyUnavailable(OSError):
+    """This platform has no pseudo-terminals (Windows)."""
 
 
 @dataclass
@@ -53,7 +63,25 @@ class PtyLink:
     """Two linked ptys; `device_end` and `client_end` are the paths to open. With a
     `wire`, every chunk is held until it would be through a real line (see `Wire`)."""
 
+    # Declared here, not only in __init__: on Windows (mypy --platform win32) __init__ stops
+    # at its first line, and the rest of the class still needs their types.
+    device_end: str
+    client_end: str
+    _wire: Wire | None
+    _masters: list[int]
+    _slaves: list[int]
+    _stop_read: int
+    _stop_write: int
+    _thread: threading.Thread
+
     def __init__(self, wire: Wire | None = None) -> None:
+        if sys.platform == "win32":
+            raise PtyUnavailable(NO_PTY)
+        try:
+            import pty
+            import tty
+        except ImportError:  # a Python built without them
+            raise PtyUnavailable(NO_PTY) from None
         self._wire = wire
         self._masters: list[int] = []
         self._slaves: list[int] = []

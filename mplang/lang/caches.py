@@ -2,7 +2,8 @@
 results), and how: pickles written under a fresh name and renamed into place, so a
 concurrent run reads a whole file or none, and read back only when their key matches.
 
-The user cache directory is `$XDG_CACHE_HOME/mplang`, else `~/.cache/mplang`; `MPLANG_CACHE`
+The user cache directory is `mplang` in the user's cache directory (`mplang.lang.userdirs`:
+`$XDG_CACHE_HOME`, else `~/.cache` on Linux, `%LOCALAPPDATA%` on Windows); `MPLANG_CACHE`
 names another directory, or (empty, `0`, `off`) turns every cache off. A cache that cannot
 be read or written, is damaged or was written for other inputs is ignored: rebuilding is
 only slower, never different.
@@ -19,6 +20,7 @@ import tempfile
 from pathlib import Path
 
 from mplang import __version__
+from mplang.lang.userdirs import cache_home
 
 OFF_WORDS = ("", "0", "off", "no", "false")
 STAMP = f"mplang {__version__} python {sys.version_info[0]}.{sys.version_info[1]}"
@@ -41,8 +43,8 @@ def user_cache_dir() -> Path | None:
     chosen = os.environ.get("MPLANG_CACHE")
     if chosen is not None:
         return None if chosen.strip().lower() in OFF_WORDS else Path(chosen)
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "mplang"
+    base = cache_home()
+    return None if base is None else base / "mplang"
 
 
 def digest(*parts: str | bytes) -> str:

@@ -1,7 +1,7 @@
 """What a Modbus link to one device is, in plain Python: where the device is (`Endpoint`),
 how a request can fail (`LinkError` and its kinds, `DeviceException` with the exception
-names), the repeat pauses (`backoff`) and the RTU CRC. `mplang.m8194h.modbus`, the only
-pymodbus user, re-exports them; they live here so that file stays one transport."""
+names), and the repeat pauses (`backoff`). `mplang.m8194h.modbus`, the only pymodbus user,
+re-exports them; they live here so that file stays one transport."""
 
 from __future__ import annotations
 
@@ -76,13 +76,3 @@ def backoff(attempt: int, ceiling: float = 1.0, first: float = 0.05) -> float:
     """The pause before repeat `attempt` (1, 2, ...): doubling from `first` up to `ceiling`,
     so a glitch costs little and a device that restarts gets time."""
     return float(min(ceiling, first * 2 ** (attempt - 1)))
-
-
-def crc16(data: bytes) -> bytes:
-    """The Modbus RTU CRC of `data`, low byte first as on the line."""
-    crc = 0xFFFF
-    for byte in data:
-        crc ^= byte
-        for _bit in range(8):
-            crc = (crc >> 1) ^ 0xA001 if crc & 1 else crc >> 1
-    return crc.to_bytes(2, "little")

@@ -40,7 +40,6 @@ from mplang.m8194h.endpoint import LinkLost as LinkLost
 from mplang.m8194h.endpoint import LinkTimeout as LinkTimeout
 from mplang.m8194h.endpoint import LinkUnavailable as LinkUnavailable
 from mplang.m8194h.endpoint import backoff as backoff
-from mplang.m8194h.endpoint import crc16 as crc16
 from mplang.m8194h.openfail import OpenFailure, recording
 from mplang.m8194h.sim.controller import VirtualController
 from mplang.m8194h.sim.registers import (
@@ -197,6 +196,12 @@ class DeviceFace:
         inputs = [SimData(0, count=INPUT_SPAN, datatype=DataType.REGISTERS)]
         return SimDevice(id=unit, simdata=(coils, discrete, holding, inputs),
                          action=self.action)
+
+
+def crc16(data: bytes) -> bytes:
+    """The Modbus RTU CRC of `data` as on the line (low byte first): pymodbus's own, so the
+    frames we check and the frames pymodbus writes can never disagree."""
+    return FramerRTU.compute_CRC(data).to_bytes(2, "big")
 
 
 def rtu_frame_size(data: bytes) -> int:

@@ -6,10 +6,10 @@ from __future__ import annotations
 
 import asyncio
 import re
-import signal
 from collections.abc import Awaitable, Callable
 
 from mplang.family.face import FamilyBuild, Say, ServeRequest, ServiceError
+from mplang.family.stopsignals import on_stop_signals
 from mplang.m8194h.image import BuildResult
 from mplang.m8194h.machine import MachineSetup, apply_machine
 from mplang.m8194h.run import declared_variables, source_place
@@ -156,10 +156,8 @@ def _until_stopped(serving: Callable[[asyncio.Event], Awaitable[None]]) -> None:
 
     async def main_task() -> None:
         stop_event = asyncio.Event()
-        loop = asyncio.get_running_loop()
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            loop.add_signal_handler(sig, stop_event.set)
-        await serving(stop_event)
+        with on_stop_signals(stop_event.set):
+            await serving(stop_event)
 
     try:
         asyncio.run(main_task())

@@ -23,6 +23,7 @@ from mplang.family.registry import family_of_target, known_targets, target_title
 from mplang.ir.unit import SlotPin
 from mplang.lang.diagnostics import Span
 from mplang.lang.tomlfile import TomlFileError, TomlLines, read_toml
+from mplang.lang.userdirs import cache_home, state_home
 
 PROJECT_FILE = "mpc.toml"
 DEFAULT_RECORD = ".mpc/flash-record.json"
@@ -117,21 +118,10 @@ class Project:
 
 
 def user_directories() -> tuple[Path, ...]:
-    """The user's state and cache directories (XDG), where mpc keeps what belongs to no
-    project (the default flash record); a project file may name paths there too."""
-    try:
-        home = Path.home()
-    except (RuntimeError, KeyError):  # no HOME and no password entry: only the XDG variables
-        home = None
-    found: list[Path] = []
-    for variable, default in (("XDG_STATE_HOME", (".local", "state")),
-                              ("XDG_CACHE_HOME", (".cache",))):
-        value = os.environ.get(variable)
-        if value and os.path.isabs(value):
-            found.append(Path(value))
-        elif home is not None:
-            found.append(home.joinpath(*default))
-    return tuple(found)
+    """The user's state and cache directories (mplang.lang.userdirs), where mpc keeps what
+    belongs to no project (the default flash record); a project file may name paths there
+    too."""
+    return tuple(folder for folder in (state_home(), cache_home()) if folder is not None)
 
 
 def write_refusal(root: Path, value: str) -> str | None:
@@ -420,7 +410,8 @@ def _target(name: str, raw: object, root: Path, where: _Locator) -> Target:
             raise where.error(table, "tcp", str(exc)) from None
     else:
         if not isinstance(raw["serial"], str) or not raw["serial"]:
-            raise where.error(table, "serial", "must be the serial port, e.g. \"/dev/ttyUSB0\"")
+            raise where.error(table, "serial", "must be the serial port, e.g. \"/dev/ttyUSB0\" "
+                              "or \"COM3\"")
         serial = raw["serial"]
     parity = raw.get("parity", "N")
     if parity not in ("N", "E", "O"):

@@ -19,7 +19,15 @@ from simproc import start_sim
 
 from mplang.family.ptylink import PtyLink
 from mplang.m8194h.compiler import compile_source
-from mplang.m8194h.modbus import DeviceFace, SimClock, serve_rtu, serve_tcp, stop
+from mplang.m8194h.modbus import (
+    DeviceFace,
+    SimClock,
+    crc16,
+    rtu_frame_size,
+    serve_rtu,
+    serve_tcp,
+    stop,
+)
 from mplang.m8194h.sim.controller import VirtualController
 
 PROGRAM = """MP 21
@@ -49,6 +57,14 @@ async def until(predicate: Callable[[], Awaitable[bool]], timeout: float = 5.0) 
     while not await predicate():
         assert loop.time() < end, "the condition never came true"
         await asyncio.sleep(0.01)
+
+
+def test_rtu_crc_is_the_modbus_one_low_byte_first() -> None:
+    """The Modbus over serial line guide's example: read 10 holding registers of unit 1
+    carries CRC 0xCDC5, sent C5 CD; the frame finder agrees with it."""
+    request = bytes.fromhex("01030000000a")
+    assert crc16(request) == bytes.fromhex("c5cd")
+    assert rtu_frame_size(request + crc16(request) + b"\x01") == len(request) + 2
 
 
 def test_download_call_and_poll_over_tcp() -> None:

@@ -14,6 +14,7 @@ import shlex
 import shutil
 import subprocess
 import sys
+import zipfile
 from pathlib import Path
 from typing import Any
 
@@ -104,19 +105,90 @@ def test_json_files_are_valid_and_agree() -> None:
     assert contributed["scopeName"] == grammar["scopeName"] == SCOPE
     assert (VSCODE / contributed["path"]).resolve() == GRAMMAR_FILE
     assert (VSCODE / language["configuration"]).resolve() == CONFIGURATION_FILE
-    assert (VSCODE / manifest["main"]).is_file()
+    assert manifest["main"] == "./dist/extension.js"  # the bundle `npm run bundle` makes
+    assert (VSCODE / "extension.js").is_file() and (VSCODE / manifest["icon"]).is_file()
     assert f"onLanguage:{language['id']}" in manifest["activationEvents"]
     assert "mplang.server.path" in manifest["contributes"]["configuration"]["properties"]
-    assert "vscode-languageclient" in manifest["dependencies"]
-    assert "vscode-tmgrammar-test" in manifest["devDependencies"]
+    # bundled: the language client is built into dist/extension.js, nothing is installed
+    assert "dependencies" not in manifest
+    assert {"vscode-languageclient", "vscode-tmgrammar-test", "@vscode/vsce", "esbuild"} <= \
+        set(manifest["devDependencies"])
     root_package = lock["packages"][""]
     assert (lock["name"], lock["version"]) == (manifest["name"], manifest["version"])
-    assert root_package["dependencies"] == manifest["dependencies"]
     assert root_package["devDependencies"] == manifest["devDependencies"]
     assert configuration["comments"]["lineComment"] == "#"
     assert ["(", ")"] in configuration["brackets"]
     ignored = (VSCODE / ".gitignore").read_text().split()
-    assert "node_modules/" in ignored
+    assert {"node_modules/", "dist/", "*.vsix"} <= set(ignored)
+    assert (VSCODE / "LICENSE").read_text() == (ROOT / "LICENSE").read_text()
+
+
+MATCHER_PROBE = """MP 1 probe
+    FIXED_MOVE X, 10
+    GOTO away
+    SET_V X, 5
+    FOO X
+END MP
+"""
+
+
+def _problem_matcher() -> dict[str, Any]:
+    (matcher,) = _load(VSCODE / "package.json")["contributes"]["problemMatchers"]
+    assert matcher["name"] == "mpc"
+    return dict(matcher)
+
+
+@pytest.mark.parametrize("command", ["lint", "build"])
+def test_the_mpc_problem_matcher_reads_every_diagnostic_of_mpc_text_output(
+        tmp_path: Path, command: str) -> None:
+    """`$mpc` against real `mpc lint` / `mpc build` output: every diagnostic the JSON report
+    lists is one matched line with its file, line, column, severity, code and message (the
+    pattern is plain enough to mean the same in JavaScript and Python)."""
+    matcher = _problem_matcher()
+    pattern = matcher["pattern"]
+    regexp = re.compile(pattern["regexp"])
+    (tmp_path / "probe.mp").write_text(MATCHER_PROBE)
+    args = ["-o", "probe.json"] if command == "build" else []
+    text = subprocess.run([sys.executable, "-m", "mplang", command, "probe.mp", *args],
+                          cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    report = subprocess.run([sys.executable, "-m", "mplang", "lint", "probe.mp",
+                             "--format", "json"], cwd=tmp_path, capture_output=True, text=True,
+                            timeout=120)
+    expected = [(d["file"], str(d["line"]), str(d["column"]), d["severity"], d["code"],
+                 d["message"]) for d in json.loads(report.stdout)]
+    assert {e[3] for e in expected} == {"error", "warning"} and len(expected) >= 3
+    found = []
+    for line in (text.stdout + text.stderr).splitlines():
+        match = regexp.match(line)
+        if match:
+            found.append(tuple(match.group(pattern[key]) for key in
+                               ("file", "line", "column", "severity", "code", "message")))
+    assert found == expected
+    assert matcher["fileLocation"][0] == "autoDetect"  # relative to the folder, or absolute
+    windows = regexp.match(r"C:\cell\job.mp:3:5: warning[W101]: unreachable: x")
+    assert windows is not None and windows.group(pattern["file"]) == r"C:\cell\job.mp"
+
+
+def test_the_task_type_runs_lint_and_build() -> None:
+    (task,) = _load(VSCODE / "package.json")["contributes"]["taskDefinitions"]
+    assert task["type"] == "mpc" and task["required"] == ["command"]
+    assert task["properties"]["command"]["enum"] == ["lint", "build"]
+    assert "\"problemMatcher\": \"$mpc\"" in (ROOT / "docs" / "editors.md").read_text()
+
+
+def test_vsce_packages_the_bundle_alone_without_a_warning(tmp_path: Path) -> None:
+    """`vsce package` (its prepublish step bundles extension.js with esbuild) warns about
+    nothing, and the .vsix holds only what runs."""
+    vsix = tmp_path / "mplang.vsix"
+    result = _npx("vsce", "package", "--allow-missing-repository", "-o", str(vsix))
+    output = result.stdout + result.stderr
+    assert result.returncode == 0, output
+    assert "WARNING" not in output, output
+    names = set(zipfile.ZipFile(vsix).namelist())
+    assert {n for n in names if n.startswith("extension/")} == {
+        "extension/package.json", "extension/dist/extension.js", "extension/LICENSE.txt",
+        "extension/readme.md", "extension/images/icon.png",
+        "extension/language-configuration.json", "extension/syntaxes/mplang.tmLanguage.json"}
 
 
 def _grammar_rules() -> list[dict[str, Any]]:

@@ -72,7 +72,7 @@ def test_manual_12_1_dashboard_in_chromium_shows_a_running_job(tmp_path: Path) -
     try:
         from playwright.sync_api import sync_playwright
     except ImportError:
-        pytest.fail("no playwright: install the dev extra (pip install -e '.[dev]')")
+        pytest.fail("no playwright: install the dev group (pip install --group dev)")
     work = tmp_path / "w"
     work.mkdir()
     (work / "job.mp").write_text(JOB)

@@ -4,13 +4,15 @@ from __future__ import annotations
 
 import json
 import os
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
 
 from mplang.cli import EXIT_NO_INPUT, EXIT_OK, EXIT_USAGE, main
-from mplang.cli.common import expand_inputs
+from mplang.cli.common import EXIT_NO_DEVICE, expand_inputs
 from mplang.tools.project import ProjectError, find_project, load_fleet, load_project
 
 FEEDER = """MP feeder
@@ -236,6 +238,20 @@ def test_a_device_target_builds_its_m8194h_image(tmp_path: Path,
     dry = runner.invoke(main, ["flash", "--dry-run", "--json"])
     assert dry.exit_code == EXIT_OK, dry.output
     assert json.loads(dry.stdout)["programs"][0]["slot"] == 1
+
+
+def test_windows_serial_port_names_are_taken_as_written(tmp_path: Path) -> None:
+    """COM3, and the device path form above COM9, reach pyserial unchanged; mpc status names
+    the port as given when it cannot be opened (on this machine, none of them exists: 7)."""
+    path = project(tmp_path, "[project]\nsources = \"src\"\n\n[targets.small]\n"
+                   "serial = \"COM3\"\n\n[targets.big]\nserial = '\\\\.\\COM12'\n")
+    targets = load_project(path).targets
+    assert (targets["small"].serial, targets["big"].serial) == ("COM3", "\\\\.\\COM12")
+    assert targets["big"].address().endswith("COM12/1")
+    done = subprocess.run([sys.executable, "-m", "mplang", "status", "--to", "big"],
+                          cwd=tmp_path, capture_output=True, text=True, timeout=60)
+    assert done.returncode == EXIT_NO_DEVICE, done.stderr
+    assert "\\\\.\\COM12" in done.stderr and "Traceback" not in done.stderr
 
 
 @pytest.mark.parametrize(("record", "message"), [

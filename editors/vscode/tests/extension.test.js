@@ -16,6 +16,7 @@ const fake = {
   errors: [],
   clients: [],
   adapterFactories: {},
+  taskProviders: {},
   failStart: undefined,
   workspaceFolders: [{ uri: { fsPath: path.join(os.tmpdir(), 'project') } }],
 };
@@ -76,6 +77,23 @@ const fakeVscode = {
       return { dispose() {} };
     },
   },
+  tasks: {
+    registerTaskProvider(type, provider) {
+      fake.taskProviders[type] = provider;
+      return { dispose() {} };
+    },
+  },
+  Task: class {
+    constructor(definition, scope, name, source, execution, problemMatchers) {
+      Object.assign(this, { definition, scope, name, source, execution, problemMatchers });
+    }
+  },
+  ProcessExecution: class {
+    constructor(process, args, options) {
+      Object.assign(this, { process, args, options });
+    }
+  },
+  TaskGroup: { Build: 'build-group' },
   DebugAdapterExecutable: class {
     constructor(command, args, options) {
       Object.assign(this, { command, args, options });
@@ -102,6 +120,7 @@ beforeEach(() => {
   fake.errors = [];
   fake.clients = [];
   fake.adapterFactories = {};
+  fake.taskProviders = {};
   fake.failStart = undefined;
 });
 
@@ -145,8 +164,8 @@ test('activate starts `mpc lsp` over stdio for mplang documents', async () => {
   assert.equal(client.serverOptions.options.cwd, folder);
   assert.ok(client.clientOptions.documentSelector.some(
     (selector) => selector.language === 'mplang' && selector.scheme === 'file'));
-  // the restart command, the settings listener and the `mpc` debug adapter
-  assert.equal(context.subscriptions.length, 3);
+  // the restart command, the `mpc` debug adapter, the `mpc` tasks and the settings listener
+  assert.equal(context.subscriptions.length, 4);
   assert.equal(typeof fake.commands['mplang.restartServer'], 'function');
   await extension.deactivate();
   assert.equal(client.stopped, true);
@@ -192,5 +211,29 @@ test('a debug session of type mpc runs `mpc dap` from mplang.server.path', async
   const fallback = factory.createDebugAdapterDescriptor({});
   assert.equal(fallback.options.cwd, fake.workspaceFolders[0].uri.fsPath);
   assert.deepEqual(extension.adapterCommand(undefined, undefined), { command: 'mpc', args: ['dap'] });
+  await extension.deactivate();
+});
+
+test('tasks of type mpc run `mpc lint` and `mpc build` with the $mpc problem matcher', async () => {
+  fake.settings['server.path'] = '.venv/bin/mpc';
+  await extension.activate({ subscriptions: [] });
+  const provider = fake.taskProviders.mpc;
+  const folder = fake.workspaceFolders[0];
+  const mpc = path.join(folder.uri.fsPath, '.venv', 'bin', 'mpc');
+  const provided = provider.provideTasks();
+  assert.deepEqual(provided.map((task) => [task.name, task.execution.process, task.execution.args]),
+    [['lint', mpc, ['lint']], ['build', mpc, ['build']]]);
+  for (const task of provided) {
+    assert.deepEqual(task.problemMatchers, ['$mpc']);
+    assert.equal(task.execution.options.cwd, folder.uri.fsPath);
+  }
+  assert.equal(provided[1].group, 'build-group');
+  const written = { definition: { type: 'mpc', command: 'lint', args: ['src', '--werror'] },
+    scope: folder };
+  const resolved = provider.resolveTask(written);
+  assert.deepEqual(resolved.execution.args, ['lint', 'src', '--werror']);
+  assert.equal(resolved.definition, written.definition);  // VS Code requires the same object
+  assert.equal(provider.resolveTask({ definition: { type: 'mpc', command: 'flash' } }), undefined);
+  assert.equal(extension.taskCommand('mpc', undefined, { command: 'fmt' }), undefined);
   await extension.deactivate();
 });

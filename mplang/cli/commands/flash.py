@@ -71,7 +71,8 @@ DEFAULT_TIMEOUT, DEFAULT_RETRIES = 1.0, 3
               help="Write every program, even those the flash record says the device holds.")
 @click.option("--record", "record_file", type=click.Path(dir_okay=False, path_type=Path),
               default=None, help="The flash record for incremental flashing [default: "
-              "[flash] record of mpc.toml, else $XDG_STATE_HOME/mpc/flash-record.json].")
+              "[flash] record of mpc.toml, else mpc/flash-record.json in the user's state "
+              "directory ($XDG_STATE_HOME, ~/.local/state, %LOCALAPPDATA%)].")
 @click.option("--identity", default=None, metavar="MDa-MDb",
               help="The machine data that hold the build manifest [default: [flash] identity "
               "of mpc.toml, else MD768-MD1023].")
@@ -258,7 +259,8 @@ class _Progress:
         the work, and `fallback()` gives what it left (the reports)."""
         import asyncio
         import logging
-        import signal
+
+        from mplang.family.stopsignals import on_stop_signals
 
         logging.getLogger("pymodbus").setLevel(logging.CRITICAL)
         display = self.display
@@ -266,11 +268,9 @@ class _Progress:
         async def main_task() -> T:
             task = asyncio.ensure_future(work())
             redraw = asyncio.ensure_future(display.run())
-            loop = asyncio.get_running_loop()
-            for sig in (signal.SIGINT, signal.SIGTERM):
-                loop.add_signal_handler(sig, task.cancel)
             try:
-                return await task
+                with on_stop_signals(task.cancel):
+                    return await task
             except asyncio.CancelledError:
                 return fallback()
             finally:

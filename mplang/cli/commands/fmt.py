@@ -32,6 +32,7 @@ from mplang.cli.common import (
     guarded,
     isolated,
     load_project_file,
+    near_path,
     nearest_projects,
     project_option,
 )
@@ -246,10 +247,10 @@ def command(files: tuple[str, ...], check: bool, show_diff: bool, indent: int | 
             if outside:
                 raise InputError(
                     f"{project.path}:{project.sources_line}: [project] sources: "
-                    f"{os.path.relpath(outside[0])} is outside the project "
-                    f"({os.path.relpath(project.root)}), and mpc fmt rewrites only files "
+                    f"{near_path(outside[0])} is outside the project "
+                    f"({near_path(project.root)}), and mpc fmt rewrites only files "
                     "inside it: name the file on the command line to format it")
-        files = tuple(os.path.relpath(p) for p in project.sources)
+        files = tuple(near_path(p) for p in project.sources)
     if STDIN in files:
         if len(files) > 1:
             raise click.UsageError("'-' (standard input) cannot be combined with files")
@@ -260,7 +261,7 @@ def command(files: tuple[str, ...], check: bool, show_diff: bool, indent: int | 
     if project_file is not None or isolated():
         groups = [(project, paths)]
     else:  # each file laid out by the [fmt] table of the nearest mpc.toml above it
-        groups = [(None if near is None else load_project_file(Path(os.path.relpath(near))),
+        groups = [(None if near is None else load_project_file(Path(near_path(near))),
                    group) for near, group in nearest_projects(paths)]
     for owner, group in groups:
         options = _options(indent, keyword_case, _fmt_table(owner))

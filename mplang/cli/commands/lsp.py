@@ -9,12 +9,12 @@ import click
 
 from mplang.cli import style
 from mplang.cli.common import (
-    EXIT_MISSING_EXTRA,
     EXIT_TRANSPORT,
     EXIT_USAGE,
     guarded,
     parse_listen_port,
     parse_temps,
+    require_extra,
 )
 
 LOG_FORMAT = "mpc lsp: %(levelname)s: %(message)s"
@@ -32,21 +32,9 @@ class _OneLineFormatter(logging.Formatter):
         return text
 
 
-class MissingExtra(click.ClickException):
-    exit_code = EXIT_MISSING_EXTRA
-
-
 def require_pygls() -> None:
     """pygls is the optional `lsp` extra: say how to get it, instead of an import error."""
-    import importlib
-
-    try:
-        importlib.import_module("pygls")
-        importlib.import_module("lsprotocol")
-    except ImportError as exc:
-        raise MissingExtra(
-            f"mpc lsp needs pygls, which cannot be imported ({exc}); install mplang with its "
-            "lsp extra: pip install 'mplang[lsp]'") from None
+    require_extra("mpc lsp", "lsp", "pygls", "lsprotocol")
 
 
 def _parse_pool(ctx: click.Context, param: click.Parameter, value: str | None

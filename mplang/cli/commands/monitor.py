@@ -14,13 +14,13 @@ import click
 
 from mplang.cli import style
 from mplang.cli.common import (
-    EXIT_MISSING_EXTRA,
     EXIT_TRANSPORT,
     build_setup,
     chosen_device,
     device_options,
     guarded,
     project_option,
+    require_extra,
     with_common,
 )
 from mplang.cli.families import build_checked, device_selection
@@ -39,21 +39,10 @@ DEFAULT_PORT = 8194
 """Where the dashboard listens unless --port says otherwise (on 127.0.0.1)."""
 
 
-class MissingExtra(click.ClickException):
-    exit_code = EXIT_MISSING_EXTRA
-
-
 def require_aiohttp(command: str) -> None:
     """aiohttp is the optional `monitor` extra (no other command serves HTTP): say how to get
     it, instead of an import error."""
-    import importlib
-
-    try:
-        importlib.import_module("aiohttp")
-    except ImportError as exc:
-        raise MissingExtra(
-            f"{command} needs aiohttp, which cannot be imported ({exc}); install mplang with "
-            "its monitor extra: pip install 'mplang[monitor]'") from None
+    require_extra(command, "monitor", "aiohttp")
 
 
 def refuse_family(family: Family, command: str) -> None:

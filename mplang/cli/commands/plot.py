@@ -3,7 +3,6 @@ path and the position and velocity of every moving axis against time (PNG or SVG
 
 from __future__ import annotations
 
-import importlib
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -12,12 +11,12 @@ import click
 
 from mplang.cli import style
 from mplang.cli.common import (
-    EXIT_MISSING_EXTRA,
     OutputError,
     build_setup,
     guarded,
     machine_option,
     project_option,
+    require_extra,
     with_common,
 )
 from mplang.cli.families import choose, watched_run
@@ -39,19 +38,10 @@ def image_format(output: str) -> str:
     return fmt
 
 
-class MissingExtra(click.ClickException):
-    exit_code = EXIT_MISSING_EXTRA
-
-
 def require_matplotlib() -> None:
     """matplotlib is the optional `plot` extra: say how to get it before a possibly long
     simulation, instead of failing on the import after it."""
-    try:
-        importlib.import_module("matplotlib")
-    except ImportError as exc:
-        raise MissingExtra(
-            f"mpc plot needs matplotlib, which cannot be imported ({exc}); install mplang "
-            "with its plot extra: pip install 'mplang[plot]'") from None
+    require_extra("mpc plot", "plot", "matplotlib")
 
 
 def check_output_place(output: Path) -> None:

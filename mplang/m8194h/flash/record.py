@@ -21,14 +21,15 @@ from pathlib import Path
 from typing import Any
 
 from mplang.lang.limits import MAX_JSON_BYTES, load_json
+from mplang.lang.userdirs import state_home
 
 RECORD_FORMAT = "mpc-flash-record/1"
 
 
 def default_record_path() -> Path:
-    """Without a project: the user's state directory (XDG), one record for every device."""
-    state = os.environ.get("XDG_STATE_HOME") or str(Path.home() / ".local" / "state")
-    return Path(state) / "mpc" / "flash-record.json"
+    """Without a project: the user's state directory (mplang.lang.userdirs), one record for every
+    device."""
+    return (state_home() or Path.home()) / "mpc" / "flash-record.json"
 
 
 class FlashRecord:

@@ -90,10 +90,10 @@ async def serve(options: SimOptions, controller: VirtualController,
                 await companions.enter_async_context(options.companion(host, bound))
         if options.serial is not None:
             port_name = options.serial
-            if port_name == "pty":
-                link = PtyLink()
-                port_name = link.device_end
-            try:
+            try:  # PtyLink raises OSError where there are no ptys (Windows)
+                if port_name == "pty":
+                    link = PtyLink()
+                    port_name = link.device_end
                 servers.append(await serve_rtu(face, port_name, options.unit, options.baudrate,
                                                options.parity, options.stopbits))
             except (OSError, RuntimeError) as exc:

@@ -330,13 +330,14 @@ def run(device: LiveDevice, host: str, port: int, *, allow_write: bool, title: s
         duration: float | None = None) -> None:
     """Serve until Ctrl-C, SIGTERM or `duration` seconds; `opened(url)` once it listens
     (to open a browser). MonitorError when it cannot listen."""
-    import signal
+    from mplang.family.stopsignals import on_stop_signals
 
     async def main() -> None:
         stop = asyncio.Event()
-        loop = asyncio.get_running_loop()
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            loop.add_signal_handler(sig, stop.set)
+        with on_stop_signals(stop.set):
+            await serve_until(stop)
+
+    async def serve_until(stop: asyncio.Event) -> None:
         async with serving(device, host, port, allow_write=allow_write, title=title) \
                 as (_monitor, url):
             say(f"dashboard on {url}" + (" (writes allowed)" if allow_write else
