@@ -11,6 +11,7 @@ import asyncio
 import errno
 import ipaddress
 import re
+import sys
 from collections.abc import Callable
 from typing import Any
 
@@ -92,10 +93,10 @@ class Names:
 def soft_file_limit() -> int | None:
     """The process's open-file limit (RLIMIT_NOFILE, soft), None where there is none to
     stay under (Windows, or unlimited)."""
-    try:
-        import resource
-    except ImportError:
+    if sys.platform == "win32":
         return None
+    import resource
+
     soft = resource.getrlimit(resource.RLIMIT_NOFILE)[0]
     return None if soft == resource.RLIM_INFINITY else soft
 
