@@ -14,7 +14,7 @@ from collections.abc import AsyncIterator, Awaitable, Callable
 
 import pytest
 from pymodbus.framer import FramerRTU
-from test_device_refusals import ILLEGAL_FUNCTION, Device, macro, on, rtc
+from test_device_refusals import CLOSE, CREATE, ILLEGAL_FUNCTION, Device, macro, on, rtc
 from test_modbus import frames, until
 
 from mplang.family.ptylink import PtyLink
@@ -338,10 +338,20 @@ def test_speed_and_acceleration_macro_lines_run_with_the_chip_values() -> None:
     on("tcp", scenario)
 
 
-def test_write_var_refuses_what_the_register_refuses() -> None:
+def test_every_route_to_a_var_refuses_the_same_value() -> None:
+    """2,000,000,001 is beyond WRITE_VAR's range (RS 2394): the sub-function (cause 2), the
+    holding pair (exception 3) and a SET_VAR macro line in a download (cause 2, the
+    download fails) all refuse it; 2,000,000,000 passes every route."""
     async def scenario(device: Device) -> None:
         await device.refused(rtc("WRITE_VAR", VarRef(3), 2_000_000_001), 0x02)
         reply = await device.client.write_registers(306, [0x7735, 0x9401], device_id=1)
         assert reply.isError() and reply.exception_code == ILLEGAL_VALUE
         assert device.vc.vars[3] == 0
+        assert await device.write([CREATE, 5]) == 0
+        await device.refused(macro("SET_VAR", VarRef(3), 2_000_000_001), 0x02)
+        assert await device.write(macro("SET_VAR", VarRef(3), 2_000_000_000)) == 0
+        assert await device.write([CLOSE]) == 0
+        assert ("mp", 5) not in device.vc.tables
+        reply = await device.client.write_registers(306, [0x7735, 0x9400], device_id=1)
+        assert not reply.isError() and device.vc.vars[3] == 2_000_000_000
     on("tcp", scenario)
