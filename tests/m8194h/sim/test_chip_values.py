@@ -155,3 +155,20 @@ def test_w111_reads_max_v_from_init_and_from_the_program() -> None:
         "is a multiple of MAX_V/64 = 250 with MAX_V 16000)",
         "9: RECTANGLE RD: the acceleration 3125 runs as 3250 on the device (an acceleration "
         "is a multiple of MAX_V/64 = 250 with MAX_V 16000)"]
+
+
+def test_the_rounding_choice_and_the_ranges() -> None:
+    """`acceleration_rounding`: 12,000 is nearest 12,500 and down 9,375; both keep one step
+    at least and MAX_V * 125 at most. Jerks are raised to MAX_V * 0.0119211 only."""
+    down = ChipRules(acceleration_rounding="down")
+    assert RULES.acceleration(12_000, 200_000) == 12_500
+    assert down.acceleration(12_000, 200_000) == 9_375
+    assert down.acceleration(100, 200_000) == RULES.acceleration(100, 200_000) == 3_125
+    assert RULES.acceleration(10**9, 200_000) == 25_000_000
+    assert RULES.jerk(1, 200_000) == pytest.approx(2384.22)
+    assert RULES.jerk(5_000_000, 200_000) == 5_000_000
+    assert RULES.speed(1, 4_000_000) == 500 and RULES.speed(0, 8000) == 0
+    raw = catalogue.load().profile.raw
+    bad = {**raw, "chip_values": {**raw["chip_values"], "acceleration_rounding": "up"}}
+    with pytest.raises(ValueError, match="'nearest' or 'down'"):
+        ChipRules.from_profile(bad)
