@@ -10,9 +10,9 @@ identity), `_Plan`s and `_Seg`s, and the sensors and axis configuration, which o
 commands change (a fork runs none: it only settles time forward; the axis settings are
 copied, as a synchronous action may change a speed). A continuous interpolation's
 `_ChainPath` grows as segments come in, so it is copied, and with it every motion, event
-and home search that drives along it,
-keeping the sharing the original has (a chain's motion is its axes' motion). The copy's
-stop watchers are removed: what a prediction meets is not something the program did.
+and home search that drives along it, keeping the sharing the original has (a chain's
+motion is its axes' motion). The copy's stop watchers are removed: what a prediction meets
+is not something the program did.
 
 `FORKED` lists the attributes a fork knows for each class; a test keeps it equal to what the
 classes hold, so a new mutable attribute cannot slip past the copy.
