@@ -300,6 +300,16 @@ _RULES = [
          "-294967296 on the device); the compiler folds constant expressions the same way, "
          "so the program does what the device would do, but an overflow is rarely meant.",
          "Write the wrapped value if the wrap is intended; otherwise scale the numbers down."),
+    Rule("W111", "device-steps-value", W,
+         "A constant speed, acceleration or jerk that the device will clamp or step.",
+         "The motion chip holds these settings in units of its maximum speed MAX_V: a speed "
+         "is at most MAX_V and a multiple of MAX_V/8000, an acceleration a multiple of "
+         "MAX_V/64 between MAX_V/64 and MAX_V*125, a jerk at least MAX_V*0.0119211 (RS "
+         "1146, 5157, 5257; profile [chip_values]). The device runs the value it holds, and "
+         "so does the virtual controller: a ramp, a cycle time, differ from the value "
+         "written. The compiler reads MAX_V from the INIT block (or the factory 200000) and "
+         "the program's own SET_MAX_V lines above, in source order.",
+         "Write the value the warning gives, or change MAX_V so that the value is a step."),
     Rule("W109", "unused-slot-pin", W, "A slot pin in mpc.toml names no program of the build.",
          "The pin has no effect; perhaps the program was renamed or its file left out.",
          "Remove the pin or fix the name."),

@@ -20,6 +20,7 @@ from mplang.lang.diagnostics import DiagnosticSink, suppressed
 from mplang.lang.followon import settle_includes
 from mplang.lang.sources import SourceSet, load_sources
 from mplang.lang.structure import build_unit
+from mplang.m8194h.chipvalues import warn_changed
 from mplang.m8194h.encode import Encoder
 from mplang.m8194h.image import (
     IMAGE_FORMAT,
@@ -122,6 +123,7 @@ def _finish(unit: object, catalogue: Catalogue, sink: DiagnosticSink,
         return resolve(ref, by_name)
 
     _check_filled(placements, wiring.all_wires, triggers, slot_of, sink)
+    warn_changed(lowered, init, profile, sink)
     result = BuildResult(sink.sorted(), word_order=word_order, target=options.target,
                          variables=sorted(scope.variables, key=lambda v: v.index),
                          aliases=list(scope.alias_names))

@@ -100,6 +100,9 @@ class DeviceFace:
     def __init__(self, controller: VirtualController, clock: SimClock | None = None,
                  interpose: Interpose | None = None) -> None:
         self.controller = controller
+        # the FIFO drains at the served pace (profile `execution.served_rtc_command_time_us`)
+        execution = controller.profile.raw["execution"]
+        controller.rtc_time = int(execution["served_rtc_command_time_us"]) / 1e6
         self.registers = RegisterMap(controller)
         self.clock = clock or SimClock(origin_sim=controller.clock)
         self.interpose = interpose
@@ -217,12 +220,14 @@ def rtu_frame_size(data: bytes) -> int:
     return 0
 
 
-class UnsupportedRequest(ModbusPDU):
-    """A request with a function code the device does not serve. Its body is not read: the
-    device answers ILLEGAL FUNCTION whatever it holds."""
+class RefusedRequest(ModbusPDU):
+    """A request the device refuses whatever it holds: its body is not read, the answer is
+    the request's function code + 0x80 with `refusal_code`."""
 
     face: DeviceFace | None = None
     unit: int | None = None  # the RTU slave address; None over TCP, which answers every unit
+    refusal_code: int = int(ExcCodes.ILLEGAL_VALUE)
+    reason: str = ""
 
     def decode(self, data: bytes) -> None:
         """Nothing to decode: the function code is all the answer needs."""
@@ -231,24 +236,65 @@ class UnsupportedRequest(ModbusPDU):
     def calculateRtuFrameSize(cls, data: bytes) -> int:
         return rtu_frame_size(data)
 
+    def note(self, face: DeviceFace) -> None:
+        """What the device records of the refusal."""
+        face.requests += 1
+        face.refusals.append(Refusal(self.refusal_code, reason=self.reason))
+
     async def datastore_update(self, context: object, device_id: int) -> ModbusPDU:
         if self.face is not None and self.unit in (None, device_id):  # another slave's
-            self.face.refuse_function(self.function_code)  # request leaves 102 alone
-        return ExceptionResponse(self.function_code, ExcCodes.ILLEGAL_FUNCTION)
+            self.note(self.face)  # request leaves the device's records alone
+        return ExceptionResponse(self.function_code, ExcCodes(self.refusal_code))
+
+
+class UnsupportedRequest(RefusedRequest):
+    """A request with a function code the device does not serve: ILLEGAL FUNCTION, and
+    register 102 says why."""
+
+    refusal_code = int(ExcCodes.ILLEGAL_FUNCTION)
+
+    def note(self, face: DeviceFace) -> None:
+        face.refuse_function(self.function_code)
+
+
+def malformed(frame: bytes, limits: dict[int, int], coil_values: frozenset[int]) -> str:
+    """Why a request PDU of a served function code breaks the Modbus rules the device checks
+    (a quantity outside `limits`, a byte count that does not match it, an FC5 value that is
+    neither OFF nor ON), or "" for a well-formed one."""
+    fc = frame[0]
+    if len(frame) < 5:
+        return f"FC{fc}: the request is {len(frame)} bytes, too short"
+    quantity = int.from_bytes(frame[3:5], "big")
+    if fc == WRITE_COIL:
+        if quantity in coil_values:
+            return ""
+        return f"FC5 value 0x{quantity:04X} is neither 0x0000 nor 0xFF00"
+    limit = limits.get(fc)
+    if limit is not None and not 1 <= quantity <= limit:
+        return f"FC{fc}: quantity {quantity} is outside 1..{limit}"
+    if fc in (WRITE_COILS, WRITE_REGISTERS):
+        expected = (quantity + 7) // 8 if fc == WRITE_COILS else 2 * quantity
+        if len(frame) < 6 or frame[5] != expected or len(frame) - 6 != expected:
+            return f"FC{fc}: the byte count does not match quantity {quantity}"
+    return ""
 
 
 class DeviceDecoder(DecodePDU):
     """pymodbus's request decoder limited to the function codes of the device profile
     (`[modbus] function_codes`: 1-6, 15, 16). Any other decodes to an `UnsupportedRequest`,
     so FC 7, 8, 11, 17, 43 ... are answered with exception 1 and register 102 = 1 (RS 11366)
-    rather than by pymodbus's own diagnostics and identification."""
+    rather than by pymodbus's own diagnostics and identification. A served request that breaks
+    the Modbus rules (`malformed`) decodes to a `RefusedRequest`: the request's function code
+    + 0x80 and exception 3 (Table 3, RS 939), over TCP and RTU alike."""
 
     def __init__(self, face: DeviceFace, unit: int | None = None) -> None:
         super().__init__(True)
         self.face = face
         self.unit = unit
-        served = face.controller.profile.raw["modbus"]["function_codes"]
-        self.served = frozenset(int(fc) for fc in served)
+        modbus = face.controller.profile.raw["modbus"]
+        self.served = frozenset(int(fc) for fc in modbus["function_codes"])
+        self.limits = {int(fc): int(n) for fc, n in modbus["quantity_limits"].items()}
+        self.coil_values = frozenset(int(v) for v in modbus["coil_values"])
         self.pdu_table = {fc: DecodePDU.pdu_table[fc] for fc in self.served}
 
     def lookupPduClass(self, data: bytes) -> type[ModbusPDU] | None:
@@ -258,12 +304,21 @@ class DeviceDecoder(DecodePDU):
             return UnsupportedRequest if rtu_frame_size(data) else None
         return super().lookupPduClass(data)
 
+    def _refused(self, kind: type[RefusedRequest], function_code: int,
+                 reason: str) -> RefusedRequest:
+        request = kind()
+        request.function_code = function_code
+        request.face, request.unit, request.reason = self.face, self.unit, reason
+        return request
+
     def decode(self, frame: bytes) -> ModbusPDU | None:
-        if frame and frame[0] not in self.served:
-            request = UnsupportedRequest()
-            request.function_code = frame[0]
-            request.face, request.unit = self.face, self.unit
-            return request
+        if not frame:
+            return None
+        if frame[0] not in self.served:
+            return self._refused(UnsupportedRequest, frame[0], "")
+        reason = malformed(frame, self.limits, self.coil_values)
+        if reason:
+            return self._refused(RefusedRequest, frame[0], reason)
         return super().decode(frame)
 
 

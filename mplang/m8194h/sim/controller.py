@@ -20,6 +20,7 @@ from mplang.ir import catalogue as catalogue_module
 from mplang.ir.catalogue import Catalogue
 from mplang.ir.lower import apply_operator, wrap32
 from mplang.ir.macro import BVarRef, Operand, VarRef
+from mplang.m8194h.chipvalues import ChipRules
 from mplang.m8194h.encode import Encoder
 from mplang.m8194h.sim import (
     axis_commands,
@@ -114,7 +115,8 @@ class VirtualController:
         self.bvars = [0] * self.profile.var("byte_count")
         self.frnet = [0] * 16  # groups 0-7 DO, 8-15 DI (16 bits each)
         self.tables: dict[tuple[str, int], MacroTable] = {}
-        self.motion = MotionModel(self.profile.limit("motion_queue"))
+        self.motion = MotionModel(self.profile.limit("motion_queue"),
+                                  ChipRules.from_profile(self.profile.raw))
         self.stops: dict[tuple[str, int], Failure] = {}  # axes stopped on limits, alarms, EMG
         watch_axis_stops(self)
         self.clock = 0.0
@@ -194,6 +196,9 @@ class VirtualController:
         cause = self.initial_table.refusal(command, operands)
         if cause:
             return cause
+        if name == "MP_CALL" and self.stack:  # as holding 8 refuses it (busy_while_running)
+            self.log.append(f"{self.clock:.4f} s: MP_CALL refused: a macro program is running")
+            return int(self.profile.raw["execution"]["busy_while_running"])
         if len(self.fifo) >= self.fifo_capacity:
             raise DeviceBusy(f"{command.name}: the command FIFO is full")
         start = max(self.clock, self.fifo[-1].due if self.fifo else self.clock)
@@ -508,7 +513,8 @@ class VirtualController:
         self.fifo.clear()
         self.isr_queue.clear()
         self.triggers.waiting.clear()
-        self.motion = MotionModel(self.profile.limit("motion_queue"))
+        self.motion = MotionModel(self.profile.limit("motion_queue"),
+                                  ChipRules.from_profile(self.profile.raw))
         watch_axis_stops(self)
         self.handlers = self._handlers()
         self.programs.clear()

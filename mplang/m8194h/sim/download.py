@@ -145,7 +145,8 @@ def structure_cause(vc: VirtualController, error: int) -> int:
 def _setting(vc: VirtualController, key: str) -> str:
     """A [download] choice of the profile, checked against the values this module knows."""
     value = str(vc.profile.raw["download"][key])
-    known = {"refused_line": ("fails", "ends"), "close_failure": ("acknowledged", "refused")}
+    known = {"refused_line": ("fails", "ends"), "close_failure": ("acknowledged", "refused"),
+             "status_numbers": ("last-download", "since-power-on")}
     if value not in known[key]:
         raise ValueError(f"device profile [download] {key} = {value!r}: expected one of "
                          f"{', '.join(known[key])}")
@@ -178,6 +179,9 @@ def _finish(vc: VirtualController, failure: DownloadError | None) -> None:
     assert pending is not None
     table = pending.table
     mp_no, isr_no = (table.slot, 0) if table.kind == "mp" else (0, table.slot)
+    if _setting(vc, "status_numbers") == "since-power-on":  # the other kind's number stays
+        kept_mp, kept_isr = vc.download_status[:2]
+        mp_no, isr_no = mp_no or kept_mp, isr_no or kept_isr
     if failure is None:
         vc.tables[(table.kind, table.slot)] = table
         vc.download_status = (mp_no, isr_no, 0, 0, 0)

@@ -5,13 +5,14 @@
 watch_axis_stops`) it copied the whole controller each time: most of a motion-heavy run went
 into it. A fork copies only what running ahead changes, and shares what never changes once
 built: a `_Motion` (a new motion replaces a running one, it is never altered), its profile
-and every path but a chain's, the queued `_Cmd`s (compared by identity), `_Plan`s and
-`_Seg`s, and the sensors and axis configuration, which only commands change (a fork runs
-none: it only settles time forward; the axis settings are copied, as a synchronous action
-may change a speed). A continuous interpolation's `_ChainPath` grows as segments come in,
-so it is copied, and with it every motion, event and home search that drives along it,
-keeping the sharing the original has (a chain's motion is its axes' motion). The copy's
-stop watchers are removed: what a prediction meets is not something the program did.
+and every path but a chain's, the chip rules (frozen), the queued `_Cmd`s (compared by
+identity), `_Plan`s and `_Seg`s, and the sensors and axis configuration, which only
+commands change (a fork runs none: it only settles time forward; the axis settings are
+copied, as a synchronous action may change a speed). A continuous interpolation's
+`_ChainPath` grows as segments come in, so it is copied, and with it every motion, event
+and home search that drives along it, keeping the sharing the original has (a chain's
+motion is its axes' motion). The copy's stop watchers are removed: what a prediction meets
+is not something the program did.
 
 `FORKED` lists the attributes a fork knows for each class; a test keeps it equal to what the
 classes hold, so a new mutable attribute cannot slip past the copy.
@@ -34,7 +35,8 @@ T = TypeVar("T")
 
 FORKED: dict[str, frozenset[str]] = {
     "MotionModel": frozenset({
-        "queue_capacity", "settings", "vector", "assigned", "_ax", "_queue", "_pending", "io",
+        "queue_capacity", "rules", "settings", "vector", "assigned", "_ax", "_queue", "_pending",
+        "io",
         "_next_end", "_chains", "_chain_seq", "_open"}),
     "AxisIO": frozenset({
         "model", "sensors", "cfg", "status", "now", "emergency", "emg_input", "int_enabled",

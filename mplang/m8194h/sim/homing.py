@@ -53,9 +53,7 @@ from mplang.m8194h.sim.profiles import (
     _Plan,
     _point_to_point,
     _Profile,
-    _quantise,
     _ramp,
-    _single_plan,
 )
 from mplang.m8194h.sim.signals import _Signal
 from mplang.m8194h.sim.sync_actions import _SyncActions
@@ -131,7 +129,7 @@ class _HomeSearch(_SyncActions):
             self._home_step2(run, t)
             return
         run.state = HOME_STEP1
-        base = _single_plan(self.model.settings[i])
+        base = self.model.plan(i)
         plan = _Plan(min(base.sv, base.v), base.v, base.acc, base.dec, base.s_curve)
         prof = _Profile(0.0, plan.sv)
         _ramp(prof, plan.sv, plan.v, plan.acc, plan.s_curve)
@@ -164,7 +162,7 @@ class _HomeSearch(_SyncActions):
         d = {HOME_BACK_ON: -dirs[1], HOME_BACK_OFF: -dirs[1], HOME_STEP2: dirs[1],
              HOME_STEP3: dirs[2]}[state]
         run.state = state
-        hv = _quantise(self.cfg[i].hv, self.model.settings[i].max_v)
+        hv = self.model.rules.speed(self.cfg[i].hv, self.model.settings[i].max_v)
         plan = _Plan(hv, hv, 1.0, 1.0, False, constant=True)
         prof = _Profile(0.0, hv)
         prof.forever()
@@ -200,7 +198,7 @@ class _HomeSearch(_SyncActions):
             self._home_finish(run, t, success=True)
             return
         run.state = HOME_STEP4
-        plan = _single_plan(self.model.settings[i])
+        plan = self.model.plan(i)
         prof = _point_to_point(float(offset), plan)
         pos = self.model._ax[i].pos
         self._home_drive(run, t, prof, d4, plan, (pos + d4 * offset,))

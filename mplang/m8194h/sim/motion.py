@@ -88,6 +88,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from mplang.m8194h.chipvalues import ChipRules
 from mplang.m8194h.sim.axes import AXES, _axis_index, _mask_axes, _round
 from mplang.m8194h.sim.axis_io import AxisIO
 from mplang.m8194h.sim.builders import (
@@ -115,7 +116,6 @@ from mplang.m8194h.sim.profiles import (
     _AxisSettings,
     _Plan,
     _Profile,
-    _quantise,
     _ramp,
     _ramp_dist,
     _single_plan,
@@ -163,8 +163,10 @@ class MotionModel:
     time ``now`` and first finishes motions that ended at or before it.
     """
 
-    def __init__(self, queue_capacity: int | None = None) -> None:
+    def __init__(self, queue_capacity: int | None = None,
+                 rules: ChipRules | None = None) -> None:
         self.queue_capacity = queue_capacity  # None: unbounded (a bare model in tests)
+        self.rules = rules or ChipRules()  # the values the chip holds (manual defaults)
         self.settings = [_AxisSettings() for _ in AXES]
         self.vector = _VectorSettings()
         self.assigned: tuple[int, ...] = (0, 1)  # axis indices of axis1..axis3
@@ -177,6 +179,10 @@ class MotionModel:
         self._chains: dict[int, _Chain] = {}
         self._chain_seq = 0
         self._open: _Chain | None = None
+
+    def plan(self, axis: int) -> _Plan:
+        """The plan a single-axis drive of axis index `axis` latches now."""
+        return _single_plan(self.settings[axis], self.rules)
 
     # ---------------------------------------------------------------- settings
     def _set(self, axis_mask: int, name: str, value: int) -> None:
@@ -270,34 +276,37 @@ class MotionModel:
         self.vector.vao = int(value)
 
     def _vector_plan(self) -> _Plan:
-        vs = self.vector
+        """The vector plan, with the values the chip holds for the MAX_V of axis 1."""
+        vs, rules = self.vector, self.rules
         max_v = self.settings[self.assigned[0]].max_v
-        v = _quantise(vs.vv, max_v)
-        sv = _quantise(vs.vsv, max_v)
+        v = rules.speed(vs.vv, max_v)
+        sv = rules.speed(vs.vsv, max_v)
         kind = _VECTOR_KIND[vs.mode]
         if kind == "const":
             return _Plan(v, v, 1.0, 1.0, False, constant=True)
         offset = float(vs.vao)
+        va, vd = rules.acceleration(vs.va, max_v), rules.acceleration(vs.vd, max_v)
+        vk, vl = rules.jerk(vs.vk, max_v), rules.jerk(vs.vl, max_v)
         if kind == "symT":
-            return _Plan(sv, v, float(max(vs.va, 1)), float(max(vs.va, 1)), False, offset=offset)
+            return _Plan(sv, v, va, va, False, offset=offset)
         if kind == "asymT":
-            return _Plan(sv, v, float(max(vs.va, 1)), float(max(vs.vd, 1)), False, offset=offset)
+            return _Plan(sv, v, va, vd, False, offset=offset)
         if kind == "symS":
-            return _Plan(sv, v, float(max(vs.vk, 1)), float(max(vs.vk, 1)), True, offset=offset)
-        return _Plan(sv, v, float(max(vs.vk, 1)), float(max(vs.vl, 1)), True, offset=offset)
+            return _Plan(sv, v, vk, vk, True, offset=offset)
+        return _Plan(sv, v, vk, vl, True, offset=offset)
 
     # ------------------------------------------------------------------ motion
     def fixed_move(self, axis_mask: int, pulses: int, now: float) -> None:
         """FIXED_MOVE: every axis of the mask moves `pulses` relative to where it starts."""
         self._admit([(i,) for i in _mask_axes(axis_mask)], now)
         for i in _mask_axes(axis_mask):
-            self._issue(_single_cmd(i, int(pulses), False, _single_plan(self.settings[i])), now)
+            self._issue(_single_cmd(i, int(pulses), False, self.plan(i)), now)
 
     def abs_move(self, axis_mask: int, position: int, now: float) -> None:
         """ABS_FIXED_MOVE: every axis of the mask moves to LP = `position`."""
         self._admit([(i,) for i in _mask_axes(axis_mask)], now)
         for i in _mask_axes(axis_mask):
-            self._issue(_single_cmd(i, int(position), True, _single_plan(self.settings[i])),
+            self._issue(_single_cmd(i, int(position), True, self.plan(i)),
                         now)
 
     def continue_move(self, axis_mask: int, speed: int, now: float) -> None:
@@ -307,8 +316,8 @@ class MotionModel:
         runs: list[tuple[int, _Plan, bool]] = []  # axis, plan, change the running speed
         for i in _mask_axes(axis_mask):
             st = self.settings[i]
-            base = _single_plan(st)
-            v = _quantise(abs(speed), st.max_v)
+            base = self.plan(i)
+            v = self.rules.speed(abs(speed), st.max_v)
             if v <= 0:
                 continue
             plan = _Plan(min(base.sv, v), v, base.acc, base.dec, base.s_curve)
@@ -563,6 +572,17 @@ class MotionModel:
         """Present acceleration of one axis in pulses/s² (negative while slowing)."""
         return self._kinematics(axis, now)[1]
 
+    def cv_reading(self, axis: int, now: float) -> float:
+        """CV as the chip's register shows it: whole speed steps of the axis's MAX_V."""
+        v = self.cv(axis, now)
+        return self.rules.speed(v, self.settings[_axis_index(axis)].max_v) if v > 0 else 0.0
+
+    def ca_reading(self, axis: int, now: float) -> float:
+        """CA as the chip's register shows it: whole acceleration steps (MAX_V / 64)."""
+        a = self.ca(axis, now)
+        step = self.rules.acceleration_step(self.settings[_axis_index(axis)].max_v)
+        return math.floor(abs(a) / step + 0.5) * step * (1 if a >= 0 else -1)
+
     def _busy(self, axes: tuple[int, ...]) -> bool:
         if any(self._ax[i].motion is not None for i in axes):
             return True
@@ -682,10 +702,11 @@ class MotionModel:
             raise ValueError(f"RECTANGLE needs Lp, Wp >= 1 and Rp >= 0, got {size}")
         sv, v, acc, dec = speeds
         max_v = self.settings[i].max_v
-        top = _quantise(v, max_v)
+        rules = self.rules
+        top = rules.speed(v, max_v)
         plan = (_Plan(top, top, 1.0, 1.0, False, constant=True) if constant else
-                _Plan(_quantise(sv, max_v), top, float(max(acc, 1)), float(max(dec, 1)),
-                      False))
+                _Plan(rules.speed(sv, max_v), top, rules.acceleration(acc, max_v),
+                      rules.acceleration(dec, max_v), False))
         r = min(rp, lp // 2, wp // 2)
         self._admit([(i, j)], now)
         self._issue(_Cmd((i, j), True, _rectangle_builder((i, j), start_point, clockwise,
@@ -698,7 +719,7 @@ class MotionModel:
         idx = tuple(_axis_index(a) for a in axes)
         if len(set(idx)) != 3:
             raise ValueError("the helix axes must be distinct")
-        v = _quantise(vv, self.settings[idx[0]].max_v)
+        v = self.rules.speed(vv, self.settings[idx[0]].max_v)
         plan = _Plan(v, v, 1.0, 1.0, False, constant=True)
         self._admit([idx], now)
         self._issue(_Cmd(idx, True, _helix_builder(idx, (int(center[0]), int(center[1])),
@@ -713,7 +734,9 @@ class MotionModel:
             return plan
         vs = self.vector
         dec = vs.vd if _VECTOR_KIND[vs.mode] == "asymS" else vs.va
-        return _Plan(plan.sv, plan.v, float(max(vs.va, 1)), float(max(dec, 1)), False)
+        max_v = self.settings[self.assigned[0]].max_v
+        return _Plan(plan.sv, plan.v, self.rules.acceleration(vs.va, max_v),
+                     self.rules.acceleration(dec, max_v), False)
 
     def _chain_alive(self, chain: _Chain) -> bool:
         """Waiting to start, or running undisturbed (not stopped, not finished)."""

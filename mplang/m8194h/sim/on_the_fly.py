@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING
 
 from mplang.m8194h.sim.axes import AXES, _mask_axes, _round
 from mplang.m8194h.sim.builders import _Motion
-from mplang.m8194h.sim.profiles import _Profile, _quantise, _retarget
+from mplang.m8194h.sim.profiles import _Profile, _retarget
 
 if TYPE_CHECKING:
     from mplang.m8194h.sim.motion import MotionModel
@@ -80,7 +80,7 @@ def change_velocity(model: MotionModel, axis_mask: int, speed: int,
     notes: list[str] = []
     for i in _mask_axes(axis_mask):
         m, why = _single_drive(model, i)
-        v = _quantise(speed, model.settings[i].max_v)
+        v = model.rules.speed(speed, model.settings[i].max_v)
         if m is None or v <= 0:
             notes.append(why or f"speed {speed} is not a drive speed")
             continue

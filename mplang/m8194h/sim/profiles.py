@@ -14,12 +14,13 @@ cited below as "manual line N"); where the manual is silent the choice is stated
 
 Conventions and simplifications
 -------------------------------
-* Speed resolution (manual l.1146): drive and start speeds (SV, V, VSV, VV and the
-  CONTINUE_MOVE speed) are rounded to the nearest multiple of ``MAX_V / 8000`` when
-  a motion starts (a non-zero drive speed is at least one step).  The power-on
-  MAX_V is 200 000 PPS (factory table, manual l.9705), so the default step is 25 PPS.
-  Accelerations and jerks are used as given (the manual's MAX_V/64 granularity for
-  A/D, l.5157, is not modelled).
+* Chip values (`mplang.m8194h.chipvalues`, the profile's ``[chip_values]``): when a
+  motion starts, its speeds (SV, V, VSV, VV, HV, the CONTINUE_MOVE speed ...) are clamped
+  to MAX_V and rounded to a multiple of ``MAX_V / 8000`` (manual l.1146), its
+  accelerations (A, D, VA, VD, RA, RD) are multiples of ``MAX_V / 64`` within MAX_V/64 ..
+  MAX_V*125 (l.5157) and its jerks (K, L, VK, VL) at least MAX_V*0.0119211 (l.5257).
+  The power-on MAX_V is 200 000 PPS (factory table, manual l.9705): steps of 25 PPS and
+  3125 PPS/s.
 * A start speed above the drive speed means a constant-speed move at the drive
   speed (as in the CONTINUE_MOVE example, manual l.5679-5681: SV 2000, speed 1000).
 * T-curve (NORMAL_SPEED 0/2, manual l.4934): SV → V at A, cruise, V → SV at D
@@ -47,10 +48,9 @@ from bisect import bisect_right
 from collections.abc import Callable
 from dataclasses import dataclass
 
+from mplang.m8194h.chipvalues import DEFAULT_MAX_V, ChipRules
+
 _INF = math.inf
-#: power-on maximum speed (factory initial table, manual line 9705)
-DEFAULT_MAX_V = 200_000
-_SPEED_STEPS = 8000
 
 
 @dataclass
@@ -64,14 +64,6 @@ class _AxisSettings:
     k: int = 1_000_000
     l: int = 1_000_000  # noqa: E741 - the manual's name
     ao: int = 8  # power-on value, manual l.5351
-
-
-def _quantise(speed: float, max_v: float) -> float:
-    """Round a speed to the controller's resolution MAX_V/8000 (manual l.1146)."""
-    res = max_v / _SPEED_STEPS
-    if speed <= 0:
-        return 0.0
-    return max(res, round(speed / res) * res)
 
 
 class _Profile:
@@ -202,14 +194,17 @@ def _point_to_point(dist: float, plan: _Plan) -> _Profile:
     return prof
 
 
-def _single_plan(st: _AxisSettings) -> _Plan:
-    v = _quantise(st.v, st.max_v)
-    sv = _quantise(st.sv, st.max_v)
+def _single_plan(st: _AxisSettings, rules: ChipRules) -> _Plan:
+    """The plan of a single-axis drive, with the values the chip holds for its settings."""
+    top = st.max_v
+    v = rules.speed(st.v, top)
+    sv = rules.speed(st.sv, top)
     mode = st.mode
     if mode in (1, 3):
-        return _Plan(sv, v, float(max(st.k, 1)), float(max(st.l if mode == 3 else st.k, 1)),
+        return _Plan(sv, v, rules.jerk(st.k, top), rules.jerk(st.l if mode == 3 else st.k, top),
                      True, offset=float(st.ao))
-    return _Plan(sv, v, float(max(st.a, 1)), float(max(st.d if mode == 2 else st.a, 1)), False,
+    return _Plan(sv, v, rules.acceleration(st.a, top),
+                 rules.acceleration(st.d if mode == 2 else st.a, top), False,
                  offset=float(st.ao))
 
 

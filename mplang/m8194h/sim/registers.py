@@ -15,6 +15,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
+from mplang.ir.catalogue import Param
 from mplang.m8194h.sim.axis_io import AxisReport
 from mplang.m8194h.sim.controller import AXIS_NAMES, DeviceBusy, VirtualController
 
@@ -54,6 +55,12 @@ class Refusal(Exception):
     reason: str = ""
 
 
+def _range_of(param: Param) -> range:
+    """The values a catalogue parameter takes (its min..max)."""
+    return range(int(param.min if param.min is not None else -(1 << 31)),
+                 int(param.max if param.max is not None else (1 << 31) - 1) + 1)
+
+
 class RegisterMap:
     """Reads and writes of the four Modbus tables of one virtual controller."""
 
@@ -73,11 +80,38 @@ class RegisterMap:
         self.md_first = self.md.holding_base  # MD0 .. MD2047 at 3000 + 2n (RS 2528)
         self.md_end = self.md_first + 2 * self.md.count
         self.unsupported_cause = int(raw["modbus"]["unsupported_cause"])
+        registers = raw["registers"]
+        self.holding_areas = tuple(range(int(first), int(last) + 1)
+                                   for first, last in registers["holding_areas"])
+        self.range_exception = int(registers["variable_range_exception"])
+        by_short = controller.catalogue.rtc_by_short
+        self.var_range = _range_of(by_short["WRITE_VAR"].params[1])
+        self.bvar_range = _range_of(by_short["WRITE_BVAR"].params[1])
         # the number of connected Modbus TCP clients (ET input register 86, ET 18559): the
         # server that serves this map sets it
         self.connections: Callable[[], int] = lambda: 0
 
     # ----------------------------------------------------------------- helpers
+    def _defined(self, register: int) -> bool:
+        return any(register in area for area in self.holding_areas)
+
+    def _check_ranges(self, address: int, values: list[int]) -> None:
+        """Refuse a write that gives a variable a value its write command refuses
+        (profile `registers.variable_range_*`): nothing of the request is written."""
+        vc = self.vc
+        for k, value in enumerate(values):
+            register = address + k
+            n = register - self.bvar_base
+            if 0 <= n < len(vc.bvars) and value not in self.bvar_range:
+                raise Refusal(self.range_exception, reason=f"bVAR{n} = {value} is outside "
+                              f"{self.bvar_range.start}..{self.bvar_range.stop - 1}")
+            n, half = divmod(register - self.var_base, 2)
+            if 0 <= n < len(vc.vars) and half == 0 and k + 1 < len(values):
+                joined = self._join(value, values[k + 1])
+                if joined not in self.var_range:
+                    raise Refusal(self.range_exception, reason=f"VAR{n} = {joined} is outside "
+                                  f"{self.var_range.start}..{self.var_range.stop - 1}")
+
     def _check_pairs(self, pairs: tuple[tuple[int, int], ...], address: int, end: int) -> None:
         """Refuse an access that cuts a 32-bit value in half: exception 2 (RS 939) and
         register 102 = 0xC0 (profile `registers.split_dword_*`)."""
@@ -154,8 +188,8 @@ class RegisterMap:
     def _in_motion(self, regs: list[int]) -> None:
         regs[26:34] = self._axes_pairs("lp")
         regs[34:42] = self._axes_pairs("ep")
-        regs[42:50] = self._axes_pairs("cv")
-        regs[50:58] = self._axes_pairs("ca")
+        regs[42:50] = self._axes_pairs("cv_reading")
+        regs[50:58] = self._axes_pairs("ca_reading")
         regs[160:168] = regs[26:34]  # the absolute logical position is LP
 
     def _in_io(self, regs: list[int]) -> None:
@@ -199,6 +233,8 @@ class RegisterMap:
         """FC3; only the areas the request overlaps are computed."""
         end = address + count
         if address >= 0 and end <= HOLDING_SPAN:
+            if not self._defined(address):
+                raise Refusal(ILLEGAL_ADDRESS, reason=f"holding register {address} is reserved")
             self._check_pairs(HOLDING_PAIRS, address, end)
             return self._holding(address, end)
         if address >= self.md_first and end <= self.md_end:
@@ -225,8 +261,8 @@ class RegisterMap:
             regs[82:90] = self._axes_pairs("lp")
             regs[90:98] = regs[82:90]
             regs[98:106] = self._axes_pairs("ep")
-            regs[106:114] = self._axes_pairs("cv")
-            regs[114:122] = self._axes_pairs("ca")
+            regs[106:114] = self._axes_pairs("cv_reading")
+            regs[114:122] = self._axes_pairs("ca_reading")
         for n in range(max(address - self.bvar_base, 0),
                        min(end - self.bvar_base, len(vc.bvars))):
             regs[self.bvar_base + n] = vc.bvars[n] & 0xFF
@@ -254,6 +290,7 @@ class RegisterMap:
         if not (address >= 0 and end <= HOLDING_SPAN):
             raise Refusal(ILLEGAL_ADDRESS, reason=f"holding {address}..{end - 1} is not writable")
         self._check_pairs(HOLDING_PAIRS, address, end)
+        self._check_ranges(address, values)
         k = 0
         while k < len(values):
             k += self._write_one(address + k, values, k)
@@ -286,7 +323,7 @@ class RegisterMap:
             vc.touch()
             return 2
         if self.bvar_base <= register < self.bvar_base + len(vc.bvars):
-            vc.bvars[register - self.bvar_base] = value & 0xFF
+            vc.bvars[register - self.bvar_base] = value  # in range: `_check_ranges`
             return 1
         if self.var_base <= register < self.var_base + 2 * len(vc.vars):
             n = (register - self.var_base) // 2

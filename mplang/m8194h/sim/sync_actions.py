@@ -47,7 +47,7 @@ from mplang.m8194h.sim.io_state import (
     _one_axis,
     _Request,
 )
-from mplang.m8194h.sim.profiles import _Plan, _single_plan
+from mplang.m8194h.sim.profiles import _Plan
 
 _INF = math.inf
 
@@ -183,17 +183,17 @@ class _SyncActions(_Interrupts, ABC):
             model.settings[j].v = value
             m = ax.motion
             if m is not None and m.continuous and not m.vector and value > 0:
-                base = _single_plan(model.settings[j])
+                base = model.plan(j)
                 plan = _Plan(min(base.sv, base.v), base.v, base.acc, base.dec,
                                 base.s_curve)
                 model._change_speed(j, m, plan, t)
         busy = ax.motion is not None or any(j in c.axes for c in model._queue)
         if action.drv in (1, 2) and not busy and value != 0:
             pulses = value if action.drv == 1 else -value
-            model._start(_single_cmd(j, pulses, False, _single_plan(model.settings[j])),
+            model._start(_single_cmd(j, pulses, False, model.plan(j)),
                          t)
         elif action.drv in (3, 4) and not busy:
-            base = _single_plan(model.settings[j])
+            base = model.plan(j)
             plan = _Plan(min(base.sv, base.v), base.v, base.acc, base.dec, base.s_curve)
             direction = 1 if action.drv == 3 else -1
             model._start(_Cmd((j,), False, _continuous_builder(j, direction, plan)), t)

@@ -22,6 +22,7 @@ OWN = frozenset({
     "MP_CREATE", "MP_ISR_CREATE", "MP_CLOSE", "MP_ISR_CLOSE",  # the download protocol
     "MP_CALL", "MP_ISR_CALL", "WRITE_VAR", "WRITE_BVAR", "CLEAR_CARD_BUFFER", "RESET_CARD",
     "LOAD_INITIAL",  # real-time commands `VirtualController._run_rtc` carries out itself
+    "WRITE_MD",  # carried out on arrival by `machine_data.MachineData.subfunction`
 })
 """Commands without a line handler whose effect the controller gives itself."""
 

@@ -247,7 +247,7 @@ async def test_uris_keep_the_clients_spelling(client: LanguageClient, project: P
     folder.mkdir()
     included, main = (folder / "inc.mp").as_uri(), (folder / "main.mp").as_uri()
     assert "%20" in main
-    for uri, text in ((included, "CONST Q = 1\n"),
+    for uri, text in ((included, "CONST Q = 1000\n"),
                       (main, 'INCLUDE "inc.mp"\nMP 2\n    SET_V X, Q\nEND MP\n')):
         client.text_document_did_open(lsp.DidOpenTextDocumentParams(lsp.TextDocumentItem(
             uri=uri, language_id="mplang", version=1, text=text)))

@@ -1,0 +1,231 @@
+"""The values the motion chip holds for a speed, acceleration or jerk setting.
+
+The i-8094H keeps these settings in units that follow from the maximum speed MAX_V: "There
+are 8000 speed segments available" (RS 1146), so a speed is a multiple of MAX_V / 8000 and
+SET_MAX_V "sets the maximum rate for the output pulses" (RS 1146); "The minimum acceleration
+value is MAX_V / 64, and all other acceleration values are the integral multipliers of this
+value", at most MAX_V * 125 (RS 5157, 5209, 6170, 6218); a jerk lies between MAX_V *
+0.0119211 and 2,000,000,000 (RS 5257, 6272). The numbers and the readings the manual leaves
+open are the device profile's `[chip_values]` (see docs/device-choices.md).
+
+The virtual controller plans every motion with these values (`sim.profiles`), so a run's
+timing is the device's; the compiler warns (W111) where a constant argument will be changed
+so, giving the value the device uses.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from mplang.ir.catalogue import Profile
+    from mplang.ir.macro import LoweredProgram, MacroLine
+    from mplang.lang.diagnostics import DiagnosticSink
+
+#: the power-on maximum speed (factory initial table, RS 9705)
+DEFAULT_MAX_V = 200_000
+
+KINDS = ("speed", "acceleration", "jerk")
+
+
+def _nearest(x: float) -> int:
+    """Round half up (the same on every platform and in every tool)."""
+    return math.floor(x + 0.5)
+
+
+@dataclass(frozen=True)
+class ChipRules:
+    """How the chip holds a setting, as a function of the axis's MAX_V."""
+
+    speed_steps: int = 8000
+    acceleration_divisor: int = 64
+    acceleration_max_factor: int = 125
+    acceleration_rounding: str = "nearest"
+    jerk_min_factor: float = 0.0119211
+    jerk_max: int = 2_000_000_000
+    #: command short name -> parameter name -> "speed" | "acceleration" | "jerk"
+    parameters: dict[str, dict[str, str]] = field(default_factory=dict, compare=False)
+
+    @classmethod
+    def from_profile(cls, raw: dict[str, Any]) -> ChipRules:
+        """The rules of a device profile's `[chip_values]` table."""
+        table = raw["chip_values"]
+        rounding = str(table["acceleration_rounding"])
+        if rounding not in ("nearest", "down"):
+            raise ValueError(f"chip_values.acceleration_rounding is 'nearest' or 'down', "
+                             f"not {rounding!r}")
+        parameters = {str(name): {str(p): str(kind) for p, kind in params.items()}
+                      for name, params in table["parameters"].items()}
+        for name, params in parameters.items():
+            for param, kind in params.items():
+                if kind not in KINDS:
+                    raise ValueError(f"chip_values.parameters.{name}.{param}: {kind!r} is "
+                                     f"not one of {', '.join(KINDS)}")
+        return cls(int(table["speed_steps"]), int(table["acceleration_divisor"]),
+                   int(table["acceleration_max_factor"]), rounding,
+                   float(table["jerk_min_factor"]), int(table["jerk_max"]), parameters)
+
+    def speed_step(self, max_v: float) -> float:
+        return max_v / self.speed_steps
+
+    def acceleration_step(self, max_v: float) -> float:
+        return max_v / self.acceleration_divisor
+
+    def speed(self, speed: float, max_v: float) -> float:
+        """A drive or start speed as the chip runs it: at most MAX_V, a multiple of MAX_V /
+        8000 (the nearest), a non-zero speed at least one step; 0 or less stays 0."""
+        if speed <= 0:
+            return 0.0
+        step = self.speed_step(max_v)
+        return step * max(1, min(_nearest(speed / step), self.speed_steps))
+
+    def acceleration(self, acc: float, max_v: float) -> float:
+        """An acceleration or deceleration as the chip runs it: a multiple of MAX_V / 64
+        (the nearest, or the one below for `acceleration_rounding` "down"), at least one
+        step and at most MAX_V * 125."""
+        step = self.acceleration_step(max_v)
+        units = acc / step
+        n = math.floor(units) if self.acceleration_rounding == "down" else _nearest(units)
+        return step * max(1, min(n, self.acceleration_max_factor * self.acceleration_divisor))
+
+    def jerk(self, jerk: float, max_v: float) -> float:
+        """A jerk (K, L, VK, VL) as the chip runs it: within MAX_V * 0.0119211 and the
+        manual's maximum."""
+        return float(min(max(jerk, max_v * self.jerk_min_factor), self.jerk_max))
+
+    def apply(self, kind: str, value: float, max_v: float) -> float:
+        if kind == "speed":
+            return self.speed(value, max_v)
+        if kind == "acceleration":
+            return self.acceleration(value, max_v)
+        return self.jerk(value, max_v)
+
+    def why(self, kind: str, value: float, max_v: float) -> str:
+        """The rule that changes `value` (for a warning)."""
+        if kind == "speed":
+            if value > max_v:
+                return f"a speed is at most MAX_V {max_v:g}"
+            return f"a speed is a multiple of MAX_V/{self.speed_steps} = " \
+                   f"{self.speed_step(max_v):g} with MAX_V {max_v:g}"
+        if kind == "acceleration":
+            step = self.acceleration_step(max_v)
+            if value > self.acceleration_max_factor * max_v:
+                return f"an acceleration is at most MAX_V*{self.acceleration_max_factor} " \
+                       f"with MAX_V {max_v:g}"
+            if value < step:
+                return f"an acceleration is at least MAX_V/{self.acceleration_divisor} = " \
+                       f"{step:g} with MAX_V {max_v:g}"
+            return f"an acceleration is a multiple of MAX_V/{self.acceleration_divisor} = " \
+                   f"{step:g} with MAX_V {max_v:g}"
+        if value > self.jerk_max:
+            return f"a jerk is at most {self.jerk_max}"
+        return f"a jerk is at least MAX_V*{self.jerk_min_factor:g} with MAX_V {max_v:g}"
+
+
+@dataclass(frozen=True)
+class Changed:
+    """A constant argument the chip will hold as another value."""
+
+    index: int  # the operand's position
+    param: str
+    kind: str
+    given: float
+    used: float
+    max_v: float
+    reason: str
+
+
+def changed_arguments(rules: ChipRules, command: str, params: Iterable[str],
+                      operands: Iterable[object], max_v: float) -> Iterator[Changed]:
+    """The constant speed, acceleration and jerk arguments of one command (by short name)
+    that the chip holds as another value, with that value. Variables are not known."""
+    kinds = rules.parameters.get(command, {})
+    for index, (param, operand) in enumerate(zip(params, operands, strict=False)):
+        kind = kinds.get(param)
+        if kind is None or isinstance(operand, bool) or not isinstance(operand, int | float):
+            continue
+        value = abs(operand) if kind == "speed" else operand  # CONTINUE_MOVE's sign
+        used = rules.apply(kind, value, max_v)
+        if used != value and value > 0:
+            sign = -1 if operand < 0 else 1
+            yield Changed(index, param, kind, operand, sign * used, max_v,
+                          rules.why(kind, value, max_v))
+
+
+def shown(value: float) -> str:
+    """A value as a warning prints it: whole numbers without decimals."""
+    return str(int(value)) if float(value).is_integer() else f"{value:.3f}".rstrip("0")
+
+
+class _MaxV:
+    """The MAX_V of each axis as a straight reading of the source sets it: the INIT block's
+    (or the factory table's) at the start of every program, then each constant SET_MAX_V in
+    the order of the lines; a SET_MAX_V from a variable makes the axis's MAX_V unknown."""
+
+    def __init__(self, start: list[float | None]) -> None:
+        self.axes = list(start)
+        self.axis1 = 0  # the first assigned axis (AXIS_ASSIGN; X and Y at power on)
+
+    def see(self, command: str, params: dict[str, object]) -> None:
+        mask = params.get("axis")
+        if command == "SET_MAX_V" and isinstance(mask, int):
+            value = params.get("data")
+            for i in _axes_of(mask):
+                self.axes[i] = float(value) if isinstance(value, int | float) else None
+        elif command == "AXIS_ASSIGN" or command.endswith("_INITIAL"):
+            first = params.get("axis1")
+            if isinstance(first, int) and _axes_of(first):
+                self.axis1 = _axes_of(first)[0]
+
+    def of(self, params: dict[str, object]) -> list[float | None]:
+        """The MAX_V values that hold for a command's axes (its own, or axis 1's for a
+        vector setting)."""
+        for name in ("axis", "axis1"):
+            mask = params.get(name)
+            if isinstance(mask, int) and _axes_of(mask):
+                return [self.axes[i] for i in _axes_of(mask)]
+        return [self.axes[self.axis1]]
+
+
+def _axes_of(mask: int) -> list[int]:
+    return [i for i in range(4) if mask & 0xF & (1 << i)]
+
+
+def warn_changed(programs: Iterable[LoweredProgram], init: LoweredProgram | None,
+                 profile: Profile, sink: DiagnosticSink) -> None:
+    """W111: a constant speed, acceleration or jerk argument the chip will hold as another
+    value (clamped to its range, or stepped), with the value it will use."""
+    rules = ChipRules.from_profile(profile.raw)
+    factory = float(profile.raw["initial_table"]["factory"]["max_v"])
+    start: list[float | None] = [factory] * 4
+    if init is not None:
+        reading = _MaxV(start)
+        for line in init.lines:
+            reading.see(line.command.short_name, _named(line))
+        start = reading.axes
+    for program in [*([init] if init is not None else []), *programs]:
+        _warn_lines(program, list(start), rules, sink)
+
+
+def _named(line: MacroLine) -> dict[str, object]:
+    return {p.name: o for p, o in zip(line.command.params, line.operands, strict=False)}
+
+
+def _warn_lines(program: LoweredProgram, start: list[float | None], rules: ChipRules,
+                sink: DiagnosticSink) -> None:
+    reading = _MaxV(start)
+    for line in program.lines:
+        command = line.command.short_name
+        params = _named(line)
+        names = [p.name for p in line.command.params]
+        for max_v in dict.fromkeys(reading.of(params)):
+            if max_v is None:
+                continue
+            for change in changed_arguments(rules, command, names, line.operands, max_v):
+                what = command if change.param == "data" else f"{command} {change.param}"
+                sink.add("W111", line.span, f"{what}: the {change.kind} {shown(change.given)} "
+                         f"runs as {shown(change.used)} on the device ({change.reason})")
+        reading.see(command, params)
