@@ -8,7 +8,6 @@ the share of the temporary pool an MP or an ISR computes in.
 
 from __future__ import annotations
 
-import difflib
 import re
 from dataclasses import dataclass, field
 
@@ -337,6 +336,10 @@ def _named_variables(unit: ast.Unit) -> set[int]:
 
 
 def did_you_mean(name: str, candidates: list[str]) -> str:
+    """A hint for a misspelt name; difflib is imported here, by the first build that has
+    one, not by every start-up."""
+    import difflib
+
     close = difflib.get_close_matches(name.upper(), candidates, n=1, cutoff=0.6)
     return f"did you mean {close[0]}?" if close else ""
 

@@ -17,8 +17,12 @@ import hashlib
 from functools import cache
 from importlib import resources
 
-from mplang.lang import ast, caches, diagnostics, limits, parser, tokenizer
+from mplang.lang import ast, caches
 from mplang.lang.diagnostics import Diagnostic, DiagnosticSink
+
+KEYED_MODULES = ("ast", "diagnostics", "limits", "parser", "tokenizer")
+"""The modules of `mplang.lang` whose source is part of the key, named, not imported: the
+parser and tokenizer bring lark, which a run where every file hits needs never load."""
 
 FORMAT = "front 1"
 """Part of the key: change it when what an entry holds changes shape."""
@@ -31,8 +35,7 @@ def front_end_key() -> str:
     parts: list[bytes] = [FORMAT.encode(), resources.files("mplang.grammar")
                           .joinpath("mplang.lark").read_bytes()]
     package = resources.files("mplang.lang")  # read so, they are found in a wheel too
-    for module in (ast, diagnostics, limits, parser, tokenizer):
-        name = module.__name__.rsplit(".", 1)[1]
+    for name in KEYED_MODULES:
         try:
             parts.append(package.joinpath(name + ".py").read_bytes())
         except OSError:  # an install without sources: its version stands for them (STAMP)
@@ -49,7 +52,7 @@ def parse(text: str, display: str, sink: DiagnosticSink, *, store: bool = True,
     projects."""
     directory = caches.user_cache_dir()
     if directory is None:
-        return parser.parse_text(text, display, sink)
+        return _parse_text(text, display, sink)
     key = caches.digest(front_end_key(), display, text)
     name = hashlib.sha256(f"{where}\0{display}".encode("utf-8", "surrogatepass")
                           ).hexdigest()[:32]
@@ -61,10 +64,17 @@ def parse(text: str, display: str, sink: DiagnosticSink, *, store: bool = True,
             sink.add(item.code, item.span, item.message, item.hint, item.related)
         return statements  # type: ignore[no-any-return]
     scratch = DiagnosticSink()
-    statements = parser.parse_text(text, display, scratch)
+    statements = _parse_text(text, display, scratch)
     reported_now: list[Diagnostic] = scratch.items
     for item in reported_now:
         sink.add(item.code, item.span, item.message, item.hint, item.related)
     if store:
         caches.store(path, key, (statements, reported_now))
     return statements
+
+
+def _parse_text(text: str, display: str, sink: DiagnosticSink) -> list[ast.Statement]:
+    """`parser.parse_text`, its module (and lark with it) imported on the first miss only."""
+    from mplang.lang import parser
+
+    return parser.parse_text(text, display, sink)

@@ -22,13 +22,13 @@ import time
 from collections import deque
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, TypeAlias
 
 from pymodbus.client import AsyncModbusSerialClient, AsyncModbusTcpClient
 from pymodbus.constants import ExcCodes
 from pymodbus.exceptions import ConnectionException, ModbusException, ModbusIOException
 from pymodbus.framer import FramerRTU, FramerType
 from pymodbus.pdu import DecodePDU, ExceptionResponse, ModbusPDU
-from pymodbus.server import ModbusSerialServer, ModbusTcpServer
 from pymodbus.simulator import DataType, SimData, SimDevice
 
 from mplang.family.linkfail import connect_reason, listen_reason, serial_reason
@@ -55,7 +55,11 @@ from mplang.m8194h.sim.registers import (
     RegisterMap,
 )
 
-Server = ModbusTcpServer | ModbusSerialServer
+if TYPE_CHECKING:  # the servers are imported where one is started, not by every client
+    # (pymodbus.server brings its HTTP simulator and aiohttp: most of `mpc flash`'s start-up)
+    from pymodbus.server import ModbusSerialServer, ModbusTcpServer
+
+Server: TypeAlias = "ModbusTcpServer | ModbusSerialServer"
 """A running pymodbus server, as `serve_tcp` / `serve_rtu` return it."""
 PacketHook = Callable[[bool, bytes], bytes]
 """Sees every Modbus frame a server receives (False) or sends (True) and returns what goes
@@ -348,6 +352,8 @@ async def serve_tcp(face: DeviceFace, host: str, port: int,
     """Listen for Modbus TCP on host:port (port 0: any free port); return the server and the
     port it listens on. Every unit id is answered: the ET-M8194H is the only device there.
     OpenFailure says why it cannot listen (port in use, no such host, ...)."""
+    from pymodbus.server import ModbusTcpServer
+
     server = ModbusTcpServer(face.device(0), address=(host, port), trace_packet=trace_packet)
     server.decoder = DeviceDecoder(face)  # before any connection: each framer takes it
     face.registers.connections = lambda: len(server.active_connections)
@@ -361,6 +367,8 @@ async def serve_rtu(face: DeviceFace, port: str, unit: int = 1, baudrate: int = 
                     parity: str = "N", stopbits: int = 1,
                     trace_packet: PacketHook | None = None) -> ModbusSerialServer:
     """Answer Modbus RTU as slave `unit` on a serial port (or one end of a pty link)."""
+    from pymodbus.server import ModbusSerialServer
+
     silence = RtuSilence(unit)
     hook: PacketHook = silence
     if trace_packet is not None:

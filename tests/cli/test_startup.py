@@ -1,5 +1,7 @@
 """What `mpc` loads before it does anything: `--version` and `--help` nothing of the
-compiler, `mpc lint` not the virtual controller. Checked on the modules a fresh interpreter
+compiler, `mpc lint` not the virtual controller, a build whose every file hits the front
+cache not lark, `mpc flash` and `mpc status` not the Modbus server (nor aiohttp, which it
+brings), `mpc sim` not the monitor unless asked. Checked on the modules a fresh interpreter
 holds afterwards (what `python -X importtime` would show), never on time."""
 
 from __future__ import annotations
@@ -43,6 +45,67 @@ def test_lint_does_not_load_the_virtual_controller(tmp_path: Path) -> None:
     assert "mplang.m8194h.compiler" in loaded
     assert not [m for m in loaded if m.startswith(("mplang.m8194h.sim", "mplang.m8194h.run",
                                                    "pymodbus", "pygls"))]
+
+
+NEVER_FOR_A_BUILD = ("lark", "difflib", "pymodbus.server", "aiohttp", "mplang.cli.commands.monitor",
+                     "mplang.tools.monitor.server", "mplang.m8194h.debugger",
+                     "mplang.m8194h.run", "mplang.cli.commands.dap", "mplang.tools.dap")
+"""What `mpc lint` and `mpc flash --dry-run` whose files all hit the front cache, and `mpc
+status`, never need."""
+
+
+def _loaded(modules: set[str], prefixes: tuple[str, ...]) -> list[str]:
+    """The modules of `modules` that are one of `prefixes` or inside one."""
+    inside = tuple(prefix + "." for prefix in prefixes)
+    return sorted(m for m in modules if m in prefixes or m.startswith(inside))
+
+
+def _source(tmp_path: Path) -> Path:
+    """A clean file: no misspelt name, so no "did you mean" hint (which needs difflib)."""
+    source = tmp_path / "lean.mp"
+    source.write_text("VAR speed\nMP 1\n  speed = 2000\n  SET_V X, speed\nEND MP\n")
+    return source
+
+
+def test_lint_parses_with_lark_on_a_miss_and_without_it_on_a_hit(tmp_path: Path) -> None:
+    """The parser, and lark with it, is imported by the first run only: the second finds
+    every statement in the front cache (MPLANG_CACHE, set for the test session)."""
+    source = _source(tmp_path)
+    first = _modules_after("lint", str(source), cwd=tmp_path)
+    assert "lark" in first and "mplang.lang.parser" in first
+    again = _modules_after("lint", str(source), cwd=tmp_path)
+    assert "mplang.lang.frontcache" in again
+    assert _loaded(again, (*NEVER_FOR_A_BUILD, "mplang.lang.parser", "mplang.lang.tokenizer",
+                           "mplang.m8194h.sim", "pymodbus", "pygls")) == []
+
+
+def test_dry_run_flash_loads_the_client_only(tmp_path: Path) -> None:
+    """`mpc flash --dry-run` imports the downloader, whose Modbus module holds the server
+    too: the server's own imports wait for a server to start. The second run hits the front
+    cache."""
+    source = _source(tmp_path)
+    _modules_after("flash", str(source), "--dry-run", cwd=tmp_path)
+    loaded = _modules_after("flash", str(source), "--dry-run", cwd=tmp_path)
+    assert {"mplang.m8194h.flash.flasher", "mplang.m8194h.modbus", "pymodbus.client"} <= loaded
+    assert _loaded(loaded, NEVER_FOR_A_BUILD) == []
+
+
+def test_status_loads_no_server(tmp_path: Path) -> None:
+    """`mpc status` of a device that is not there: the client tries and fails (exit 7)."""
+    loaded = _modules_after("status", "--tcp", "127.0.0.1:1", "--timeout", "0.2",
+                            cwd=tmp_path)
+    assert "mplang.m8194h.status" in loaded
+    assert _loaded(loaded, NEVER_FOR_A_BUILD) == []
+
+
+def test_sim_without_monitor_loads_no_monitor(tmp_path: Path) -> None:
+    """`mpc sim` serves (so the Modbus server is there) but not the dashboard."""
+    source = _source(tmp_path)
+    loaded = _modules_after("sim", str(source), "--tcp", "127.0.0.1:0", "--duration", "0.2",
+                            cwd=tmp_path)
+    assert "pymodbus.server" in loaded
+    assert _loaded(loaded, ("mplang.cli.commands.monitor", "mplang.tools.monitor.server",
+                            "mplang.m8194h.debugger", "mplang.m8194h.live")) == []
 
 
 def test_help_lists_each_command_as_click_would() -> None:

@@ -33,10 +33,8 @@ from mplang.family.face import (
     ServiceError,
     WatchJob,
 )
+from mplang.tools.monitor import DEFAULT_PORT as DEFAULT_PORT
 from mplang.tools.project import Target
-
-DEFAULT_PORT = 8194
-"""Where the dashboard listens unless --port says otherwise (on 127.0.0.1)."""
 
 
 def require_aiohttp(command: str) -> None:

@@ -10,7 +10,6 @@ from pathlib import Path
 import click
 
 from mplang.cli import style
-from mplang.cli.commands.monitor import DEFAULT_PORT, dashboard, refuse_family, require_aiohttp
 from mplang.cli.common import (
     EXIT_NO_INPUT,
     EXIT_RUN_FAILED,
@@ -26,6 +25,7 @@ from mplang.cli.common import (
 )
 from mplang.cli.families import build_checked, machine_for, refuse_options, select
 from mplang.cli.shell import complete_paths
+from mplang.tools.monitor import DEFAULT_PORT
 
 
 @click.command("sim", short_help="Serve a virtual M8194H over Modbus TCP and/or RTU.")
@@ -103,6 +103,8 @@ def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | N
             target, word_order, temp_vars, allow_outside_includes), werror, None)
         build = build_checked(selection, setup)
     if monitor_port is not None:
+        from mplang.cli.commands.monitor import dashboard, refuse_family, require_aiohttp
+
         if family.watch is None:
             refuse_family(family, "mpc sim --monitor")
         require_aiohttp("mpc sim --monitor")

@@ -5,3 +5,7 @@ JSON (`GET /api/state`) and a WebSocket of updates (`/ws`) with aiohttp; the pag
 JavaScript and CSS are package data in `assets/`, served from here, so nothing is fetched
 from the network at run time.
 """
+
+DEFAULT_PORT = 8194
+"""Where the dashboard listens unless --port says otherwise (on 127.0.0.1); here, not in the
+command, so that `mpc sim` names it in its help without importing the monitor."""
