@@ -23,6 +23,7 @@ from mplang.cli.common import (
 from mplang.cli.families import choose, watched_run
 from mplang.cli.runwatch import exit_code, given, max_time_option, out_of_time_hint
 from mplang.cli.shell import complete_paths
+from mplang.cli.style import quiet_option
 
 if TYPE_CHECKING:
     from mplang.family.trace import Trace
@@ -81,6 +82,7 @@ def check_output_place(output: Path) -> None:
 @max_time_option
 @machine_option
 @project_option
+@quiet_option
 @with_common
 @click.pass_context
 @guarded

@@ -27,6 +27,7 @@ from mplang.cli.runwatch import (
     out_of_time_hint,
 )
 from mplang.cli.shell import complete_paths
+from mplang.cli.style import quiet_option
 
 if TYPE_CHECKING:
     from mplang.family.trace import Trace
@@ -61,6 +62,7 @@ def check_trace_place(trace_file: str) -> None:
               "[default: 0.001; motion ends are sampled too].")
 @machine_option
 @project_option
+@quiet_option
 @with_common
 @click.pass_context
 @guarded
