@@ -249,3 +249,31 @@ def test_a_mistyped_command_gets_a_suggestion() -> None:
     assert "No such command 'biuld'; did you mean 'build'?" in done.stderr
     done = mpc("xyzzy")
     assert done.returncode == EXIT_USAGE and "did you mean" not in done.stderr
+
+
+# ----------------------------------------------------------------------------- paths
+
+
+def test_every_format_names_an_included_file_by_one_normalised_path(tmp_path: Path) -> None:
+    """`cell one/main.mp` INCLUDEs "../lib/common.mp": text, JSON, GitHub and SARIF all say
+    `lib/common.mp`, never `cell one/../lib/common.mp`."""
+    import json
+
+    (tmp_path / "mpc.toml").write_text("")
+    (tmp_path / "lib").mkdir()
+    (tmp_path / "lib" / "common.mp").write_text("MP helper\n    FIXD_MOVE X, 1\nEND MP\n")
+    cell = tmp_path / "cell one"
+    cell.mkdir()
+    (cell / "main.mp").write_text('INCLUDE "../lib/common.mp"\nMP main\n    VAR1 = 1\nEND MP\n')
+    text = mpc("lint", "cell one/main.mp", cwd=tmp_path).stdout
+    assert text.startswith("lib/common.mp:2:5: error[E201]") and "/../" not in text
+    (found,) = json.loads(mpc("lint", "--format", "json", "cell one/main.mp",
+                              cwd=tmp_path).stdout)
+    assert found["file"] == "lib/common.mp"
+    assert "file=lib/common.mp,line=2" in mpc("lint", "--format", "github", "cell one/main.mp",
+                                              cwd=tmp_path).stdout
+    sarif = json.loads(mpc("lint", "--format", "sarif", "cell one/main.mp",
+                           cwd=tmp_path).stdout)
+    (result,) = sarif["runs"][0]["results"]
+    location = result["locations"][0]["physicalLocation"]["artifactLocation"]
+    assert location["uri"] == "lib/common.mp"
