@@ -17,6 +17,7 @@ from typing import Any, Protocol, TypeVar
 import click
 
 from mplang.cli import style
+from mplang.cli.shell import complete_targets
 from mplang.family.registry import DEFAULT_TARGET, known_targets
 from mplang.ir.unit import DEFAULT_TEMPS, Options
 from mplang.lang import caches
@@ -365,7 +366,8 @@ def device_options(serial_help: str, to_help: str) -> Callable[[F], F]:
                      help="Modbus unit id: the RTU slave address (the ET-M8194H answers as "
                      "1)."),
         with_serial_line,
-        click.option("--to", "to", default=None, metavar="NAME", help=to_help),
+        click.option("--to", "to", default=None, metavar="NAME", help=to_help,
+                     shell_complete=complete_targets),
     ]
 
     def decorate(func: F) -> F:

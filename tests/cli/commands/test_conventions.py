@@ -22,11 +22,17 @@ WARNING = "MP main\n    FOR 0\n        VAR1 = 1\n    NEXT\nEND MP\n"  # W102: ne
 
 
 def mpc(*args: object, cwd: Path | None = None, stdin: str | None = None,
-        env: dict[str, str] | None = None) -> subprocess.CompletedProcess[str]:
+        env: dict[str, str] | None = None, complete_as: str | None = None
+        ) -> subprocess.CompletedProcess[str]:
+    """The real process; `complete_as`: run as click's completion of that program name."""
     environment = {k: v for k, v in os.environ.items()
                    if k not in ("NO_COLOR", "FORCE_COLOR", "TERM")}
     environment.update(env or {})
-    return subprocess.run([sys.executable, "-m", "mplang", *map(str, args)], cwd=cwd,
+    command = [sys.executable, "-m", "mplang", *map(str, args)]
+    if complete_as is not None:
+        command = [sys.executable, "-c", "import sys; from mplang.cli import main; "
+                   f"sys.exit(main(prog_name={complete_as!r}))"]
+    return subprocess.run(command, cwd=cwd,
                           input=stdin if stdin is not None else "", capture_output=True,
                           text=True, env=environment, timeout=120)
 
@@ -277,3 +283,31 @@ def test_every_format_names_an_included_file_by_one_normalised_path(tmp_path: Pa
     (result,) = sarif["runs"][0]["results"]
     location = result["locations"][0]["physicalLocation"]["artifactLocation"]
     assert location["uri"] == "lib/common.mp"
+
+
+# ----------------------------------------------------------------------------- completion
+
+
+def complete(words: str, cwd: Path) -> list[str]:
+    """What bash completion offers for the last word of `words`, from the real `mpc` (as
+    `mpc completion bash` sets it up: the variable is `_MPC_COMPLETE`)."""
+    done = mpc(cwd=cwd, complete_as="mpc",
+               env={"_MPC_COMPLETE": "bash_complete", "COMP_WORDS": words,
+                    "COMP_CWORD": str(len(words.split(" ")) - 1)})
+    assert done.returncode == EXIT_OK, done.stderr
+    return [line.split(",", 1)[1] for line in done.stdout.splitlines() if line]
+
+
+def test_call_completes_program_names_and_to_completes_targets(tmp_path: Path) -> None:
+    (tmp_path / "mpc.toml").write_text('[project]\nsources = ["cycle.mp"]\n\n'
+                                       '[targets.cell1]\ntcp = "192.168.0.16"\n'
+                                       '[targets.glue]\nserial = "/dev/ttyUSB0"\n')
+    (tmp_path / "cycle.mp").write_text("MP 96 cycle\n    CALL prep\nEND MP\n\n"
+                                       "MP prep\n    VAR1 = 1\nEND MP\n\nISR 2 on_stop\nEND ISR\n")
+    (tmp_path / "other.mp").write_text("MP 7 other_main\nEND MP\n")
+    assert complete("mpc run --call ", tmp_path) == ["MP96", "cycle", "prep"]
+    assert complete("mpc plot --call c", tmp_path) == ["cycle"]
+    assert complete("mpc run other.mp --call ", tmp_path) == ["MP7", "other_main"]
+    assert complete("mpc flash --to ", tmp_path) == ["cell1", "glue"]
+    assert complete("mpc status --to g", tmp_path) == ["glue"]
+    assert complete("mpc flash --to ", tmp_path / "..") == []  # no project: nothing offered
