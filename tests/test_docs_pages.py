@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-PAGES = sorted((ROOT / "docs").rglob("*.md")) + [ROOT / "README.md"]
+PAGES = [*sorted((ROOT / "docs").rglob("*.md")), ROOT / "README.md"]
 TOP_FOLDERS = ("docs/", "mplang/", "stdlib/", "samples/", "tests/", "editors/", "grammar/",
                "bench/")
 FENCE = re.compile(r"^ {0,3}(`{3,}|~{3,})")
