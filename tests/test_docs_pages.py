@@ -88,3 +88,21 @@ def test_the_checks_have_teeth() -> None:
     assert unbalanced_fence("text\n```toml\na = 1\n```\nmore\n```\nopen\n") == 6
     assert unbalanced_fence("````\n```\nstill code\n````\n") is None
     assert not exists("docs/no-such-page.md") and exists("docs/image.md")
+
+
+MP_BLOCK = re.compile(r"^```mp\n(.*?)^```$", re.DOTALL | re.MULTILINE)
+
+
+@pytest.mark.parametrize("page", PAGES, ids=[str(p.relative_to(ROOT)) for p in PAGES])
+def test_mp_examples_are_laid_out_as_mpc_fmt_lays_them_out(page: Path) -> None:
+    """The docs show what `mpc fmt` writes (no hand-aligned `=` or comment columns that the
+    formatter would undo); a block with syntax errors on purpose is left out."""
+    from mplang.tools.fmt import SourceNotFormattable, format_source
+
+    for match in MP_BLOCK.finditer(page.read_text(encoding="utf-8")):
+        block = match.group(1)
+        try:
+            formatted = format_source(block)
+        except SourceNotFormattable:
+            continue
+        assert formatted == block, f"{page.relative_to(ROOT)}: an example mpc fmt would change"
