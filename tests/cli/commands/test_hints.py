@@ -118,3 +118,21 @@ def test_status_of_a_preloaded_sim_says_unknown_for_every_slot(tmp_path: Path) -
     finally:
         proc.terminate()
         proc.wait(10)
+
+
+def test_plot_past_max_time_exits_as_the_docs_say(tmp_path: Path) -> None:
+    """docs/cli.md gives the exit code of `mpc plot` past --max-time; the process agrees."""
+    import re
+
+    from mplang.cli.runwatch import EXIT_OUT_OF_TIME
+
+    docs = (Path(__file__).resolve().parents[3] / "docs" / "cli.md").read_text()
+    plot = docs.split("## `mpc plot", 1)[1].split("\n## ", 1)[0]
+    stated = re.search(r"(\d+) out of\s+`--max-time`", plot)
+    assert stated is not None and int(stated.group(1)) == EXIT_OUT_OF_TIME
+    (tmp_path / "spin.mp").write_text("MP 1 spin\n    VAR1 = 0\n    LABEL again\n"
+                                      "    VAR1 = VAR1 + 1\n    GOTO again\nEND MP\n")
+    done = mpc(tmp_path, "plot", "spin.mp", "-o", "spin.png", "--max-time", "0.2",
+               "--isolated")
+    assert done.returncode == EXIT_OUT_OF_TIME, done.stderr
+    assert "error[R202]" in done.stderr and (tmp_path / "spin.png").is_file()
