@@ -202,6 +202,29 @@ def test_quiet_drops_summaries_and_progress_but_not_the_report(tmp_path: Path) -
     assert done.returncode == EXIT_OK and "finished" in done.stdout
 
 
+def test_quiet_flash_prints_nothing_but_errors(tmp_path: Path) -> None:
+    """A flash to a virtual controller: its narration without -q, none with it; an error
+    (nothing listening) is still said."""
+    from simproc import start_sim
+
+    source = tmp_path / "job.mp"
+    source.write_text(FIXED)
+    proc, port = start_sim("--duration", "60")
+    try:
+        loud = mpc("flash", source, "--tcp", f"127.0.0.1:{port}", "--record",
+                   tmp_path / "r.json", "--force")
+        assert loud.returncode == EXIT_OK and "mpc flash: " in loud.stderr
+        quiet = mpc("-q", "flash", source, "--tcp", f"127.0.0.1:{port}", "--record",
+                    tmp_path / "r.json", "--force")
+        assert (quiet.returncode, quiet.stderr) == (EXIT_OK, "")
+    finally:
+        proc.terminate()
+        proc.wait(10)
+    refused = mpc("flash", "-q", source, "--tcp", f"127.0.0.1:{port}", "--record",
+                  tmp_path / "r.json", "--force")
+    assert refused.returncode != EXIT_OK and "error" in refused.stderr
+
+
 def test_werror_summary_says_why_the_check_fails(tmp_path: Path) -> None:
     source = tmp_path / "warn.mp"
     source.write_text(WARNING)
