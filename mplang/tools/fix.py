@@ -17,7 +17,7 @@ from pathlib import Path
 
 from mplang.tools.lsp.analysis import Analysis, analyse
 from mplang.tools.lsp.editing import TextEdit, quick_fixes
-from mplang.tools.lsp.positions import Pos, Range, split_lines
+from mplang.tools.lsp.positions import Pos, Range
 from mplang.tools.lsp.workspace import BuildContext, context_for
 
 MAX_PASSES = 8
@@ -32,9 +32,10 @@ class Fixed:
 
 
 def _offsets(text: str) -> list[int]:
-    """The offset of each line's start, as `split_lines` splits them (at "\n")."""
+    """The offset of each line's start, lines split at "\n" as `split_lines` splits them
+    (a CR before the LF stays part of its line here, so CRLF text keeps its endings)."""
     starts = [0]
-    for line in split_lines(text)[:-1]:
+    for line in text.split("\n")[:-1]:
         starts.append(starts[-1] + len(line) + 1)
     return starts
 

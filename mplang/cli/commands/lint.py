@@ -159,7 +159,7 @@ def _fix_files(paths: list[Path], show_diff: bool) -> bool:
         if path.suffix.lower() != ".mp":
             continue  # native listings have no fixes
         try:
-            text = path.read_text(encoding="utf-8")
+            text = path.read_bytes().decode("utf-8")  # line endings as they are
         except (OSError, UnicodeDecodeError):
             continue  # the check reports it (E102 / E105)
         fixed = fix_text(path, text)

@@ -72,14 +72,14 @@ def register_editing(server: MpLanguageServer, guarded: Callable[[Any], Any]) ->
         `mpc lint --fix` writes), or None when there is nothing to fix."""
         from mplang.tools.fix import fix_text
 
-        text = "\n".join(analysis.lines)
+        text = server.document_text(uri)  # as the editor holds it, CRLF kept
         path = server.document_path(uri)
         others = {server.document_path(u).resolve(): server.document_text(u)
                   for u in server.analyses if u != uri and server.is_open(u)}
         fixed = fix_text(path, text, context_for(path, server.overrides), others)
         if fixed.text == text:
             return None
-        lines = analysis.lines
+        lines = split_lines(text)
         whole = Range(Pos(0, 0), Pos(len(lines) - 1, len(lines[-1])))
         edit = lsp.WorkspaceEdit(changes={uri: text_edits(lines, [
             editing.TextEdit(whole, fixed.text)])})

@@ -118,6 +118,13 @@ def test_lint_fix_applies_the_preferred_fixes_in_place(tmp_path: Path) -> None:
     assert (done.returncode, done.stdout) == (EXIT_OK, "")  # nothing left to fix
 
 
+def test_lint_fix_keeps_crlf_line_endings(tmp_path: Path) -> None:
+    source = tmp_path / "dos.mp"
+    source.write_bytes(MISSPELT.replace("\n", "\r\n").encode())
+    assert mpc("lint", "--fix", source).returncode == EXIT_OK
+    assert source.read_bytes() == FIXED.replace("\n", "\r\n").encode()
+
+
 def test_lint_fix_leaves_what_has_no_preferred_fix_and_reports_it(tmp_path: Path) -> None:
     source = tmp_path / "prog.mp"
     source.write_text(WARNING)  # a warning's only fix is an ignore comment: never preferred
