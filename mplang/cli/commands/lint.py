@@ -74,9 +74,9 @@ def command(ctx: click.Context, files: tuple[str, ...], fmt: str, output: str | 
     known: dict[str, Sequence[str]] = {}
     setups: list[tuple[BuildSetup, dict[Path, str] | None]]
     if files == (STDIN,):
-        setup, texts, _ = _stdin_build(ctx, stdin_filename, project_file, target,
-                                          word_order, temp_vars, allow_outside_includes,
-                                          werror, fix or show_diff)
+        setup, texts = _stdin_build(ctx, stdin_filename, project_file, target, word_order,
+                                    temp_vars, allow_outside_includes, werror,
+                                    fix or show_diff)
         if texts is None:
             sys.exit(EXIT_SOURCE_ERRORS)
         setups = [(setup, texts)]
@@ -120,16 +120,16 @@ def command(ctx: click.Context, files: tuple[str, ...], fmt: str, output: str | 
 def _stdin_build(ctx: click.Context, name: str | None, project_file: Path | None,
                  target: str, word_order: str | None, temp_vars: range,
                  allow_outside_includes: bool, werror: bool, fix: bool
-                 ) -> tuple[BuildSetup, dict[Path, str] | None, str]:
-    """`mpc lint -`: the build standard input is checked in (as the file `name`), the text
-    standing for that file (None when it is no UTF-8: E105 reported), and its name. With
+                 ) -> tuple[BuildSetup, dict[Path, str] | None]:
+    """`mpc lint -`: the build standard input is checked in (as the file `name`), and the
+    text standing for that file (None when it is no UTF-8: E105 reported). With
     `fix`, the fixed text is what is checked, and it is printed (or its diff)."""
     display = name or STDIN_NAME
     setup = stdin_setup(ctx, display, project_file, target, word_order, temp_vars,
                         allow_outside_includes, werror)
     text = decode_source(sys.stdin.buffer.read(), display)
     if text is None:
-        return setup, None, display
+        return setup, None
     if fix:
         from mplang.tools.fix import fix_text
 
@@ -144,7 +144,7 @@ def _stdin_build(ctx: click.Context, name: str | None, project_file: Path | None
         sys.stdout.buffer.flush()
         text = fixed
     # the loader looks a file up by the path as given; the filter below by resolved path
-    return setup, {Path(display): text, Path(display).resolve(): text}, display
+    return setup, {Path(display): text, Path(display).resolve(): text}
 
 
 def _fix_files(paths: list[Path], show_diff: bool) -> bool:
