@@ -25,8 +25,8 @@ demo: $(STAMP)
 	mkdir -p build
 	$(BIN)/mpc build samples/*.mp -o build/samples.image.json
 	@echo "image written to build/samples.image.json"
-	$(BIN)/mpc run samples/*.mp --call home_then_square
-	$(BIN)/mpc run samples/*.mp --call tour --json
+	$(BIN)/mpc run samples/home_then_square.mp --call home_then_square
+	$(BIN)/mpc run samples/tour.mp --call tour --json
 
 test: $(STAMP) tools lint
 	$(BIN)/python -m pytest

@@ -13,6 +13,8 @@ from pathlib import Path
 
 import pytest
 
+from mplang.tools import report
+
 ROOT = Path(__file__).resolve().parent.parent
 
 
@@ -83,11 +85,10 @@ def test_wheel_ships_the_check_and_runtime_pages(wheel: Path, tmp_path: Path) ->
                     "--target", str(target), str(wheel)], check=True, capture_output=True)
     script = (
         "import json, sys\n"
-        "from mplang.tools.report import check_page, information_page, render_sarif\n"
+        "from mplang.tools.report import check_page, render_sarif\n"
         "from mplang.lang.diagnostics import Diagnostic, Severity, Span\n"
         "page = check_page('E201')\n"
         "assert page is not None and str(page).startswith(sys.argv[1]), page\n"
-        "assert information_page() is not None\n"
         "d = Diagnostic('E201', Severity.ERROR, 'unknown command', Span('a.mp', 1, 1, 3))\n"
         "rule = json.loads(render_sarif([d]))['runs'][0]['tool']['driver']['rules'][0]\n"
         "print(rule['helpUri'])\n"
@@ -96,7 +97,7 @@ def test_wheel_ships_the_check_and_runtime_pages(wheel: Path, tmp_path: Path) ->
                           env={"PYTHONPATH": str(target), "PATH": "/usr/bin:/bin"},
                           capture_output=True, text=True, check=False)
     assert proc.returncode == 0, proc.stderr
-    assert proc.stdout.strip() == (target / "mplang/docs/checks/E201.md").as_uri()
+    assert proc.stdout.strip() == report.docs_url("checks/E201.md")  # public, not site-packages
 
 
 def test_wheel_metadata_lsp_extra(wheel: Path) -> None:

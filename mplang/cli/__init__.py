@@ -44,7 +44,7 @@ import click
 
 from mplang import __version__
 from mplang.cli import commands
-from mplang.cli.style import COLOR_CHOICES, error, set_color
+from mplang.cli.style import COLOR_CHOICES, error, quiet_option, set_color
 
 EXIT_BROKEN_PIPE = 141
 """128 + SIGPIPE: what a shell reports for a program that stopped because its reader left."""
@@ -126,6 +126,20 @@ class CommandPackage(click.Group):
         command: click.Command = module.command
         return command
 
+    def resolve_command(self, ctx: click.Context, args: list[str]
+                        ) -> tuple[str | None, click.Command | None, list[str]]:
+        """click's, with a did-you-mean for a mistyped command (`mpc biuld`: "did you mean
+        'build'?"), as git and cargo answer."""
+        name = args[0] if args else ""
+        if args and not name.startswith("-") and self.get_command(ctx, name) is None:
+            import difflib
+
+            close = difflib.get_close_matches(name, self.list_commands(ctx), n=3, cutoff=0.6)
+            if close:
+                meant = " or ".join(f"'{c}'" for c in close)
+                ctx.fail(f"No such command '{name}'; did you mean {meant}?")
+        return super().resolve_command(ctx, args)
+
     def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
         """`mpc --help`'s list of commands, as click writes it, with each command's
         `short_help` read from its module's text instead of importing every command (and
@@ -189,6 +203,7 @@ def _quiet_broken_pipe() -> None:
 @click.version_option(__version__, prog_name="mpc")
 @click.option("--color", type=click.Choice(COLOR_CHOICES), default="auto", show_default=True,
               help="Colour: on a terminal (auto, and never with NO_COLOR set), always, never.")
+@quiet_option
 @click.pass_context
 def main(ctx: click.Context, color: str) -> None:
     """mpc: compile, check, run and download M8194H macro programs (.mp), and FATEK

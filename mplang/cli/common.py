@@ -17,10 +17,17 @@ from typing import Any, Protocol, TypeVar
 import click
 
 from mplang.cli import style
+from mplang.cli.shell import complete_targets
 from mplang.family.registry import DEFAULT_TARGET, known_targets
 from mplang.ir.unit import DEFAULT_TEMPS, Options
 from mplang.lang import caches
-from mplang.lang.diagnostics import Diagnostic, Severity, without_ignored
+from mplang.lang.diagnostics import (
+    Diagnostic,
+    DiagnosticSink,
+    Severity,
+    Span,
+    without_ignored,
+)
 from mplang.tools import project as project_module
 
 EXIT_OK = 0
@@ -204,6 +211,59 @@ def write_output(text: str, output: str | None) -> None:
         raise OutputError(f"cannot write {output}: {exc.strerror or exc}") from None
 
 
+STDIN = "-"
+"""A FILE argument that means standard input (`mpc lint -`, `mpc fmt -`)."""
+STDIN_NAME = "<stdin>"
+"""What messages call standard input without `--stdin-filename`."""
+
+stdin_filename_option = click.option(
+    "--stdin-filename", default=None, metavar="PATH",
+    help="With '-': the file standard input stands for; messages name it, its INCLUDEs are "
+    "relative to it, and the mpc.toml nearest it applies (as editors lint unsaved buffers).")
+
+
+def decode_source(data: bytes, display: str) -> str | None:
+    """UTF-8 text, or None after the compiler's E105 diagnostic for anything else."""
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        sink = DiagnosticSink()
+        sink.add("E105", Span(display, 1), f"{display} is not UTF-8 text ({exc.reason})")
+        style.report_diagnostics(sink.items)
+        return None
+
+
+def stdin_project(ctx: click.Context, name: str | None, project_file: Path | None
+                  ) -> project_module.Project | None:
+    """The project file standard input is read under: `--project FILE`, none with
+    `--isolated`, else the mpc.toml nearest `--stdin-filename` (without it: nearest here)."""
+    if project_file is not None and isolated(ctx):
+        raise click.UsageError("give --project FILE or --isolated, not both")
+    if project_file is not None:
+        return load_project_file(project_file)
+    if isolated(ctx):
+        return None
+    folder = Path(name).parent if name else Path.cwd()
+    found = project_module.find_project(folder.resolve())
+    return None if found is None else load_project_file(Path(os.path.relpath(found)))
+
+
+def stdin_setup(ctx: click.Context, name: str, project_file: Path | None, target: str,
+                word_order: str | None, temp_vars: range, allow_outside_includes: bool,
+                werror: bool) -> BuildSetup:
+    """The build standard input is checked in as if it were the file `name`: with the other
+    sources of its project when the project lists it (as the language server checks a
+    buffer), else alone; the project's settings apply either way."""
+    path = Path(name)
+    project = stdin_project(ctx, name, project_file)
+    paths = [path]
+    if project is not None and path.resolve() in {p.resolve() for p in project.sources}:
+        paths = [path if p.resolve() == path.resolve() else Path(os.path.relpath(p))
+                 for p in project.sources]
+    return _setup(ctx, paths, project, target, word_order, temp_vars, allow_outside_includes,
+                  werror, keep_pins=False)
+
+
 class HasDiagnostics(Protocol):
     """A build of any controller family: the M8194H's BuildResult or a FamilyBuild."""
 
@@ -218,7 +278,7 @@ def report(result: HasDiagnostics, werror: bool, ignore: frozenset[str] = frozen
     diagnostics = without_ignored(result.diagnostics, ignore)
     style.report_diagnostics(diagnostics)
     if diagnostics:
-        style.echo_summary(diagnostics)
+        style.echo_summary(diagnostics, werror)
     errors = sum(1 for d in diagnostics if d.severity is Severity.ERROR)
     warnings = len(diagnostics) - errors
     if errors or (werror and warnings):
@@ -237,8 +297,10 @@ class DeviceUI:
         self.werror = werror
 
     def say(self, text: str) -> None:
-        from mplang.cli.progress import narration
+        from mplang.cli.progress import is_error, narration
 
+        if style.quiet() and not is_error(text):
+            return  # `--quiet`: errors only
         click.echo(narration(self.command, text), err=True)
 
     def out(self, text: str) -> None:
@@ -335,7 +397,8 @@ def device_options(serial_help: str, to_help: str) -> Callable[[F], F]:
                      help="Modbus unit id: the RTU slave address (the ET-M8194H answers as "
                      "1)."),
         with_serial_line,
-        click.option("--to", "to", default=None, metavar="NAME", help=to_help),
+        click.option("--to", "to", default=None, metavar="NAME", help=to_help,
+                     shell_complete=complete_targets),
     ]
 
     def decorate(func: F) -> F:

@@ -70,11 +70,16 @@ class Selection:
     native: bool
     paths: list[Path]
 
-    def build(self, options: Options) -> FamilyBuild:
+    def build(self, options: Options, texts: dict[Path, str] | None = None) -> FamilyBuild:
+        """The build; `texts` (by resolved path) stand for files (`mpc lint -`): only
+        `.mp` sources can be read so, a native listing is refused."""
         if self.native:
+            if texts:
+                raise click.UsageError(f"{_names(self.paths)}: {self.family.TITLE} listings "
+                                       "are not read from standard input; name the file")
             return self.family.check_native(self.paths, self.target)
         assert self.target is not None
-        return self.family.compile_mp(self.paths, options, self.target)
+        return self.family.compile_mp(self.paths, options, self.target, texts=texts)
 
     @property
     def describe(self) -> str:

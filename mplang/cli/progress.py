@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Protocol, TextIO
 
 import click
 
-from mplang.cli.style import redraw
+from mplang.cli.style import quiet, redraw
 
 if TYPE_CHECKING:
     from click._termui_impl import ProgressBar
@@ -64,7 +64,7 @@ class FlashDisplay:
                  tty: bool | None = None, prefix: str = "mpc flash") -> None:
         self.reports = reports
         self.stream = stream if stream is not None else sys.stderr
-        self.tty = self.stream.isatty() if tty is None else tty
+        self.tty = (self.stream.isatty() and not quiet()) if tty is None else tty
         self.prefix = prefix
         self.started = time.monotonic()
         self._bar_shown = False
@@ -73,6 +73,8 @@ class FlashDisplay:
     def say(self, text: str) -> None:
         """An event worth a line of its own (a program verified, a note, an error); after
         `finish` (the summary) the bar is not drawn again."""
+        if quiet() and not is_error(text):
+            return
         self._clear()
         self.stream.write(narration(self.prefix, text) + "\n")
         if self._finished:
@@ -125,6 +127,11 @@ class FlashDisplay:
 
 
 _LOCATED = re.compile(r"^[^\s:][^:]*(?::\d+(?::\d+)?)?: error: ")
+
+
+def is_error(text: str) -> bool:
+    """A flash line that reports an error: shown even under `--quiet`."""
+    return bool(_LOCATED.match(text)) or text.startswith("error: ")
 
 
 def narration(prefix: str, text: str) -> str:

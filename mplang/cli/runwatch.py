@@ -28,7 +28,7 @@ from typing import Any, TextIO, TypeVar
 import click
 
 from mplang.cli.common import EXIT_RUN_FAILED
-from mplang.cli.style import CLEAR_LINE, redraw
+from mplang.cli.style import CLEAR_LINE, quiet, redraw
 from mplang.family.run_error import SourcePlace
 from mplang.family.watch import Where
 
@@ -91,7 +91,8 @@ class RunWatch:
                  tty: bool | None = None) -> None:
         self.prefix = prefix
         self.stream = stream if stream is not None else sys.stderr
-        self.tty = self.stream.isatty() if tty is None else tty
+        # `--quiet`: no status line, as in a pipe
+        self.tty = (self.stream.isatty() and not quiet()) if tty is None else tty
         self.started = time.monotonic()
         self.next_draw = self.started + FIRST_DRAW_S
         self.interrupted = False

@@ -32,8 +32,10 @@ def set_color(ctx: click.Context, mode: str) -> None:
 
 
 def color_enabled(stream: TextIO | None = None, err: bool = True) -> bool:
-    """`--color always` colours even a pipe; `never` and `NO_COLOR` (any value but empty,
-    see no-color.org) never; `auto` only a terminal."""
+    """`--color always` colours even a pipe; `never` never; under `auto`, the conventions
+    other tools keep: `NO_COLOR` (any value but empty, no-color.org) never, then
+    `FORCE_COLOR` (any value but empty or `0`, force-color.org) always, as a CI log wants,
+    then `TERM=dumb` never (a terminal without escape sequences), else only a terminal."""
     ctx = click.get_current_context(silent=True)
     mode = ctx.meta.get(_META_KEY, "auto") if ctx is not None else "auto"
     if mode == "never":
@@ -41,6 +43,10 @@ def color_enabled(stream: TextIO | None = None, err: bool = True) -> bool:
     if mode == "always":
         return True
     if os.environ.get("NO_COLOR"):
+        return False
+    if os.environ.get("FORCE_COLOR", "0") not in ("", "0"):
+        return True
+    if os.environ.get("TERM") == "dumb":
         return False
     return is_terminal(stream if stream is not None else
                        (sys.stderr if err else sys.stdout))
@@ -153,8 +159,13 @@ def _excerpt(file: str, number: int, col: int, end_col: int | None, sources: Sou
             f" {gutter} {bar} {' ' * (start - 1)}{carets}"]
 
 
-def summary(diagnostics: Sequence[Diagnostic]) -> str:
-    """`2 errors, 1 warning in 3 files`: the files are those with a finding."""
+WERROR_REASON = "failed: warnings are errors here (--werror, or werror = true in mpc.toml)"
+"""Why a check with warnings alone fails: said, not left to the exit code."""
+
+
+def summary(diagnostics: Sequence[Diagnostic], werror: bool = False) -> str:
+    """`2 errors, 1 warning in 3 files`: the files are those with a finding. With `werror`
+    and warnings but no error, the line ends saying why the check fails."""
     errors = sum(1 for d in diagnostics if d.severity is Severity.ERROR)
     warnings = len(diagnostics) - errors
     files = len({d.span.file for d in diagnostics})
@@ -162,16 +173,45 @@ def summary(diagnostics: Sequence[Diagnostic]) -> str:
     def count(n: int, word: str) -> str:
         return f"{n} {word}{'' if n == 1 else 's'}"
 
-    return f"{count(errors, 'error')}, {count(warnings, 'warning')} in {count(files, 'file')}"
+    line = f"{count(errors, 'error')}, {count(warnings, 'warning')} in {count(files, 'file')}"
+    return f"{line}; {WERROR_REASON}" if werror and warnings and not errors else line
 
 
-def echo_summary(diagnostics: Sequence[Diagnostic]) -> None:
-    """The summary on standard error, bold (red with an error) on a terminal."""
-    errors = any(d.severity is Severity.ERROR for d in diagnostics)
-    echo(_paint(summary(diagnostics), color_enabled(), "red" if errors else None, True))
+def echo_summary(diagnostics: Sequence[Diagnostic], werror: bool = False) -> None:
+    """The summary on standard error, bold (red when it fails) on a terminal; nothing
+    under `--quiet`."""
+    if quiet():
+        return
+    failed = any(d.severity is Severity.ERROR for d in diagnostics) or (
+        werror and bool(diagnostics))
+    echo(_paint(summary(diagnostics, werror), color_enabled(), "red" if failed else None,
+                True))
+
+
+_QUIET_KEY = "mpc.quiet"
+
+
+def _note_quiet(ctx: click.Context, _param: click.Parameter, value: bool) -> bool:
+    if value:
+        ctx.meta[_QUIET_KEY] = True
+    return value
+
+
+quiet_option = click.option(
+    "-q", "--quiet", is_flag=True, expose_value=False, callback=_note_quiet,
+    help="Print no progress and no summary: only the report, the output and errors.")
+"""`-q/--quiet` of every command that prints progress or a summary (`quiet()` reads it)."""
+
+
+def quiet() -> bool:
+    """Whether `-q/--quiet` was given (to the command, or to `mpc` before it)."""
+    ctx = click.get_current_context(silent=True)
+    return bool(ctx is not None and ctx.meta.get(_QUIET_KEY))
 
 
 def all_checks_passed() -> None:
+    if quiet():
+        return
     echo(_paint("All checks passed", color_enabled(), "green", True))
 
 

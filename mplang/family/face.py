@@ -460,7 +460,11 @@ class Family(Protocol):
 
     def check_native(self, paths: list[Path], target: str | None = None) -> FamilyBuild: ...
 
-    def compile_mp(self, paths: list[Path], options: Options, target: str) -> FamilyBuild: ...
+    def compile_mp(self, paths: list[Path], options: Options, target: str, *,
+                   texts: dict[Path, str] | None = None) -> FamilyBuild:
+        """`texts`: contents read instead of some files (by resolved path): an editor's
+        buffer, `mpc lint -`'s standard input."""
+        ...
 
     def run_build(self, build: Any, call: str | None, max_time: float, *,
                   sample_period: float | None = ..., machine: object | None = ...,

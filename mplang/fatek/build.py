@@ -38,8 +38,9 @@ BUILD_OPTIONS: frozenset[str] = frozenset()
 SERVE_OPTIONS: frozenset[str] = frozenset()
 FLASH_OPTIONS: frozenset[str] = frozenset()
 FLASHES_FLEETS = False
-FLASH_INSTEAD = ("Write the register table with `mpc build --target {target} --format table` "
-                 "(or the listing with --format fbs) and enter it in WinProladder")
+FLASH_INSTEAD = ("Write the steps with `mpc build --target {target} --format fbs` and enter "
+                 "them in WinProladder's table editor (--format table shows the register "
+                 "layout only: FB documents no encoding of a step's words)")
 """What `mpc flash` suggests instead ({target}: the target asked for)."""
 
 

@@ -275,8 +275,11 @@ class ProgramLowerer(OperandLowerer):
     def lower_assign(self, node: ast.Assign) -> None:
         index = self.scope.variable(node.target)
         if index is None:
+            hint = did_you_mean(node.target, list(self.scope.aliases)) or (
+                f"declare it with `VAR {node.target}` (a variable the host can read too), or "
+                "assign to VARn or to an ALIAS of one")
             self.sink.add("E423", node.target_span, f"cannot assign to {node.target!r}: not a "
-                          "variable", hint="assign to VARn or to an ALIAS of one")
+                          "variable", hint=hint)
             return
         if not self.check_user_var(index, node.target_span):
             return
@@ -355,8 +358,11 @@ class ProgramLowerer(OperandLowerer):
                 self.sink.add("E326", node.span, f"label {key} does not exist: labels are "
                               f"0..{self.profile.limit('label_max')}")
             else:
-                self.sink.add("E325", node.span, f"GOTO {node.label}: no LABEL {node.label} in "
-                              "this program", hint="jumps stay inside one program")
+                hint = did_you_mean(node.label, list(self.labels))
+                hint = f"{hint} (jumps stay inside one program)" if hint else \
+                    "jumps stay inside one program"
+                self.sink.add("E325", node.target_span or node.span, f"GOTO {node.label}: no "
+                              f"LABEL {node.label} in this program", hint=hint)
             return
         self.emit("GOTO", (self.labels[key],), node.span)
 
@@ -374,7 +380,8 @@ class ProgramLowerer(OperandLowerer):
         if program or upper.isdigit():
             slot = int(program.group(2) if program else upper)
             if slot not in self.profile.slot_numbers("mp"):
-                self.sink.add("E501", node.span, f"MP{slot} does not exist: slots are "
+                self.sink.add("E501", node.target_span or node.span,
+                              f"MP{slot} does not exist: slots are "
                               f"MP1..MP{max(self.profile.slot_numbers('mp'))}")
                 return
             ref = ProgramRef(slot=slot)
@@ -387,8 +394,8 @@ class ProgramLowerer(OperandLowerer):
         else:
             hint = did_you_mean(node.target, list(self.program_names)) or \
                 "CALL a program of this build by name, or any slot as MPn"
-            self.sink.add("E434", node.span, f"no program named {node.target!r} in this build",
-                          hint=hint)
+            self.sink.add("E434", node.target_span or node.span,
+                          f"no program named {node.target!r} in this build", hint=hint)
             return
         self.out.calls.append(CallSite(ref, node.span))
         self.emit_command(command, (ref,), node.span)

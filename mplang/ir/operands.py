@@ -157,14 +157,19 @@ class OperandLowerer:
         the sentence listing them), the message lists them and the hint picks among them."""
         if accepted is not None:
             names, listing = accepted
+            axis = " takes an axis: " in listing
             hint = did_you_mean(expr.name, names) or (
+                "write an axis name (the controller's axes are X, Y, Z and U), or an ALIAS "
+                "or CONST of one" if axis else
                 "write one of the names listed, or a CONST that holds one of the values"
                 if names else "write one of these numbers, or a CONST that holds one")
             self.sink.add("E202", expr.span, f"unknown name {expr.name!r}; {listing}",
                           hint=hint)
             return
         names = [*self.scope.const_exprs, *self.scope.aliases]
-        hint = did_you_mean(expr.name, names) or "declare it with CONST or ALIAS"
+        hint = did_you_mean(expr.name, names) or \
+            f"declare it: `VAR {expr.name}` for a variable the program and the host share, " \
+            "CONST for a fixed value, ALIAS for another name of a VARn"
         if self.profile.axis_code(expr.name) is not None:
             hint = "axis names are arguments of motion commands, not values"
         self.sink.add("E202", expr.span, f"unknown name {expr.name!r}", hint=hint)
@@ -175,6 +180,14 @@ class OperandLowerer:
         if param.kind == "cmp_op":
             names = sorted(self.profile.cmp_symbols)
             return names, f"{where} takes one of {', '.join(names)}"
+        if param.kind.startswith("axis") and not param.symbols:
+            codes = sorted(c for c in self.profile.allowed_axes(param.kind, param.values)
+                           if 0 < c < 16)
+            names = [self.profile.axis_name(c) for c in codes]
+            single = [n for n in names if len(n) == 1]
+            shown = ", ".join(names) if len(names) <= 4 else \
+                f"{', '.join(single)} or a combination of them (XY, XYZU, ...)"
+            return names, f"{where} takes an axis: {shown}"
         if param.kind != "enum" and not param.symbols:
             return None
         by_value = {v: k for k, v in param.symbols.items()}

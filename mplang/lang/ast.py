@@ -167,12 +167,14 @@ class LabelStmt:
 class Goto:
     label: str
     span: Span
+    target_span: Span | None = None  # the label, where the caret of a bad label goes
 
 
 @dataclass
 class CallStmt:
     target: str  # "MP21", "21" or a program name
     span: Span
+    target_span: Span | None = None  # the name or number after CALL
 
 
 @dataclass

@@ -219,10 +219,10 @@ class _Builder(Transformer[Token, Any]):
         return ast.LabelStmt(str(label), self._span(kw))
 
     def goto_stmt(self, kw: Token, label: Token) -> ast.Goto:
-        return ast.Goto(str(label), self._span(kw))
+        return ast.Goto(str(label), self._span(kw), self._span(label))
 
     def call_stmt(self, kw: Token, target: Token) -> ast.CallStmt:
-        return ast.CallStmt(str(target), self._span(kw))
+        return ast.CallStmt(str(target), self._span(kw), self._span(target))
 
     def terminate_stmt(self, kw: Token) -> ast.Terminate:
         return ast.Terminate(self._span(kw))

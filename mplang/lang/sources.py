@@ -92,6 +92,10 @@ def read_regular_bytes(path: Path) -> bytes:
 
 
 def _display(path: Path) -> str:
+    """How diagnostics, listings and images name a file: relative to the working directory
+    when it is below it, and without `dir/..` steps (an INCLUDE "../lib/common.mp" of
+    `cell one/main.mp` is `lib/common.mp`, as SARIF names it), in every output format."""
+    path = Path(os.path.normpath(path))
     try:
         return str(path.relative_to(Path.cwd()))
     except ValueError:

@@ -66,9 +66,10 @@ def normalise(statement: ast.Statement) -> ast.Statement:
     if len(args) == 1 and isinstance(args[0], ast.Name | ast.Num):
         target = args[0].name if isinstance(args[0], ast.Name) else str(args[0].value)
         if name == "MP_CALL":
-            return ast.CallStmt(target, span)
+            return ast.CallStmt(target, span, args[0].span)
         if name in ("GOTO", "LABEL"):
-            return ast.Goto(target, span) if name == "GOTO" else ast.LabelStmt(target, span)
+            return ast.Goto(target, span, args[0].span) if name == "GOTO" else \
+                ast.LabelStmt(target, span)
     return statement
 
 

@@ -110,9 +110,10 @@ __all__ = [
 ]
 
 
-def compile_mp(paths: list[Path], options: Options, target: str) -> BuildResult:
-    """Compile `.mp` sources for `target` ("et" or "rs")."""
-    return compile_paths(paths, replace(options, target=target))
+def compile_mp(paths: list[Path], options: Options, target: str, *,
+               texts: dict[Path, str] | None = None) -> BuildResult:
+    """Compile `.mp` sources for `target` ("et" or "rs"); `texts` read instead of files."""
+    return compile_paths(paths, replace(options, target=target), texts=texts)
 
 
 def check_native(paths: list[Path], target: str | None = None) -> BuildResult:

@@ -33,13 +33,18 @@ def _range_text(profile: Profile, kind: str, lines: int) -> str:
     return kind.upper()
 
 
-def _fitting_hint(profile: Profile, kind: str, needed: int) -> str:
+def _fitting_hint(profile: Profile, kind: str, needed: int, pinned: bool = False) -> str:
+    """What to do about a program too big for its slot; `pinned`: the slot is an mpc.toml
+    pin, not a number in the source."""
     bigger = [r for r in profile.slots if r.kind == kind and r.lines >= needed]
     if not bigger:
         return "split it into several programs that CALL each other"
     best = min(bigger, key=lambda r: r.lines)
-    return (f"use a slot in {kind.upper()}{best.first}-{kind.upper()}{best.last} "
-            f"({best.lines} lines), drop the number to let the linker choose, or split it")
+    slots = f"{kind.upper()}{best.first}-{kind.upper()}{best.last} ({best.lines} lines)"
+    if pinned:
+        return f"pin it to a slot in {slots}, remove the pin to let the linker choose, or " \
+               "split it"
+    return f"use a slot in {slots}, drop the number to let the linker choose, or split it"
 
 
 def link(programs: list[LoweredProgram], profile: Profile, sink: DiagnosticSink,
@@ -56,7 +61,7 @@ def link(programs: list[LoweredProgram], profile: Profile, sink: DiagnosticSink,
                          "exists", related=((names[key].span, "first definition"),))
             else:
                 names[key] = program
-    _apply_pins(pins, names, profile, sink)
+    pinned = _apply_pins(pins, names, profile, sink)
     for program in programs:
         if program.slot is None:
             continue
@@ -76,9 +81,13 @@ def link(programs: list[LoweredProgram], profile: Profile, sink: DiagnosticSink,
         used = program.lines_used(close)
         if used > budget:
             detail = " including the closing line" if close else ""
-            sink.add("E503", program.span, f"{program.label} needs {used} lines{detail}, but "
+            pin = pinned.get(id(program))
+            # a slot an mpc.toml pin gave: the pin's line is what to change
+            sink.add("E503", program.span if pin is None else pin.span,
+                     f"{program.label} needs {used} lines{detail}, but "
                      f"{_range_text(profile, program.kind, budget)} slots hold {budget}",
-                     hint=_fitting_hint(profile, program.kind, used))
+                     hint=_fitting_hint(profile, program.kind, used, pin is not None),
+                     related=() if pin is None else ((program.span, "the program"),))
         placements.append(Placement(program, program.slot, used, budget, auto=False))
     for program in programs:
         if program.slot is not None:
@@ -101,8 +110,10 @@ def link(programs: list[LoweredProgram], profile: Profile, sink: DiagnosticSink,
 
 
 def _apply_pins(pins: tuple[SlotPin, ...], names: dict[str, LoweredProgram],
-                profile: Profile, sink: DiagnosticSink) -> None:
-    """Give pinned programs their slot, as if the source had numbered them."""
+                profile: Profile, sink: DiagnosticSink) -> dict[int, SlotPin]:
+    """Give pinned programs their slot, as if the source had numbered them; the pins that
+    gave one, by the program's id."""
+    given: dict[int, SlotPin] = {}
     for pin in pins:
         label = f"{pin.kind.upper()}{pin.slot}"
         program = names.get(pin.name.upper())
@@ -130,6 +141,8 @@ def _apply_pins(pins: tuple[SlotPin, ...], names: dict[str, LoweredProgram],
                          hint="keep one of the two: the number in the source or the pin")
             continue
         program.slot = pin.slot
+        given[id(program)] = pin
+    return given
 
 
 def resolve(ref: ProgramRef, names: dict[str, LoweredProgram]) -> int | None:

@@ -148,13 +148,16 @@ def _axis(regs: list[int], signals: list[int], n: int, order: int,
 
 def compare(manifest: mf.Manifest | None, image: flashing.FlashImage) -> list[dict[str, Any]]:
     """Per slot, what the device holds by its manifest against what the image would write,
-    in image order, then the manifest's extra slots."""
+    in image order, then the manifest's extra slots. Without a readable manifest nothing is
+    known of what the device holds (programs downloaded by another tool, or preloaded with
+    `mpc sim FILE...`): every slot is `unknown`, not `missing`."""
     held = manifest.by_slot() if manifest is not None else {}
     rows: list[dict[str, Any]] = []
     for program in image.programs:
         mine = program.content_hash(image.word_order)[:mf.HASH_BYTES * 2]
         there = held.pop(program.slot_label, None)
-        status = "missing" if there is None else "in sync" if there.hash == mine else "differs"
+        status = "unknown" if manifest is None else "missing" if there is None else \
+            "in sync" if there.hash == mine else "differs"
         rows.append({"slot": program.slot_label, "name": program.name or "", "status": status,
                      "device_name": there.name if there is not None else None})
     rows += [{"slot": label, "name": "", "status": "extra", "device_name": p.name}
@@ -184,8 +187,11 @@ def render(data: dict[str, Any]) -> str:
                                    f"line {e['line']}"))
     lines += _render_manifest(data.get("manifest"))
     if "slots" in data:
+        unknown = all(row["status"] == "unknown" for row in data["slots"])
         lines.append(f"slots       against build {data['build_id'] or '(no id)'}: "
-                     + ("in sync" if data["in_sync"] else "out of sync"))
+                     + ("in sync" if data["in_sync"] else
+                        "unknown: no build manifest to compare with (the programs were not "
+                        "downloaded by mpc flash)" if unknown else "out of sync"))
         for row in data["slots"]:
             name = row["name"] or row["device_name"] or ""
             lines.append(f"  {row['status']:<9} {row['slot']:<6} {name}".rstrip())

@@ -75,7 +75,7 @@ def verdict(data: dict[str, Any]) -> str | None:
         return "in sync"
     manifest = data.get("manifest")
     if manifest is None or "error" in manifest:
-        return "missing"
+        return "unknown (no manifest)"
     slots: Sequence[dict[str, Any]] = data["slots"]
     differ = sum(1 for s in slots if s["status"] in ("differs", "missing"))
     extra = sum(1 for s in slots if s["status"] == "extra")

@@ -135,13 +135,15 @@ def choices_page() -> str:
         if command.choice:
             lines.append(f"- **{command.name}** ({command.section}): {command.choice}")
     lines += ["", "## CSIM RS232 command set", "",
-              "What the CSIM command list (CS = shared/manuals/004_fd07d4bf40d1e0ce.txt) leaves "
-              "undefined or contradicts, and the reading mplang takes: `stdlib/csim/device.toml` "
+              "What the CSIM command list (CS = the CSIM RS232 ASCII command list, the "
+              "vendor's document) leaves undefined or contradicts, and the reading mplang "
+              "takes: `stdlib/csim/device.toml` "
               "(and `from_mp.toml` for `--target csim`). See docs/csim.md.", ""]
     walk(csim_profile.load().raw, "")
     lines += ["", "## FATEK FBs-PLC positioning programs", "",
-              "What the FBs-PLC chapter (FB = shared/manuals/002_9f89b86e496499fb.txt) leaves "
-              "undefined or contradicts, and the reading mplang takes: `stdlib/fatek/device.toml`. "
+              "What the FBs-PLC chapter (FB = chapter 11 of the FATEK FBs-PLC manual, the "
+              "vendor's document) leaves undefined or contradicts, and the reading mplang "
+              "takes: `stdlib/fatek/device.toml`. "
               "See docs/fatek.md.", ""]
     walk(fatek_profile.load().raw, "")
     return "\n".join(lines) + "\n"

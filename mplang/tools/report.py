@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
 from collections import Counter
 from pathlib import Path, PurePosixPath
 from typing import Any
@@ -17,6 +18,12 @@ from mplang.lang.rules import RULES, Rule
 from mplang.lang.severity import Severity
 
 SRCROOT = "%SRCROOT%"
+DOCS_URL = "https://github.com/mplang/mplang/blob/main/docs/"
+"""Where mplang's documentation is published, the one base of every public link mpc writes:
+SARIF's `helpUri` is `DOCS_URL + "checks/CODE.md"` and its `informationUri`
+`DOCS_URL + "checks/README.md"` (the repository's own docs/ folder), so that code scanning
+links work for whoever reads the results, not only on the machine that ran mpc. The
+environment variable `MPC_DOCS_URL` replaces it (a fork, a mirror, an intranet copy)."""
 # docs/checks/<CODE>.md: shipped inside the package (mplang/docs/checks) or, in a source
 # checkout, at the top of the repository.
 _PACKAGE = Path(__file__).resolve().parents[1]
@@ -57,11 +64,10 @@ def check_page(code: str) -> Path | None:
                 None)
 
 
-def information_page() -> Path | None:
-    """The installed index of check codes (docs/checks/README.md): mplang has no public home
-    page, so the tool's `informationUri` is its installed documentation, or absent."""
-    return next((d / "README.md" for d in CHECK_PAGE_DIRS if (d / "README.md").is_file()),
-                None)
+def docs_url(page: str) -> str:
+    """The public address of a page of docs/ (`DOCS_URL`, or `MPC_DOCS_URL` when set)."""
+    base = os.environ.get("MPC_DOCS_URL") or DOCS_URL
+    return base.rstrip("/") + "/" + page
 
 
 def rule_markdown(rule: Rule) -> str:
@@ -95,9 +101,7 @@ def _sarif_rule(code: str) -> dict[str, Any]:
         "defaultConfiguration": {"level": rule.severity.value},
         "properties": {"tags": ["mplang", "device" if rule.device else "correctness"]},
     }
-    page = check_page(code)
-    if page is not None:
-        descriptor["helpUri"] = page.as_uri()
+    descriptor["helpUri"] = docs_url(f"checks/{code}.md")
     return descriptor
 
 
@@ -128,9 +132,7 @@ def render_sarif(diagnostics: list[Diagnostic], root: Path | None = None) -> str
                 "artifactLocation": _artifact(d.span.file, root), "region": region}}],
         })
     driver: dict[str, Any] = {"name": "mplang", "version": __version__}
-    info = information_page()
-    if info is not None:
-        driver["informationUri"] = info.as_uri()
+    driver["informationUri"] = docs_url("checks/README.md")
     driver["rules"] = [_sarif_rule(code) for code in used]
     sarif = {
         "$schema": "https://json.schemastore.org/sarif-2.1.0.json",

@@ -78,7 +78,8 @@ def check_native(paths: list[Path], target: str | None = None) -> ToyBuild:
     return ToyBuild(sink.sorted(), moves)
 
 
-def compile_mp(paths: list[Path], options: Options, target: str) -> ToyBuild:
+def compile_mp(paths: list[Path], options: Options, target: str, *,
+               texts: dict[Path, str] | None = None) -> ToyBuild:
     raise RunSetupError("the toy compiles no .mp")
 
 

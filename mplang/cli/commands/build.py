@@ -18,6 +18,7 @@ from mplang.cli.common import (
 )
 from mplang.cli.families import all_formats, build_checked, check_format, choose
 from mplang.cli.shell import complete_paths
+from mplang.cli.style import quiet_option
 
 
 @click.command("build", short_help="Compile sources into one download image.")
@@ -30,6 +31,7 @@ from mplang.cli.shell import complete_paths
               "fbs (the default: the listing), listing, table (register table), json. CSIM: "
               "csim (the default: the script), listing, json.")
 @project_option
+@quiet_option
 @with_common
 @click.pass_context
 @guarded

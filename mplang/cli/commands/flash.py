@@ -38,6 +38,7 @@ from mplang.cli.families import (
     select,
 )
 from mplang.cli.shell import complete_paths
+from mplang.cli.style import quiet_option
 from mplang.family.registry import families
 from mplang.tools.project import Project, ProjectError, Target, load_fleet
 
@@ -82,6 +83,7 @@ DEFAULT_TIMEOUT, DEFAULT_RETRIES = 1.0, 3
 @click.option("--dry-run", is_flag=True,
               help="Print every frame that would be sent; connect to nothing.")
 @project_option
+@quiet_option
 @with_common
 @click.pass_context
 @guarded

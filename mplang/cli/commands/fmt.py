@@ -8,12 +8,7 @@ say why. Exit codes, first that applies: 3 a file cannot be read, 4 a file canno
 
 from __future__ import annotations
 
-import contextlib
-import difflib
-import os
-import stat
 import sys
-import tempfile
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, cast
@@ -27,7 +22,10 @@ from mplang.cli.common import (
     EXIT_OUTPUT,
     EXIT_SOURCE_ERRORS,
     EXIT_WOULD_REFORMAT,
+    STDIN,
+    STDIN_NAME,
     InputError,
+    decode_source,
     expand_inputs,
     guarded,
     isolated,
@@ -35,17 +33,18 @@ from mplang.cli.common import (
     near_path,
     nearest_projects,
     project_option,
+    stdin_filename_option,
+    stdin_project,
 )
+from mplang.cli.rewrite import unified_diff, write_atomically
 from mplang.cli.shell import complete_paths
-from mplang.lang.diagnostics import DiagnosticSink, Span
+from mplang.cli.style import quiet_option
 from mplang.tools.project import find_project
 
 if TYPE_CHECKING:
     from mplang.tools.fmt import FormatOptions
     from mplang.tools.project import Project
 
-STDIN = "-"
-STDIN_NAME = "<stdin>"
 
 
 @dataclass
@@ -91,17 +90,6 @@ def _options(indent: int | None, keyword_case: str | None,
     return options
 
 
-def _decode(data: bytes, display: str) -> str | None:
-    """UTF-8 text, or None after the compiler's E105 diagnostic for anything else."""
-    try:
-        return data.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        sink = DiagnosticSink()
-        sink.add("E105", Span(display, 1), f"{display} is not UTF-8 text ({exc.reason})")
-        style.report_diagnostics(sink.items)
-        return None
-
-
 def _formatted(text: str, display: str, options: FormatOptions) -> str | None:
     """The canonical text, or None after printing the syntax errors that prevent it."""
     from mplang.tools.fmt import SourceNotFormattable, format_source
@@ -114,42 +102,6 @@ def _formatted(text: str, display: str, options: FormatOptions) -> str | None:
         return None
 
 
-def _source_lines(text: str) -> list[str]:
-    """Lines split where the compiler splits them (at "\n" only), each with its ending."""
-    pieces = text.split("\n")
-    return [piece + "\n" for piece in pieces[:-1]] + ([pieces[-1]] if pieces[-1] else [])
-
-
-def _unified_diff(before: str, after: str, display: str) -> str:
-    """A unified diff that `patch -p0` applies; a last line without a newline is marked."""
-    lines = difflib.unified_diff(_source_lines(before), _source_lines(after),
-                                 fromfile=f"{display}\t(original)",
-                                 tofile=f"{display}\t(formatted)")
-    out: list[str] = []
-    for line in lines:
-        out.append(line)
-        if not line.endswith("\n"):
-            out.append("\n\\ No newline at end of file\n")
-    return "".join(out)
-
-
-def _write_atomically(path: Path, data: bytes) -> None:
-    """Replace the file (the target of a symlink) in one rename, keeping its permissions."""
-    target = path.resolve()
-    mode = stat.S_IMODE(target.stat().st_mode)
-    handle, temporary = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.",
-                                         suffix=".mpc-fmt")
-    try:
-        with os.fdopen(handle, "wb") as stream:
-            stream.write(data)
-        os.chmod(temporary, mode)
-        os.replace(temporary, target)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(temporary)
-        raise
-
-
 def _format_file(path: Path, options: FormatOptions, check: bool, show_diff: bool,
                  tally: _Tally) -> None:
     display = str(path)
@@ -159,7 +111,7 @@ def _format_file(path: Path, options: FormatOptions, check: bool, show_diff: boo
         style.error(f"cannot read {display}: {exc.strerror or exc}")
         tally.unreadable += 1
         return
-    text = _decode(data, display)
+    text = decode_source(data, display)
     formatted = None if text is None else _formatted(text, display, options)
     if text is None or formatted is None:
         tally.with_errors += 1
@@ -168,36 +120,39 @@ def _format_file(path: Path, options: FormatOptions, check: bool, show_diff: boo
         tally.unchanged += 1
         return
     if show_diff:
-        click.echo(_unified_diff(text, formatted, display), nl=False)
+        click.echo(unified_diff(text, formatted, display), nl=False)
     if check or show_diff:
         tally.changed.append(display)
         if check:
             click.echo(f"would reformat {display}", err=True)
         return
     try:
-        _write_atomically(path, formatted.encode("utf-8"))
+        write_atomically(path, formatted.encode("utf-8"))
     except OSError as exc:
         style.error(f"cannot write {display}: {exc.strerror or exc}")
         tally.unwritable += 1
         return
     tally.changed.append(display)
-    click.echo(f"reformatted {display}", err=True)
+    if not style.quiet():
+        click.echo(f"reformatted {display}", err=True)
 
 
-def _format_stdin(options: FormatOptions, check: bool, show_diff: bool) -> int:
-    """`mpc fmt -`: standard input to standard output (nothing on stdout on errors)."""
-    text = _decode(sys.stdin.buffer.read(), STDIN_NAME)
-    formatted = None if text is None else _formatted(text, STDIN_NAME, options)
+def _format_stdin(options: FormatOptions, check: bool, show_diff: bool,
+                  display: str = STDIN_NAME) -> int:
+    """`mpc fmt -`: standard input to standard output (nothing on stdout on errors);
+    messages call it `display` (`--stdin-filename`)."""
+    text = decode_source(sys.stdin.buffer.read(), display)
+    formatted = None if text is None else _formatted(text, display, options)
     if text is None or formatted is None:
         return EXIT_SOURCE_ERRORS
     if show_diff:
-        click.echo(_unified_diff(text, formatted, STDIN_NAME), nl=False)
+        click.echo(unified_diff(text, formatted, display), nl=False)
     elif not check:
         sys.stdout.flush()
         sys.stdout.buffer.write(formatted.encode("utf-8"))
         sys.stdout.buffer.flush()
     if check and formatted != text:
-        click.echo(f"would reformat {STDIN_NAME}", err=True)
+        click.echo(f"would reformat {display}", err=True)
         return EXIT_WOULD_REFORMAT
     return EXIT_OK
 
@@ -224,18 +179,29 @@ def _fmt_table(project: Project | None) -> FormatOptions | None:
               help="Spaces per block level, 1-16 [default: 4].")
 @click.option("--keyword-case", type=click.Choice(["upper", "lower"]), default=None,
               help="Case of keywords and command names [default: upper].")
+@stdin_filename_option
 @project_option
+@quiet_option
+@click.pass_context
 @guarded
-def command(files: tuple[str, ...], check: bool, show_diff: bool, indent: int | None,
-            keyword_case: str | None, project_file: Path | None) -> None:
+def command(ctx: click.Context, files: tuple[str, ...], check: bool, show_diff: bool,
+            indent: int | None, keyword_case: str | None, stdin_filename: str | None,
+            project_file: Path | None) -> None:
     """Format FILE... (files, directories or globs; without them, the sources of mpc.toml)
     in place; '-' formats standard input to standard output. Comments, blank-line groups and
     every token are kept; files with syntax errors are left untouched (exit 1). The [fmt]
     table of the nearest mpc.toml above each FILE (above here for standard input) sets its
-    defaults."""
+    defaults; with --stdin-filename PATH, the one nearest PATH for standard input."""
+    if stdin_filename is not None and files != (STDIN,):
+        raise click.UsageError("--stdin-filename names what '-' (standard input) stands for: "
+                               "give it with '-' as the only FILE")
+    if files == (STDIN,):
+        project = stdin_project(ctx, stdin_filename, project_file)
+        sys.exit(_format_stdin(_options(indent, keyword_case, _fmt_table(project)), check,
+                               show_diff, stdin_filename or STDIN_NAME))
     if project_file is not None and isolated():
         raise click.UsageError("give --project FILE or --isolated, not both")
-    here = not isolated() and (not files or STDIN in files)  # FILEs find their own
+    here = not isolated() and not files  # FILEs find their own
     found = project_file or (find_project(Path.cwd()) if here else None)
     project = load_project_file(found) if found is not None else None
     if not files:
@@ -252,10 +218,7 @@ def command(files: tuple[str, ...], check: bool, show_diff: bool, indent: int | 
                     "inside it: name the file on the command line to format it")
         files = tuple(near_path(p) for p in project.sources)
     if STDIN in files:
-        if len(files) > 1:
-            raise click.UsageError("'-' (standard input) cannot be combined with files")
-        sys.exit(_format_stdin(_options(indent, keyword_case, _fmt_table(project)), check,
-                               show_diff))
+        raise click.UsageError("'-' (standard input) cannot be combined with files")
     tally = _Tally()
     paths = expand_inputs(files)
     if project_file is not None or isolated():
@@ -273,5 +236,6 @@ def command(files: tuple[str, ...], check: bool, show_diff: bool, indent: int | 
         summary.append(f"{tally.with_errors} with errors left as they are")
     if tally.unreadable or tally.unwritable:
         summary.append(f"{tally.unreadable + tally.unwritable} unreadable or unwritable")
-    click.echo(f"mpc fmt: {', '.join(summary)}", err=True)
+    if not style.quiet():
+        click.echo(f"mpc fmt: {', '.join(summary)}", err=True)
     sys.exit(tally.exit_code(check))

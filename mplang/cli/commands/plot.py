@@ -21,7 +21,8 @@ from mplang.cli.common import (
 )
 from mplang.cli.families import choose, watched_run
 from mplang.cli.runwatch import exit_code, given, max_time_option, out_of_time_hint
-from mplang.cli.shell import complete_paths
+from mplang.cli.shell import complete_paths, complete_programs
+from mplang.cli.style import quiet_option
 
 if TYPE_CHECKING:
     from mplang.family.trace import Trace
@@ -56,6 +57,7 @@ def check_output_place(output: Path) -> None:
 @click.command("plot", short_help="Plot the simulated tool path and axis motion (PNG/SVG).")
 @click.argument("files", nargs=-1, shell_complete=complete_paths)
 @click.option("--call", "call", default=None, metavar="MPn|NAME",
+              shell_complete=complete_programs,
               help="Program to call [default: the first MP of the first file]; FATEK: a "
               "table NAME[:STEP]; CSIM: a program, an MP's name or a $LABEL.")
 @click.option("-o", "--output", required=True, metavar="OUT.png|OUT.svg",
@@ -71,6 +73,7 @@ def check_output_place(output: Path) -> None:
 @max_time_option
 @machine_option
 @project_option
+@quiet_option
 @with_common
 @click.pass_context
 @guarded

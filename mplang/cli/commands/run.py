@@ -26,7 +26,8 @@ from mplang.cli.runwatch import (
     max_time_option,
     out_of_time_hint,
 )
-from mplang.cli.shell import complete_paths
+from mplang.cli.shell import complete_paths, complete_programs
+from mplang.cli.style import quiet_option
 
 if TYPE_CHECKING:
     from mplang.family.trace import Trace
@@ -48,6 +49,7 @@ def check_trace_place(trace_file: str) -> None:
 @click.command("run", short_help="Run one program on a fresh virtual controller.")
 @click.argument("files", nargs=-1, shell_complete=complete_paths)
 @click.option("--call", "call", default=None, metavar="MPn|NAME",
+              shell_complete=complete_programs,
               help="Program to call [default: the first MP of the first file]; FATEK: a "
               "table NAME[:STEP]; CSIM: a program, an MP's name or a $LABEL.")
 @click.option("--json", "as_json", is_flag=True, help="Print variables, axes, time and error "
@@ -61,6 +63,7 @@ def check_trace_place(trace_file: str) -> None:
               "[default: 0.001; motion ends are sampled too].")
 @machine_option
 @project_option
+@quiet_option
 @with_common
 @click.pass_context
 @guarded

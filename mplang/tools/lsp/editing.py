@@ -124,7 +124,7 @@ def quick_fixes(analysis: Analysis, within: Range) -> list[QuickFix]:
         meant = _MEANT.search(found.hint)
         word = _misspelled(analysis, found) if meant else None
         if meant and word is not None:
-            replacement = _spelled(analysis, meant.group(1))
+            replacement = _spelled(analysis, meant.group(1), where.start.line)
             fixes.append(QuickFix(f"Replace '{word.text}' with '{replacement}'", found,
                                   TextEdit(line_range(where.start.line, word.start, word.end),
                                            replacement), True))
@@ -157,10 +157,13 @@ def _misspelled(analysis: Analysis, found: EditorDiagnostic) -> Token | None:
     return next((t for t in names if close and t.upper == close[0]), None)
 
 
-def _spelled(analysis: Analysis, suggestion: str) -> str:
-    """A suggested name as its definition spells it (the compiler suggests upper case)."""
+def _spelled(analysis: Analysis, suggestion: str, line: int = -1) -> str:
+    """A suggested name as its definition spells it (the compiler suggests upper case): a
+    CONST, ALIAS, variable, a label of the program at `line`, or a program."""
     upper = suggestion.upper()
-    for table in (analysis.consts, analysis.aliases, analysis.declared):
+    program_here = analysis.program_at(line)
+    labels = program_here.labels if program_here is not None else {}
+    for table in (analysis.consts, analysis.aliases, analysis.declared, labels):
         if upper in table:
             return table[upper].name
     program = analysis.program_named(upper)

@@ -19,7 +19,7 @@ from pygls.exceptions import JsonRpcInvalidParams
 from mplang.tools.lsp import editing, outline
 from mplang.tools.lsp.analysis import Analysis
 from mplang.tools.lsp.positions import Location, Pos, Range, split_lines
-from mplang.tools.lsp.workspace import format_options_for
+from mplang.tools.lsp.workspace import context_for, format_options_for
 
 if TYPE_CHECKING:
     from mplang.tools.lsp.server import MpLanguageServer
@@ -30,6 +30,8 @@ SYMBOL_KINDS = {"program": lsp.SymbolKind.Function, "const": lsp.SymbolKind.Cons
                 "alias": lsp.SymbolKind.Variable, "var": lsp.SymbolKind.Variable,
                 "label": lsp.SymbolKind.Key, "block": lsp.SymbolKind.Namespace}
 SIGNATURE_TRIGGERS = [" ", ",", "("]
+FIX_ALL = "source.fixAll.mpc"
+"""The code action kind of "apply every preferred fix" (ruff's is `source.fixAll.ruff`)."""
 SEMANTIC_LEGEND = lsp.SemanticTokensLegend(token_types=outline.TOKEN_TYPES,
                                            token_modifiers=outline.TOKEN_MODIFIERS)
 
@@ -65,23 +67,48 @@ def register_editing(server: MpLanguageServer, guarded: Callable[[Any], Any]) ->
         last = end.line - 1 if end.character == 0 and end.line > start.line else end.line
         return formatted(params.text_document.uri, (start.line, last))
 
+    def fix_all(uri: str, analysis: Analysis) -> lsp.CodeAction | None:
+        """`source.fixAll.mpc`: every preferred fix of the document in one edit (what
+        `mpc lint --fix` writes), or None when there is nothing to fix."""
+        from mplang.tools.fix import fix_text
+
+        text = server.document_text(uri)  # as the editor holds it, CRLF kept
+        path = server.document_path(uri)
+        others = {server.document_path(u).resolve(): server.document_text(u)
+                  for u in server.analyses if u != uri and server.is_open(u)}
+        fixed = fix_text(path, text, context_for(path, server.overrides), others)
+        if fixed.text == text:
+            return None
+        lines = split_lines(text)
+        whole = Range(Pos(0, 0), Pos(len(lines) - 1, len(lines[-1])))
+        edit = lsp.WorkspaceEdit(changes={uri: text_edits(lines, [
+            editing.TextEdit(whole, fixed.text)])})
+        return lsp.CodeAction(title=f"Fix all auto-fixable problems ({fixed.applied})",
+                              kind=FIX_ALL, edit=edit)
+
+    def asked(kind: str, wanted: list[str] | None) -> bool:
+        """Whether `kind` is among the kinds the client asked for (a kind covers its
+        sub-kinds: `source` asks for `source.fixAll.mpc`)."""
+        return not wanted or any(kind == k or kind.startswith(f"{k}.") for k in wanted)
+
     @server.feature(lsp.TEXT_DOCUMENT_CODE_ACTION, lsp.CodeActionOptions(
-        code_action_kinds=[lsp.CodeActionKind.QuickFix]))
+        code_action_kinds=[lsp.CodeActionKind.QuickFix, FIX_ALL]))
     @guarded
     def code_action(params: lsp.CodeActionParams) -> list[lsp.CodeAction] | None:
         uri = params.text_document.uri
         analysis = server.analysis(uri)
-        wanted = params.context.only
-        if wanted and not any(lsp.CodeActionKind.QuickFix.value.startswith(k) for k in wanted):
-            return []
+        wanted = [str(getattr(k, "value", k)) for k in params.context.only or []] or None
         actions = []
-        for fix in editing.quick_fixes(analysis, client_range(analysis, params.range)):
+        quick = asked(lsp.CodeActionKind.QuickFix.value, wanted)
+        for fix in editing.quick_fixes(analysis, client_range(analysis, params.range)) \
+                if quick else []:
             edit = lsp.WorkspaceEdit(changes={uri: text_edits(analysis.lines, [fix.edit])})
             actions.append(lsp.CodeAction(
                 title=fix.title, kind=lsp.CodeActionKind.QuickFix, edit=edit,
                 diagnostics=[server.diagnostic(uri, analysis, fix.diagnostic)],
                 is_preferred=fix.preferred or None))
-        return actions
+        everything = fix_all(uri, analysis) if asked(FIX_ALL, wanted) else None
+        return actions + ([everything] if everything is not None else [])
 
     def symbol(analysis: Analysis, found: outline.Symbol) -> lsp.DocumentSymbol:
         return lsp.DocumentSymbol(

@@ -98,3 +98,31 @@ def from_client_character(line_text: str, units: int, encoding: str) -> int:
             return index
         counted += _units(char, encoding)
     return len(line_text)
+
+
+_LINE_BREAK = re.compile(r"\r\n|\n|\r")
+
+
+def apply_change(text: str, start: tuple[int, int], end: tuple[int, int], new_text: str,
+                 encoding: str) -> str:
+    """`text` with the client's range edit applied (incremental sync). Lines are the
+    protocol's: ended by CRLF, LF or CR (pygls splits with `str.splitlines`, which also
+    breaks at form feeds, U+2028 and the like, and so misplaces edits in such a text).
+    `start`/`end` are (line, character) in the client's code units; a character past its
+    line's end means the line's end, a line past the last the end of the text."""
+    starts = [0] + [m.end() for m in _LINE_BREAK.finditer(text)]
+
+    def offset(position: tuple[int, int]) -> int:
+        line, units = position
+        if line < 0:
+            return 0
+        if line >= len(starts):
+            return len(text)
+        first = starts[line]
+        ending = _LINE_BREAK.search(text, first)
+        line_text = text[first:ending.start() if ending else len(text)]
+        return first + from_client_character(line_text, max(units, 0), encoding)
+
+    begin, finish = offset(start), offset(end)
+    finish = max(begin, finish)
+    return text[:begin] + new_text + text[finish:]

@@ -1,8 +1,8 @@
 """The language server: pygls 2.x glue over `analysis` and `features` (this package).
 
-Each open document is compiled on open and on every change (full-text sync: .mp files are
-small, and the server then never depends on how an editor counts lines for incremental
-edits). Its diagnostics are published; hover, completion, definition, code lenses and inlay
+Each open document is compiled on open and on every change (incremental sync: pygls applies
+the client's range edits, counted in the negotiated position encoding, to its copy of the
+text). Its diagnostics are published; hover, completion, definition, code lenses and inlay
 hints are answered from the latest analysis. Positions cross the boundary here, converted
 between code points and the client's negotiated encoding. A handler that fails logs the
 error and answers nothing: one bad input never takes the server down.
@@ -16,12 +16,13 @@ never a device, FIFO or socket, which could block the server or feed it without 
 from __future__ import annotations
 
 import asyncio
+import copy
 import functools
 import logging
 import os
 import sys
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any, BinaryIO, TypeVar
 from urllib.parse import unquote
@@ -31,16 +32,19 @@ from pygls import uris
 from pygls.exceptions import JsonRpcException
 from pygls.io_ import StdoutWriter
 from pygls.lsp.server import LanguageServer
+from pygls.protocol import LanguageServerProtocol, lsp_method
 
 from mplang import __version__
 from mplang.tools.lsp import features
 from mplang.tools.lsp.analysis import Analysis, EditorDiagnostic, analyse
 from mplang.tools.lsp.handlers import register_editing
+from mplang.tools.lsp.navigation import register_navigation
 from mplang.tools.lsp.positions import (
     ENCODINGS,
     Location,
     Pos,
     Range,
+    apply_change,
     from_client_character,
     split_lines,
     to_client_character,
@@ -69,14 +73,35 @@ COMPLETION_KINDS = {
 TRIGGER_CHARACTERS = [" ", ",", "(", '"']
 
 
+class _Protocol(LanguageServerProtocol):
+    """pygls' protocol, with the server's own incremental sync run first: pygls applies a
+    change on lines split by `str.splitlines` (form feeds, U+2028 ... end a line there, not
+    in the protocol) and, worse, clamps the change's positions in place to those lines, so
+    the server reads a copy of the change taken before pygls touches it."""
+
+    @lsp_method(lsp.TEXT_DOCUMENT_DID_CHANGE)
+    def lsp_text_document__did_change(self, params: lsp.DidChangeTextDocumentParams
+                                      ) -> Iterator[Any]:
+        server = self._server
+        if isinstance(server, MpLanguageServer):
+            try:
+                server.changed(copy.deepcopy(params))
+            except Exception:  # the guard of every handler: logged, never fatal
+                logger.exception("applying a change failed")
+        yield from super().lsp_text_document__did_change(params)
+
+
 class MpLanguageServer(LanguageServer):
     """Holds the command line's options and the latest analysis of every open document."""
 
     def __init__(self, overrides: Overrides) -> None:
-        super().__init__("mpc-lsp", __version__,
-                         text_document_sync_kind=lsp.TextDocumentSyncKind.Full)
+        super().__init__("mpc-lsp", __version__, protocol_cls=_Protocol,
+                         text_document_sync_kind=lsp.TextDocumentSyncKind.Incremental)
         self.overrides = overrides
         self.analyses: dict[str, Analysis] = {}  # by document URI
+        # The text of each open document (by unquoted URI), kept here with the protocol's
+        # line breaks (`positions.apply_change`) rather than by pygls' incremental sync.
+        self.texts: dict[str, str] = {}
 
     # ------------------------------------------------------------------ documents
     @property
@@ -117,7 +142,7 @@ class MpLanguageServer(LanguageServer):
         it is a regular file of at most MAX_FILE_BYTES inside the workspace (when the client
         named one). pygls would read any path, /dev/zero included, to its end."""
         if self.is_open(uri):
-            return self.workspace.get_text_document(uri).source
+            return self.open_text(uri)
         if uris.uri_scheme(uri) != "file":
             return ""  # an unsaved buffer the client did not open: no text (as pygls)
         path = self.document_path(uri)
@@ -129,10 +154,33 @@ class MpLanguageServer(LanguageServer):
             raise RefusedFile(path, "not open in the editor and outside the workspace")
         return read_text(path)
 
+    def open_text(self, uri: str) -> str:
+        """The editor's text of an open document."""
+        kept = self.texts.get(unquote(uri))
+        return kept if kept is not None else self.workspace.get_text_document(uri).source
+
+    def opened(self, params: lsp.DidOpenTextDocumentParams) -> None:
+        self.texts[unquote(params.text_document.uri)] = params.text_document.text
+
+    def changed(self, params: lsp.DidChangeTextDocumentParams) -> None:
+        """Apply the client's changes, in order, to the kept text."""
+        key = unquote(params.text_document.uri)
+        text = self.open_text(params.text_document.uri) if key in self.texts else None
+        if text is None:
+            return  # not opened through didOpen: pygls' copy is all there is
+        for change in params.content_changes:
+            if isinstance(change, lsp.TextDocumentContentChangePartial):
+                start, end = change.range.start, change.range.end
+                text = apply_change(text, (start.line, start.character),
+                                    (end.line, end.character), change.text, self.encoding)
+            else:
+                text = change.text
+        self.texts[key] = text
+
     def analyse_uri(self, uri: str) -> Analysis:
         """Check a document; an open one's analysis is kept for the requests that follow."""
         text = self.document_text(uri)
-        others = {self.document_path(u).resolve(): self.workspace.get_text_document(u).source
+        others = {self.document_path(u).resolve(): self.open_text(u)
                   for u in self.analyses if u != uri and self.is_open(u)}
         path = self.document_path(uri)
         analysis = analyse(path, text, context_for(path, self.overrides), others)
@@ -159,6 +207,7 @@ class MpLanguageServer(LanguageServer):
             diagnostics=[self.diagnostic(uri, analysis, d) for d in analysis.diagnostics]))
 
     def forget(self, uri: str) -> None:
+        self.texts.pop(unquote(uri), None)
         closed = self.analyses.pop(uri, None)
         self.text_document_publish_diagnostics(lsp.PublishDiagnosticsParams(uri=uri,
                                                                             diagnostics=[]))
@@ -316,12 +365,13 @@ def create_server(overrides: Overrides | None = None) -> MpLanguageServer:
     @server.feature(lsp.TEXT_DOCUMENT_DID_OPEN)
     @_guarded(server)
     def did_open(params: lsp.DidOpenTextDocumentParams) -> None:
+        server.opened(params)
         server.refresh(params.text_document.uri)
 
     @server.feature(lsp.TEXT_DOCUMENT_DID_CHANGE)
     @_guarded(server)
     def did_change(params: lsp.DidChangeTextDocumentParams) -> None:
-        server.refresh(params.text_document.uri)
+        server.refresh(params.text_document.uri)  # the text: `_Protocol` kept it
 
     @server.feature(lsp.TEXT_DOCUMENT_DID_SAVE)
     @_guarded(server)
@@ -396,4 +446,5 @@ def create_server(overrides: Overrides | None = None) -> MpLanguageServer:
         return hints
 
     register_editing(server, _guarded(server))
+    register_navigation(server, _guarded(server))
     return server

@@ -187,9 +187,9 @@ def test_dry_run_shows_the_lines_and_touches_nothing() -> None:
 @pytest.mark.parametrize(("args", "words"), [
     ((SAMPLES / "fatek" / "feeder.mp", "--target", "fbs-fun140"),
      ["FATEK FBs-PLC (fbs-fun140) programs cannot be flashed", "WinProladder",
-      "mpc build --target fbs-fun140 --format table"]),
+      "mpc build --target fbs-fun140 --format fbs"]),
     ((SAMPLES / "fatek" / "drvc_three_speeds.fbs", "--serial", "/dev/null"),
-     ["cannot be flashed", "--target fbs-fun140 --format table"]),
+     ["cannot be flashed", "--target fbs-fun140 --format fbs"]),
     ((FLOW, "--tcp", "10.0.0.1"), ["a CSIM is reached over RS232: give --serial PORT"]),
     ((FLOW,), ["give the device"]),
     ((FLOW, "--serial", "/dev/null", "--unit", "3"), ["--unit: M8194H option"]),
@@ -238,4 +238,4 @@ def test_project_targets_that_inherit_a_family_target(tmp_path: Path,
     for args in (("--fleet", "mpc.toml"), ("--to", "plc"), ()):
         code, _, err = run("flash", *args)
         assert code == EXIT_USAGE and "cannot be flashed" in err, args
-        assert "--target fbs-fun147 --format table" in " ".join(err.split())
+        assert "--target fbs-fun147 --format fbs" in " ".join(err.split())

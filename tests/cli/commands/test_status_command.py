@@ -120,7 +120,7 @@ def test_manual_3_19_status_extra_missing_and_no_identity(tmp_path: Path) -> Non
         assert none.returncode == EXIT_OUT_OF_SYNC  # a fresh device: no manifest
         data = json.loads(none.stdout)
         assert "no manifest" in data["manifest"]["error"]
-        assert {s["status"] for s in data["slots"]} == {"missing"}
+        assert {s["status"] for s in data["slots"]} == {"unknown"}  # nothing to compare
         assert mpc(work, "flash", "job.mp", "--tcp", device, "--record", "r.json",
                    "--identity", "MD100-MD199").returncode == EXIT_OK
         other = mpc(work, "status", "--tcp", device, "other.mp", "--identity", "MD100-MD199",

@@ -83,7 +83,7 @@ def test_manual_3_19_fleet_status_table_json_and_exit_codes(tmp_path: Path) -> N
         assert rows["cell1"].endswith("MP5      in sync") and " yes " in rows["cell1"]
         assert "0x01000000" in rows["cell1"]
         assert rows["cell2"].endswith("differs (1 slot)")
-        assert rows["cell3"].endswith("missing")
+        assert rows["cell3"].endswith("unknown (no manifest)")
         assert rows["cell4"].split()[2:] == ["no", "-", "-", "-", "-", "unreachable"]
         assert lines[5] == (f"cell4: cannot connect to 127.0.0.1:{ports['cell4']} (Modbus "
                             "TCP): connection refused (nothing listens on that port)")
@@ -133,7 +133,8 @@ def test_fleet_verdicts_by_slot() -> None:
 
     assert verdict({"manifest": None}) is None  # nothing to compare with
     assert verdict(data("in sync", in_sync=True)) == "in sync"
-    assert verdict(data("missing", manifest={"error": "no manifest"})) == "missing"
+    assert verdict(data("unknown", manifest={"error": "no manifest"})) == \
+        "unknown (no manifest)"
     assert verdict(data("in sync", "differs", "missing")) == "differs (2 slots)"
     assert verdict(data("in sync", "extra")) == "extra (1 slot)"
     assert verdict(data("in sync")) == "differs (downloaded since the manifest)"

@@ -122,14 +122,14 @@ async def test_capabilities_advertise_what_the_server_answers(
     assert capabilities.rename_provider.prepare_provider
     assert isinstance(capabilities.code_action_provider, lsp.CodeActionOptions)
     assert list(capabilities.code_action_provider.code_action_kinds or []) == [
-        lsp.CodeActionKind.QuickFix]
+        lsp.CodeActionKind.QuickFix, "source.fixAll.mpc"]
     semantic = capabilities.semantic_tokens_provider
     assert isinstance(semantic, lsp.SemanticTokensOptions)
     assert semantic.full == lsp.SemanticTokensFullDelta(delta=True) and not semantic.range
     assert capabilities.signature_help_provider is not None
     assert list(capabilities.signature_help_provider.trigger_characters or []) == [" ", ",", "("]
+    assert capabilities.document_highlight_provider  # tests/tools/lsp/test_navigation_server.py
     # Not implemented, so not advertised.
-    assert capabilities.document_highlight_provider is None
     assert capabilities.declaration_provider is None
 
 
@@ -166,7 +166,8 @@ async def test_quick_fixes_from_did_you_mean_hints(client: LanguageClient, opene
         text_document=ident(opened), range=whole(7),
         context=lsp.CodeActionContext(diagnostics=[])))
     assert actions is not None
-    (fix,) = [a for a in actions if isinstance(a, lsp.CodeAction)]
+    (fix,) = [a for a in actions if isinstance(a, lsp.CodeAction)
+              and a.kind == lsp.CodeActionKind.QuickFix]
     assert fix.title == "Replace 'FIXD_MOVE' with 'FIXED_MOVE'"
     assert fix.kind == lsp.CodeActionKind.QuickFix and fix.is_preferred
     assert fix.diagnostics and fix.diagnostics[0].code == "E201"
@@ -190,7 +191,8 @@ async def test_ignore_this_warning_on_this_line(client: LanguageClient, opened: 
         text_document=ident(opened), range=whole(9),
         context=lsp.CodeActionContext(diagnostics=[])))
     assert actions is not None
-    (ignore,) = [a for a in actions if isinstance(a, lsp.CodeAction)]
+    (ignore,) = [a for a in actions if isinstance(a, lsp.CodeAction)
+                 and a.kind == lsp.CodeActionKind.QuickFix]
     assert ignore.title == "Ignore W103 on this line" and not ignore.is_preferred
     (edit,) = ignore.edit.changes[opened]  # type: ignore[union-attr,index]
     assert apply(LINES[9], [edit]) == "    count = count + 1  # mpc: ignore[W103]"

@@ -2,14 +2,18 @@
 
 from __future__ import annotations
 
-from hypothesis import given
+import random
+
+from hypothesis import given, settings
 from hypothesis import strategies as st
+from lspedits import ALPHABET, random_edit
 
 from mplang.lang.diagnostics import Span
 from mplang.tools.lsp.positions import (
     ENCODINGS,
     Pos,
     Range,
+    apply_change,
     from_client_character,
     line_range,
     span_range,
@@ -69,3 +73,27 @@ def test_every_character_boundary_survives_the_round_trip(line: str, data: st.Da
     for encoding in ENCODINGS:
         units = to_client_character(line, index, encoding)
         assert from_client_character(line, units, encoding) == index
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.sampled_from(ALPHABET), max_size=30).map("".join),
+       st.integers(min_value=0, max_value=2**32 - 1), st.integers(min_value=1, max_value=12))
+def test_random_incremental_edits_give_the_full_text(start: str, seed: int, count: int
+                                                     ) -> None:
+    """Incremental sync: a sequence of random range edits, sent as a client counts positions
+    (in each encoding, CRLF/LF/CR lines), applied one by one, gives the text a full sync would send;
+    also with form feeds and U+2028, which `str.splitlines` would take for line breaks."""
+    for encoding in ENCODINGS:
+        rng = random.Random(seed)
+        text = expected = start
+        for _ in range(count):
+            begin, end, inserted, expected = random_edit(expected, rng, encoding)
+            text = apply_change(text, begin, end, inserted, encoding)
+            assert text == expected
+
+
+def test_a_position_past_a_line_or_the_text_is_clamped() -> None:
+    assert apply_change("ab\ncd", (0, 99), (1, 1), "X", "utf-16") == "abXd"
+    assert apply_change("ab\ncd", (7, 0), (9, 9), "!", "utf-16") == "ab\ncd!"
+    assert apply_change("a😀b", (0, 1), (0, 3), "", "utf-16") == "ab"  # two UTF-16 units
+    assert apply_change("a😀b", (0, 1), (0, 5), "", "utf-8") == "ab"  # four UTF-8 bytes
