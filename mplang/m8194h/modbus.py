@@ -102,6 +102,11 @@ class DeviceFace:
         self.interpose = interpose
         self.requests = 0
         self.refusals: list[Refusal] = []
+        self.persist: Callable[[], bool] | None = None
+        """Stores the controller's non-volatile memory (`mpc sim --memory`): called after a
+        request that changed it and before that request is answered, as the device's FRAM
+        holds a closed download before its status registers say so. False: not stored, and
+        the request is answered SLAVE DEVICE FAILURE."""
 
     def catch_up(self) -> None:
         """Run the controller up to the present moment. A program that needs more lines than
@@ -119,6 +124,7 @@ class DeviceFace:
                      current: list[int], values: list[int] | list[bool] | None) -> ExcCodes | None:
         """pymodbus's hook, called before it answers a request from `current`."""
         self.requests += 1
+        version = self.controller.memory_version  # a program's MD writes count too
         self.catch_up()
         if self.interpose is not None:
             written = None if values is None else [int(v) for v in values]
@@ -126,19 +132,24 @@ class DeviceFace:
             if injected:
                 self.refusals.append(Refusal(injected, reason="injected by interpose"))
                 return ExcCodes(injected)
+        answer: ExcCodes | None = None
         try:
             self._serve(function_code, start_address, address, count, current, values)
         except Refusal as refusal:
             self.refusals.append(refusal)
-            return ExcCodes(refusal.code)
+            answer = ExcCodes(refusal.code)
         except Exception as err:  # a fault inside one request: SLAVE DEVICE FAILURE
             LOG.warning("internal fault serving FC%d at %d: %r", function_code, address, err,
                         exc_info=err)
             self.controller.log.append(f"{self.controller.clock:.4f} s: internal fault "
                                        f"serving FC{function_code} at {address}: {err!r}")
             self.refusals.append(Refusal(DEVICE_FAILURE, reason=f"internal fault: {err!r}"))
-            return ExcCodes(DEVICE_FAILURE)
-        return None
+            answer = ExcCodes(DEVICE_FAILURE)
+        if self.persist is not None and self.controller.memory_version != version and \
+                not self.persist():  # no await since the change: no reader saw it unsaved
+            self.refusals.append(Refusal(DEVICE_FAILURE, reason="memory file not written"))
+            answer = ExcCodes(DEVICE_FAILURE)
+        return answer
 
     def refuse_function(self, function_code: int) -> None:
         """A request whose function code the device does not serve (exception 1 follows)."""
