@@ -39,7 +39,7 @@ from mplang.cli.families import (
 )
 from mplang.cli.shell import complete_paths
 from mplang.family.registry import families
-from mplang.tools.project import Project, ProjectError, Target, load_fleet
+from mplang.tools.project import FlashSettings, Project, ProjectError, Target, load_fleet
 
 if TYPE_CHECKING:
     from mplang.cli.progress import FlashDisplay
@@ -141,7 +141,7 @@ def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | N
         word_order_fixed=word_order is not None
         or (setup.project is not None and setup.project.word_order is not None),
         dry_run=dry_run, as_json=as_json, force=force, set_word_order=set_word_order,
-        record=record_file or (settings.record if settings else None),
+        record=record_file or (_project_record(settings) if settings else None),
         timeout=timeout if given("timeout") else None,
         retries=retries if given("retries") else None,
         settings_timeout=settings.timeout if settings else None,
@@ -154,6 +154,15 @@ def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | N
     except CommandError as exc:
         raise click_error(exc) from None
     sys.exit(FLASH_EXIT[outcome])
+
+
+def _project_record(settings: FlashSettings) -> Path:
+    """The project's flash record, or InputError (exit 3) at its line if the project file
+    names a place mpc may not write (checked only here: lint and build never write it)."""
+    try:
+        return settings.writable_record()
+    except ProjectError as exc:
+        raise InputError(str(exc)) from None
 
 
 FLASH_OPTIONS = (("--unit", "unit"), ("--word-order", "word_order"),
