@@ -559,7 +559,7 @@ def mpc(*args: str, timeout: float = 30) -> subprocess.CompletedProcess[str]:
 
 
 def test_cli_flashes_samples_rejects_bad_input_and_reports_no_device(tmp_path: Path) -> None:
-    proc, port = start_sim("--duration", "20")
+    proc, port = start_sim("--duration", "90")
     try:
         ok = mpc("flash", "samples/*.mp", "--tcp", f"127.0.0.1:{port}", "--json")
         assert ok.returncode == EXIT_OK, ok.stderr

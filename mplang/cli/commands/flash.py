@@ -77,6 +77,9 @@ DEFAULT_TIMEOUT, DEFAULT_RETRIES = 1.0, 3
               "of mpc.toml, else MD768-MD1023].")
 @click.option("--no-identity", is_flag=True,
               help="Write no build manifest: leave every machine data (MD) as it is.")
+@click.option("--wait-lease", type=click.FloatRange(min=0, max=3600), default=0.0,
+              metavar="SECONDS", help="If another client holds the device's download lease, "
+              "wait up to SECONDS for it to end [default: refuse at once, exit 19].")
 @click.option("--json", "as_json", is_flag=True, help="Print a JSON summary on standard output.")
 @click.option("--dry-run", is_flag=True,
               help="Print every frame that would be sent; connect to nothing.")
@@ -88,7 +91,8 @@ def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | N
             serial: str | None, unit: int, baud: int, parity: str, stopbits: str,
             to: str | None, fleet: Path | None, timeout: float, retries: int,
             set_word_order: bool, stop_running: bool, force: bool, record_file: Path | None,
-            identity: str | None, no_identity: bool, as_json: bool, dry_run: bool,
+            identity: str | None, no_identity: bool, wait_lease: float, as_json: bool,
+            dry_run: bool,
             project_file: Path | None, target: str,
             word_order: str | None, temp_vars: range, allow_outside_includes: bool,
             werror: bool) -> None:
@@ -148,7 +152,7 @@ def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | N
         settings_retries=settings.retries if settings else None,
         settings_set_word_order=bool(settings and settings.set_word_order),
         fleet=fleet is not None, stop_running=stop_running,
-        identity=manifest_range, identity_where=manifest_where)
+        identity=manifest_range, identity_where=manifest_where, wait_lease=wait_lease)
     try:
         outcome = family.flash_devices(job, _FlashUI("mpc flash", setup.werror))
     except CommandError as exc:
@@ -168,7 +172,8 @@ def _project_record(settings: FlashSettings) -> Path:
 FLASH_OPTIONS = (("--unit", "unit"), ("--word-order", "word_order"),
                  ("--set-word-order", "set_word_order"), ("--record", "record_file"),
                  ("--retries", "retries"), ("--stop-running", "stop_running"),
-                 ("--identity", "identity"), ("--no-identity", "no_identity"))
+                 ("--identity", "identity"), ("--no-identity", "no_identity"),
+                 ("--wait-lease", "wait_lease"))
 """Options of `mpc flash` beyond the common ones: refused for a family whose
 `FLASH_OPTIONS` does not take them."""
 
