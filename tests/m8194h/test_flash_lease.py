@@ -270,3 +270,37 @@ def test_a_monitor_write_is_refused_while_a_flash_holds_the_lease() -> None:
 
 
 pytestmark = pytest.mark.skipif(os.name != "posix", reason="subprocess timing on POSIX")
+
+
+def test_a_client_that_ignores_the_lease_is_detected_and_said_to_hold_none() -> None:
+    """A client without a lease (an older mpc, another tool) opens a download just before
+    this flash's create frame: detected by the device's state as before (exit 10, nothing
+    tidied up), and the message adds that it holds no download lease."""
+    from test_flash_faults import job_image
+    from test_flash_request_faults import flash_relayed
+
+    image_ = job_image()
+    face = DeviceFace(VirtualController(), SimClock(1.0))
+    vc = face.controller
+    first_create = image_.programs[0].frames[0]
+    opened: list[bool] = []
+
+    def other_client_closes() -> None:
+        vc.write_subfunction(vc.encoder.close_frame("mp"))
+
+    def interpose(_function_code: int, _address: int, values: list[int] | None) -> int | None:
+        if values == first_create and not opened:
+            opened.append(True)
+            assert vc.write_subfunction(vc.encoder.create_frame("mp", 60)) == 0
+            asyncio.get_running_loop().call_later(0.2, other_client_closes)
+        return None
+
+    face.interpose = interpose
+    outcome = flash_relayed("tcp", face, lambda _r: None, image_,
+                            FlashOptions(lease=SETTINGS))
+    error = str(outcome.report.error)
+    assert outcome.report.outcome == "interrupted", error
+    assert "another client is downloading MP60" in error
+    assert error.endswith("(it holds no download lease: an older mpc, or another tool)"), error
+    words = [vc.md.word(n) for n in range(SETTINGS.md.first, SETTINGS.md.last + 1)]
+    assert words == [0] * SETTINGS.md.count  # this flash's lease given back
