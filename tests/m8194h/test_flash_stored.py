@@ -110,3 +110,46 @@ async def _manifest(port: int) -> Manifest:
         return await read_manifest(link, MdRange(768, 1023), 0)
     finally:
         link.close()
+
+
+def test_a_memory_file_that_cannot_be_written_fails_the_close_and_stops_the_simulator(
+        tmp_path: Path) -> None:
+    """The close whose memory cannot be stored is answered SLAVE DEVICE FAILURE (never
+    acknowledged as stored), and the simulator stops with its "cannot write" error."""
+    from mplang.m8194h.modbus import DeviceException
+    from mplang.m8194h.sim.controller import VirtualController
+    from mplang.m8194h.sim.service import Endpoints, ServiceError, SimOptions, serve
+
+    blocker = tmp_path / "not-a-folder"
+    blocker.write_text("a file where the memory's folder should be\n", encoding="utf-8")
+    options = SimOptions(tcp=("127.0.0.1", 0), memory=blocker / "fram.json")
+    build = compile_source(SOURCE.format(slot=3), "job3.mp")
+    assert build.ok
+    frames = image_from_build(build).programs[0].frames
+
+    async def scenario() -> tuple[int, str]:
+        endpoints = Endpoints()
+        stop_event = asyncio.Event()
+        served = asyncio.ensure_future(serve(options, VirtualController(), lambda _t: None,
+                                             stop_event, endpoints))
+        while endpoints.tcp is None:
+            await asyncio.sleep(0.01)
+        link = DeviceLink(Endpoint(host="127.0.0.1", port=endpoints.tcp[1], timeout=1.0))
+        await link.open()
+        code = 0
+        try:
+            for frame in frames[:-1]:
+                await link.write_frame(frame)
+            try:
+                await link.write_frame(frames[-1])
+            except DeviceException as exc:
+                code = exc.code
+        finally:
+            link.close()
+        with pytest.raises(ServiceError) as stopped:
+            await asyncio.wait_for(served, 5)
+        return code, str(stopped.value)
+
+    code, message = asyncio.run(scenario())
+    assert code == 0x04
+    assert "cannot write macro memory" in message and "fram.json" in message
