@@ -81,7 +81,7 @@ def test_mpc_flash_then_kill_keeps_the_programs_and_the_manifest(tmp_path: Path)
     holds the programs and a build manifest that names them."""
     memory = tmp_path / "fram.json"
     source = tmp_path / "job.mp"
-    for round_no in range(3):
+    for round_no in range(2):
         source.write_text(SOURCE.format(slot=10 + round_no) + SOURCE.format(slot=60),
                           encoding="utf-8")
         proc, port = start_sim("--memory", str(memory))
