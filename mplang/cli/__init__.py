@@ -65,6 +65,7 @@ __all__ = [
     "EXIT_FLEET_MIXED",
     "EXIT_INTERNAL",
     "EXIT_INTERRUPTED",
+    "EXIT_LEASED",
     "EXIT_MISSING_EXTRA",
     "EXIT_NOT_EXACT",
     "EXIT_NO_DEVICE",

@@ -48,12 +48,14 @@ EXIT_NOT_EXACT = 14
 EXIT_MISSING_EXTRA = 15
 EXIT_OUT_OF_SYNC = 16
 EXIT_BAD_MACHINE = 17
+EXIT_LEASED = 19
 EXIT_INTERNAL = 70
 SERVER_PORT = 1502
 """`mpc sim --tcp HOST`'s port (502 needs privileges; 1502 is the usual unprivileged one)."""
 FLASH_EXIT = {"verified": EXIT_OK, "no-port": EXIT_TRANSPORT, "no-device": EXIT_NO_DEVICE,
               "rejected": EXIT_REJECTED, "unverified": EXIT_UNVERIFIED,
-              "interrupted": EXIT_INTERRUPTED, "mixed": EXIT_FLEET_MIXED}
+              "interrupted": EXIT_INTERRUPTED, "mixed": EXIT_FLEET_MIXED,
+              "leased": EXIT_LEASED}
 """A flash's outcome (`mplang.family.face.FLASH_OUTCOMES`) -> the exit code."""
 
 F = TypeVar("F", bound=Callable[..., Any])

@@ -101,8 +101,9 @@ class ServeRequest:
 
 class CommandError(Exception):
     """A family cannot do what the command asks, for a reason the command line or the input
-    carries: `kind` "usage" (exit 2) or "input" (exit 3); `param` names the option to blame,
-    if one is."""
+    carries: `kind` "usage" (exit 2) or "input" (exit 3), or "leased" (a dashboard write
+    refused while another client holds the device's download lease: HTTP 409); `param`
+    names the option to blame, if one is."""
 
     def __init__(self, kind: str, message: str, param: str | None = None) -> None:
         super().__init__(message)
@@ -174,6 +175,7 @@ class FlashJob:
     identity: str | bool | None = None  # where the build manifest goes: a range, False
     # (never), None (the family's default)
     identity_where: str | None = None  # "FILE:LINE: [flash] identity" when it came from there
+    wait_lease: float = 0.0  # --wait-lease: seconds to wait for another client's lease
 
 
 @dataclass(frozen=True)
@@ -269,7 +271,7 @@ class FlashUI(Protocol):
 
 
 FLASH_OUTCOMES = ("verified", "no-port", "no-device", "rejected", "unverified",
-                  "interrupted", "mixed")
+                  "interrupted", "mixed", "leased")
 """What a flash can end in; the command maps each to its exit code."""
 
 

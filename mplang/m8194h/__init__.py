@@ -50,7 +50,8 @@ BUILD_OPTIONS = frozenset({"--word-order", "--pins"})
 """The word order of the image (holding register 14) and slot pins (mpc.toml `[slots]`):
 the M8194H's alone."""
 FLASH_OPTIONS = frozenset({"--unit", "--word-order", "--set-word-order", "--record",
-                           "--retries", "--stop-running", "--identity", "--no-identity"})
+                           "--retries", "--stop-running", "--identity", "--no-identity",
+                           "--wait-lease"})
 """`mpc flash` options beyond the common ones: Modbus, image frames, the flash record, the
 build manifest in machine data."""
 FLASHES_FLEETS = True

@@ -12,9 +12,11 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 from mplang.family.face import CommandError, FlashJob, FlashTarget, FlashUI
+from mplang.ir import catalogue
 from mplang.ir.unit import Options
 from mplang.m8194h import flash as flashing
 from mplang.m8194h.compiler import compile_paths
+from mplang.m8194h.flash.lease import LeaseSettings
 from mplang.m8194h.flash.manifest import DEFAULT_RANGE, MdRange, parse_range
 from mplang.m8194h.modbus import DeviceLink, Endpoint
 
@@ -26,6 +28,7 @@ def flash(job: FlashJob, ui: FlashUI) -> str:
     images = _Images(job.paths, job.options, ui, job.word_order_fixed)
     record_path = job.record or flashing.default_record_path()
     identity = identity_range(job.identity, job.identity_where)
+    lease = LeaseSettings.of(catalogue.load().profile)
     devices: list[flashing.FleetDevice] = []
     for device in job.devices:
         image, rebuild = images.for_target(device)
@@ -39,7 +42,8 @@ def flash(job: FlashJob, ui: FlashUI) -> str:
         devices.append(flashing.FleetDevice(device.name, image, endpoint, flashing.FlashOptions(
             set_word_order=job.set_word_order or job.settings_set_word_order,
             rebuild=rebuild, address=device.address(), force=job.force,
-            stop_running=job.stop_running, identity=identity)))
+            stop_running=job.stop_running, identity=identity, lease=lease,
+            wait_lease=job.wait_lease)))
     record = flashing.FlashRecord(record_path)
     if job.dry_run:
         _dry_run(devices, record, job.as_json, ui)

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import logging
 import re
+import time
 from collections.abc import Mapping
 from typing import Any
 
@@ -24,6 +25,7 @@ from mplang.family.face import CommandError, DeviceUnreachable, WatchJob
 from mplang.ir.catalogue import Catalogue
 from mplang.ir.catalogue import load as load_catalogue
 from mplang.m8194h.encode import join32, split32
+from mplang.m8194h.flash.lease import Lease, LeaseSettings
 from mplang.m8194h.flash.registers import (
     CALL_REGISTER,
     IDENTITY_COUNT,
@@ -43,6 +45,8 @@ HOLDING_FIRST = CALL_REGISTER  # holding 8 (called MP) .. 14 (word order)
 HOLDING_COUNT = WORD_ORDER_REGISTER - CALL_REGISTER + 1
 VARS_PER_READ = 60  # 120 registers: within FC3's 125
 ACTIONS = ("call", "set_var", "stop", "emergency_stop", "clear_emergency")
+LEASE_FREE = frozenset({"stop", "emergency_stop"})
+"""Writes never held back by a flash's download lease: stopping must always work."""
 INT32 = (-(1 << 31), (1 << 31) - 1)
 
 
@@ -201,6 +205,8 @@ class Watcher:
                                f"{', '.join(ACTIONS)}")
         link = await self._guarded_link()
         try:
+            if action not in LEASE_FREE:
+                await self._refuse_if_leased(link)
             if action == "call":
                 slot, label = self._program(args.get("program"))
                 await link.write_once(CALL_REGISTER, [slot])
@@ -223,6 +229,17 @@ class Watcher:
             raise CommandError("input", f"the device refused it: {exc}") from None
         except LinkError as exc:
             raise self._lost(exc) from None
+
+    async def _refuse_if_leased(self, link: DeviceLink) -> None:
+        """A write while another client holds the device's download lease (a flash is
+        writing it) is refused, naming that client: a call or a variable could meet a
+        half-written program."""
+        lease = Lease(link, LeaseSettings.of(self.catalogue.profile), self.word_order)
+        held = await lease.read()
+        now = time.time()
+        if held is not None and not held.expired(now):
+            raise CommandError("leased", f"refused: the device is leased by "
+                               f"{held.describe(now)}; write again when that flash is done")
 
     async def _rtc(self, link: DeviceLink, short: str, *params: int) -> None:
         """A real-time command frame at the sub-function window (FC16, register 8000)."""

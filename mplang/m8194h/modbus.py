@@ -113,8 +113,13 @@ class DeviceFace:
         self.requests = 0
         self.refused = 0  # every refusal since the start; `refusals` holds the latest only
         self.refusals: deque[Refusal] = deque(maxlen=REFUSALS_KEPT)
+        self.persist: Callable[[], bool] | None = None
+        """Stores the controller's non-volatile memory (`mpc sim --memory`): called after a
+        request that changed it and before that request is answered, as the device's FRAM
+        holds a closed download before its status registers say so. False: not stored, and
+        the request is answered SLAVE DEVICE FAILURE."""
 
-    def _refuse(self, refusal: Refusal) -> ExcCodes:
+    def refuse(self, refusal: Refusal) -> ExcCodes:
         """Keep `refusal` without the frames its traceback holds; the exception to answer."""
         self.refused += 1
         self.refusals.append(refusal.with_traceback(None))
@@ -136,28 +141,33 @@ class DeviceFace:
                      current: list[int], values: list[int] | list[bool] | None) -> ExcCodes | None:
         """pymodbus's hook, called before it answers a request from `current`."""
         self.requests += 1
+        version = self.controller.memory_version  # a program's MD writes count too
         self.catch_up()
         if self.interpose is not None:
             written = None if values is None else [int(v) for v in values]
             injected = self.interpose(function_code, address, written)
             if injected:
-                return self._refuse(Refusal(injected, reason="injected by interpose"))
+                return self.refuse(Refusal(injected, reason="injected by interpose"))
+        answer: ExcCodes | None = None
         try:
             self._serve(function_code, start_address, address, count, current, values)
         except Refusal as refusal:
-            return self._refuse(refusal)
+            answer = self.refuse(refusal)
         except Exception as err:  # a fault inside one request: SLAVE DEVICE FAILURE
             LOG.warning("internal fault serving FC%d at %d: %r", function_code, address, err,
                         exc_info=err)
             self.controller.log.append(f"{self.controller.clock:.4f} s: internal fault "
                                        f"serving FC{function_code} at {address}: {err!r}")
-            return self._refuse(Refusal(DEVICE_FAILURE, reason=f"internal fault: {err!r}"))
-        return None
+            answer = self.refuse(Refusal(DEVICE_FAILURE, reason=f"internal fault: {err!r}"))
+        if self.persist is not None and self.controller.memory_version != version and \
+                not self.persist():  # no await since the change: no reader saw it unsaved
+            answer = self.refuse(Refusal(DEVICE_FAILURE, reason="memory file not written"))
+        return answer
 
     def refuse_function(self, function_code: int) -> None:
         """A request whose function code the device does not serve (exception 1 follows)."""
         self.requests += 1
-        self._refuse(self.registers.unsupported(function_code))
+        self.refuse(self.registers.unsupported(function_code))
 
     def _serve(self, fc: int, start: int, address: int, count: int, current: list[int],
                values: list[int] | list[bool] | None) -> None:
@@ -243,7 +253,7 @@ class RefusedRequest(ModbusPDU):
     def note(self, face: DeviceFace) -> None:
         """What the device records of the refusal."""
         face.requests += 1
-        face.refusals.append(Refusal(self.refusal_code, reason=self.reason))
+        face.refuse(Refusal(self.refusal_code, reason=self.reason))
 
     async def datastore_update(self, context: object, device_id: int) -> ModbusPDU:
         if self.face is not None and self.unit in (None, device_id):  # another slave's

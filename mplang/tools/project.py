@@ -84,6 +84,17 @@ class FlashSettings:
     """The machine-data range of the build manifest ("MD960-MD1023"), False for none, None
     for the family's default; the family checks the range itself."""
     identity_where: str = ""  # "FILE:LINE: [flash] identity" for messages about it
+    record_refusal: str | None = None
+    """Why `record` may not be written ("FILE:LINE: [flash] record: ..."), None if it may.
+    Only a command that writes the record refuses over it (`mpc flash`, `writable_record`):
+    lint and build never touch it, so a `.mpc` folder leading out of the project is none
+    of their business."""
+
+    def writable_record(self) -> Path:
+        """The record, if mpc may write it on the project file's word; else ProjectError."""
+        if self.record_refusal is not None:
+            raise ProjectError(self.record_refusal)
+        return self.record
 
 
 @dataclass(frozen=True)
@@ -482,8 +493,8 @@ def load_project(path: Path) -> Project:
     if not isinstance(record, str) or not record:
         raise where.error("flash", "record", "must be a file path")
     refusal = write_refusal(root, record)
-    if refusal is not None:
-        raise where.error("flash", "record", refusal)
+    if refusal is not None:  # refused by the command that would write it, not here
+        refusal = str(where.error("flash", "record", refusal))
     identity = flash.get("identity")
     if identity is not None and identity is not False and not isinstance(identity, str):
         raise where.error("flash", "identity", "must be a machine-data range such as "
@@ -502,7 +513,7 @@ def load_project(path: Path) -> Project:
         pins=_pins(_table(data, "slots", where), where),
         targets=_targets(data, root, where),
         flash=FlashSettings(
-            record=root / record,
+            record=root / record, record_refusal=refusal,
             timeout=None if "timeout" not in flash else
             _number(flash["timeout"], 0.01, 60, "flash", "timeout", where),
             retries=None if "retries" not in flash else

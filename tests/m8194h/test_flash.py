@@ -433,6 +433,77 @@ def test_status_for_another_slot_is_not_taken_for_verification() -> None:
     assert report.programs[0].status == "unverified"
 
 
+ISR_ONLY = """ISR 7 on_edge
+    VAR5 = 1
+END ISR
+"""
+
+
+@pytest.mark.parametrize(("source", "forged", "named"), [
+    (ARCS, (41, 7, 0, 0, 0), "MP41/ISR7"),  # the MP number right, the ISR number not 0
+    (ISR_ONLY, (0, 99, 0, 0, 0), "MP0/ISR99"),  # the MP number right (0), the ISR wrong
+], ids=["mp", "isr"])
+def test_verification_compares_the_isr_number_as_well_as_the_mp_number(
+        source: str, forged: tuple[int, ...], named: str) -> None:
+    """Input registers 110 and 111 both name the slot just written: a status whose MP number
+    matches but whose ISR number does not is another download's, never this one's."""
+    image = image_from_build(build_of(source))
+    program = image.programs[0]
+    close = program.frames[-1]
+    armed = [False]
+    face: DeviceFace
+
+    def forge(function_code: int, address: int, values: list[int] | None) -> int | None:
+        if function_code == WRITE_REGISTERS and values == close:
+            armed[0] = True
+        elif function_code == 4 and address == 100 and armed[0]:
+            face.controller.download_status = forged  # type: ignore[assignment]
+        return None
+
+    face = device(interpose=forge)
+
+    async def scenario() -> FlashReport:
+        async with tcp_device(face) as (_server, port):
+            return await flash(image, endpoint(port))
+
+    report = asyncio.run(scenario())
+    assert report.outcome == "unverified", report.error
+    assert named in str(report.error) and "not for this program" in str(report.error)
+    assert report.programs[0].status == "unverified"
+
+
+def test_a_status_changed_after_the_last_verification_fails_the_final_check() -> None:
+    """The final check after the last program: the device must still show the download
+    status the last verification read. A late close that reached it in between (here
+    MP22's status appearing after MP41 verified, state still ready) makes the flash
+    unverified, never a success."""
+    image = image_from_build(build_of(ARCS))
+    close = image.programs[-1].frames[-1]
+    reads_after_close = [0, False]
+    face: DeviceFace
+
+    def late_close(function_code: int, address: int, values: list[int] | None) -> int | None:
+        if function_code == WRITE_REGISTERS and values == close:
+            reads_after_close[1] = True
+        elif function_code == 4 and address == 100 and reads_after_close[1]:
+            reads_after_close[0] += 1
+            if reads_after_close[0] == 2:  # after the verification, before the final check
+                face.controller.download_status = (22, 0, 0, 0, 0)
+        return None
+
+    face = device(interpose=late_close)
+
+    async def scenario() -> FlashReport:
+        async with tcp_device(face) as (_server, port):
+            return await flash(image, endpoint(port))
+
+    report = asyncio.run(scenario())
+    assert reads_after_close[0] == 2
+    assert report.outcome == "unverified", report.error
+    assert "after the last verification the device changed" in str(report.error)
+    assert "[22, 0, 0, 0, 0]" in str(report.error) and "[41, 0, 0, 0, 0]" in str(report.error)
+
+
 def test_no_device_at_the_address_or_the_unit() -> None:
     image = image_from_build(build_of(ARCS))
     with socket.socket() as probe:
@@ -488,7 +559,7 @@ def mpc(*args: str, timeout: float = 30) -> subprocess.CompletedProcess[str]:
 
 
 def test_cli_flashes_samples_rejects_bad_input_and_reports_no_device(tmp_path: Path) -> None:
-    proc, port = start_sim("--duration", "20")
+    proc, port = start_sim("--duration", "90")
     try:
         ok = mpc("flash", "samples/*.mp", "--tcp", f"127.0.0.1:{port}", "--json")
         assert ok.returncode == EXIT_OK, ok.stderr

@@ -280,8 +280,9 @@ def test_a_flash_record_outside_the_project_is_refused_at_its_line(
     (root / "victim-link.json").symlink_to(victim)
     path = project(root, f"[project]\nsources = \"src\"\n\n[flash]\n# where\nrecord = "
                    f"\"{record.format(outside=outside)}\"\n")
+    settings = load_project(path).flash  # loading is fine: only a flash writes the record
     with pytest.raises(ProjectError) as caught:
-        load_project(path)
+        settings.writable_record()
     text = str(caught.value)
     assert text.startswith(f"{path}:6: [flash] record: "), text
     assert message.format(root=root.resolve(), outside=outside.resolve()) in text, text
@@ -290,6 +291,37 @@ def test_a_flash_record_outside_the_project_is_refused_at_its_line(
     assert result.exit_code == EXIT_NO_INPUT and "mpc.toml:6: [flash] record:" in result.output
     assert "Traceback" not in result.output
     assert victim.read_text() == (tmp_path / "victim.txt").read_text() == "someone's file\n"
+
+
+def test_lint_and_build_do_not_refuse_over_a_flash_record_they_never_write(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Issue 23 item 8: a `.mpc` folder that is a symbolic link leading out of the project
+    made `mpc lint` and `mpc build` refuse (exit 3) over the default flash record inside
+    it. Only `mpc flash`, which writes it, refuses, at the [flash] table's place; naming
+    another record on the command line is taken."""
+    monkeypatch.setenv("XDG_STATE_HOME", str(tmp_path / "xdg-state"))
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg-cache"))
+    root, outside = tmp_path / "cell", tmp_path / "elsewhere"
+    root.mkdir()
+    outside.mkdir()
+    (root / ".mpc").symlink_to(outside, target_is_directory=True)
+    project(root, "[project]\nsources = \"src\"\n")
+    monkeypatch.chdir(root)
+    runner = CliRunner()
+    lint = runner.invoke(main, ["lint"])
+    assert lint.exit_code == EXIT_OK, lint.output
+    build = runner.invoke(main, ["build", "-o", str(tmp_path / "out.json")])
+    assert build.exit_code == EXIT_OK, build.output
+    assert (tmp_path / "out.json").is_file()
+    flash = runner.invoke(main, ["flash", "--dry-run", "--tcp", "127.0.0.1"])
+    assert flash.exit_code == EXIT_NO_INPUT, flash.output
+    assert "[flash] record: '.mpc/flash-record.json' leads out of the project" in \
+        flash.output or ".mpc/flash-record.json leads out of the project" in flash.output
+    assert "Traceback" not in flash.output
+    named = runner.invoke(main, ["flash", "--dry-run", "--tcp", "127.0.0.1", "--record",
+                                 str(tmp_path / "record.json")])
+    assert named.exit_code == EXIT_OK, named.output
+    assert list(outside.iterdir()) == []
 
 
 def test_a_flash_record_inside_the_project_or_the_users_directories_is_taken(

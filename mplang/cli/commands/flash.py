@@ -40,7 +40,7 @@ from mplang.cli.families import (
 from mplang.cli.shell import complete_paths
 from mplang.cli.style import quiet_option
 from mplang.family.registry import families
-from mplang.tools.project import Project, ProjectError, Target, load_fleet
+from mplang.tools.project import FlashSettings, Project, ProjectError, Target, load_fleet
 
 if TYPE_CHECKING:
     from mplang.cli.progress import FlashDisplay
@@ -79,6 +79,9 @@ DEFAULT_TIMEOUT, DEFAULT_RETRIES = 1.0, 3
               "of mpc.toml, else MD768-MD1023].")
 @click.option("--no-identity", is_flag=True,
               help="Write no build manifest: leave every machine data (MD) as it is.")
+@click.option("--wait-lease", type=click.FloatRange(min=0, max=3600), default=0.0,
+              metavar="SECONDS", help="If another client holds the device's download lease, "
+              "wait up to SECONDS for it to end [default: refuse at once, exit 19].")
 @click.option("--json", "as_json", is_flag=True, help="Print a JSON summary on standard output.")
 @click.option("--dry-run", is_flag=True,
               help="Print every frame that would be sent; connect to nothing.")
@@ -91,7 +94,8 @@ def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | N
             serial: str | None, unit: int, baud: int, parity: str, stopbits: str,
             to: str | None, fleet: Path | None, timeout: float, retries: int,
             set_word_order: bool, stop_running: bool, force: bool, record_file: Path | None,
-            identity: str | None, no_identity: bool, as_json: bool, dry_run: bool,
+            identity: str | None, no_identity: bool, wait_lease: float, as_json: bool,
+            dry_run: bool,
             project_file: Path | None, target: str,
             word_order: str | None, temp_vars: range, allow_outside_includes: bool,
             werror: bool) -> None:
@@ -144,14 +148,14 @@ def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | N
         word_order_fixed=word_order is not None
         or (setup.project is not None and setup.project.word_order is not None),
         dry_run=dry_run, as_json=as_json, force=force, set_word_order=set_word_order,
-        record=record_file or (settings.record if settings else None),
+        record=record_file or (_project_record(settings) if settings else None),
         timeout=timeout if given("timeout") else None,
         retries=retries if given("retries") else None,
         settings_timeout=settings.timeout if settings else None,
         settings_retries=settings.retries if settings else None,
         settings_set_word_order=bool(settings and settings.set_word_order),
         fleet=fleet is not None, stop_running=stop_running,
-        identity=manifest_range, identity_where=manifest_where)
+        identity=manifest_range, identity_where=manifest_where, wait_lease=wait_lease)
     try:
         outcome = family.flash_devices(job, _FlashUI("mpc flash", setup.werror))
     except CommandError as exc:
@@ -159,10 +163,20 @@ def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | N
     sys.exit(FLASH_EXIT[outcome])
 
 
+def _project_record(settings: FlashSettings) -> Path:
+    """The project's flash record, or InputError (exit 3) at its line if the project file
+    names a place mpc may not write (checked only here: lint and build never write it)."""
+    try:
+        return settings.writable_record()
+    except ProjectError as exc:
+        raise InputError(str(exc)) from None
+
+
 FLASH_OPTIONS = (("--unit", "unit"), ("--word-order", "word_order"),
                  ("--set-word-order", "set_word_order"), ("--record", "record_file"),
                  ("--retries", "retries"), ("--stop-running", "stop_running"),
-                 ("--identity", "identity"), ("--no-identity", "no_identity"))
+                 ("--identity", "identity"), ("--no-identity", "no_identity"),
+                 ("--wait-lease", "wait_lease"))
 """Options of `mpc flash` beyond the common ones: refused for a family whose
 `FLASH_OPTIONS` does not take them."""
 

@@ -51,6 +51,7 @@ from mplang.ir.catalogue import Catalogue
 from mplang.m8194h.encode import Encoder
 from mplang.m8194h.flash import manifest as manifests
 from mplang.m8194h.flash.image import FlashImage, FlashInit, FlashProgram, FlashTriggers
+from mplang.m8194h.flash.lease import Lease, LeaseHeld, LeaseSettings
 from mplang.m8194h.flash.record import FlashRecord
 from mplang.m8194h.flash.registers import (
     CALL_REGISTER,
@@ -74,6 +75,7 @@ from mplang.m8194h.flash.registers import (
 from mplang.m8194h.flash.report import (
     FlashFailure,
     FlashReport,
+    OtherClient,
     ProgramResult,
     Refused,
     StepResult,
@@ -119,6 +121,12 @@ class FlashOptions:
     identity: manifests.MdRange | None = None
     """Where the build manifest goes in machine data (None: never touch MD). Written after
     everything verified; invalidated before the first program is written."""
+    lease: LeaseSettings | None = None
+    """Take the device's download lease (`lease`) before writing anything, check it before
+    each program and at the end, give it back when done (None: no lease, as a library call
+    that serialises its own clients may choose; `mpc flash` always takes it)."""
+    wait_lease: float = 0.0
+    """Seconds to wait for another client's lease to end before giving up ("leased")."""
 
 
 def _results(image: FlashImage) -> list[ProgramResult]:
@@ -152,6 +160,7 @@ class Flasher:
         self._unanswered = 0  # 1 if the last frame sent got no answer
         self._last_status: list[int] | None = None  # 110-114 at the last verification
         self._unsaved = False  # the record holds verified programs not written to its file
+        self._lease: Lease | None = None  # this flash's lease, once taken
 
     def _set_steps(self) -> None:
         image = self.image
@@ -178,7 +187,14 @@ class Flasher:
                     manifests.check_room(self.image, self.options.identity)
                 except manifests.ManifestError as exc:
                     raise FlashFailure("rejected", f"nothing was written: {exc}") from None
+                lease = self.options.lease
+                if lease is not None and lease.overlaps(self.options.identity):
+                    raise FlashFailure("rejected", f"nothing was written: the identity range "
+                                       f"{self.options.identity} overlaps the download lease "
+                                       f"{lease.md} ([flash_lease] range of the device "
+                                       "profile): give another --identity")
             await self._connect()
+            await self._take_lease()
             unchanged = await self._consult_record()
             self.report.frames_planned = sum(len(p.frames) for p in self.image.programs
                                              if p.slot_label not in unchanged) + (
@@ -199,6 +215,7 @@ class Flasher:
                 if program.slot_label in unchanged:
                     result.status = "unchanged"
                     continue
+                await self._check_lease(program.label)
                 self._current = result
                 await self._program(program, result)
                 self._current = None
@@ -214,6 +231,10 @@ class Flasher:
                 self._current = None
             if identity is not None:
                 await self._store_manifest(identity)
+            await self._check_lease("the end of the flash (the programs above verified, but "
+                                    "the other client may have changed them since)")
+        except OtherClient as failure:
+            self._fail(failure.outcome, f"{failure}{await self._name_other()}", failure.where)
         except FlashFailure as failure:
             self._fail(failure.outcome, str(failure), failure.where)
         except Refused as refusal:
@@ -227,12 +248,61 @@ class Flasher:
             self._fail("interrupted", "interrupted before every program was verified")
             raise
         finally:
+            await self._release_lease()
             self.link.close()
             if self.options.record is not None and self._unsaved:  # what was verified:
                 self._unsaved = False  # saved once, at the end (`FlashRecord.start_run`)
                 self.options.record.save()
             self.report.seconds = time.monotonic() - start
         return self.report
+
+    # --------------------------------------------------------------------- lease
+    async def _take_lease(self) -> None:
+        """Before anything is written: hold the device's download lease (waiting up to
+        `wait_lease` for another client's); "leased" names the holder otherwise."""
+        settings = self.options.lease
+        if settings is None or self._lease is not None:
+            return
+        self._lease = Lease(self.link, settings, self.image.word_order,
+                            self.options.wait_lease, self.progress)
+        try:
+            await self._lease.take()
+        except LeaseHeld as exc:
+            raise FlashFailure("leased", str(exc)) from None
+
+    async def _check_lease(self, before: str) -> None:
+        if self._lease is None:
+            return
+        self._lease.word_order = self.image.word_order
+        try:
+            await self._lease.check(before)
+        except LeaseHeld as exc:
+            raise FlashFailure("leased", str(exc)) from None
+
+    async def _release_lease(self) -> None:
+        """Give the lease back, on success and on any failure the link still carries; one
+        the link cannot give back expires by itself."""
+        if self._lease is None or self._lease.mine is None:
+            return
+        try:
+            await asyncio.wait_for(self._lease.release(),
+                                   4 * self.link.endpoint.timeout + 1.0)
+        except (LinkError, DeviceException, TimeoutError) as exc:
+            self._note(f"the device's download lease was not given back ({exc}): it expires "
+                       f"{self._lease.seconds} s after its last renewal")
+
+    async def _name_other(self) -> str:
+        """The other client a download clash shows, by the device's lease where it holds
+        one; else that it ignores the lease."""
+        if self._lease is None:
+            return ""
+        try:
+            other = await self._lease.other()
+        except (LinkError, DeviceException):
+            return ""
+        if other is None:
+            return " (it holds no download lease: an older mpc, or another tool)"
+        return f" (the device's download lease names {other})"
 
     def _fail(self, outcome: str, message: str, where: str | None = None) -> None:
         self.report.outcome, self.report.error, self.report.where = outcome, message, where
@@ -290,6 +360,7 @@ class Flasher:
                                f"{WORD_ORDER_REGISTER}) is {device_order}, the image's "
                                f"{wanted}: build with --word-order {device_order}, or let "
                                f"mpc flash set the device's with --set-word-order")
+        await self._take_lease()  # the first write: the lease comes before it
         await self.link.write_holding(WORD_ORDER_REGISTER, [wanted])
         (now,) = await self.link.read_holding(WORD_ORDER_REGISTER, 1)
         if now != wanted:
@@ -471,7 +542,7 @@ class Flasher:
         await asyncio.sleep(QUIET_TIMEOUTS * self.link.endpoint.timeout)
         after = await self._span()
         if after != before:
-            raise FlashFailure("interrupted", self._other_client(before[0], after))
+            raise OtherClient(self._other_client(before[0], after))
 
     def _other_client(self, state: int, span: list[int] | None) -> str:
         """What another client is doing, as precisely as registers 100-119 tell."""
@@ -581,12 +652,11 @@ class Flasher:
             (state,) = await self.link.read_input(STATE_REGISTER, 1)
             if index == 0 and state in (1, 2):
                 self._opened = None
-                raise FlashFailure("interrupted", f"{program.label}: the device refused the "
-                                   f"create frame: {await self._await_other_client(state)}"
-                                   ) from None
+                raise OtherClient(f"{program.label}: the device refused the create frame: "
+                                  f"{await self._await_other_client(state)}") from None
             if index > 0 and state == 0:
                 self._opened = None
-                raise FlashFailure("interrupted", f"{program.label}: the device refused frame "
+                raise OtherClient(f"{program.label}: the device refused frame "
                                    f"{index} because its download was closed by someone else "
                                    f"(input register {STATE_REGISTER} reads 0): another "
                                    f"client is downloading; {program.slot_label} may hold the "

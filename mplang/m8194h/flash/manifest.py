@@ -118,8 +118,14 @@ def _text(value: str) -> bytes:
 
 
 def _name(value: str) -> bytes:
-    raw = value.encode("utf-8")[:NAME_BYTES]
-    while raw:  # never cut a character in half
+    return counted(value, NAME_BYTES)
+
+
+def counted(value: str, limit: int) -> bytes:
+    """A length byte and at most `limit` bytes of `value` in UTF-8, never cutting a
+    character in half (also the host name of a download lease)."""
+    raw = value.encode("utf-8")[:limit]
+    while raw:
         try:
             raw.decode("utf-8")
             break

@@ -13,6 +13,7 @@ This module holds the record file; `Flasher` consults and updates it.
 
 from __future__ import annotations
 
+import copy
 import json
 import os
 import stat
@@ -20,10 +21,13 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
+from filelock import FileLock, Timeout
+
 from mplang.lang.limits import MAX_JSON_BYTES, load_json
 from mplang.lang.userdirs import state_home
 
 RECORD_FORMAT = "mpc-flash-record/1"
+LOCK_TIMEOUT_S = 30.0  # another mpc holds the lock only while it merges and writes
 
 
 def default_record_path() -> Path:
@@ -41,11 +45,17 @@ class FlashRecord:
     (its format tag) or an empty file is ever replaced: anything else at the path (a file
     that is not a record, a damaged record, a FIFO, a directory) is left as it is, with a
     note, and this run records nothing. Flashing everything is always correct, only
-    slower."""
+    slower.
+
+    Several mpc processes may share one record (flashes of different devices at once):
+    each save takes the lock file beside it (`filelock`, which works on Windows as on
+    POSIX), reads the file again and replaces only the entries of the devices this process
+    flashed, so every other device's entry is kept."""
 
     def __init__(self, path: Path) -> None:
         self.path = path
         self.devices: dict[str, dict[str, Any]] = {}
+        self._seen: dict[str, dict[str, Any]] = {}  # the entries as last read or written
         self.problem: str | None = None
         self.refused: str | None = None
         """Why the file at `path` is not replaced (None: it may be)."""
@@ -55,8 +65,8 @@ class FlashRecord:
             return
         if data is None:
             return
-        self.devices = {key: entry for key, entry in data["devices"].items()
-                        if isinstance(entry, dict) and isinstance(entry.get("slots"), dict)}
+        self.devices = _entries(data)
+        self._seen = copy.deepcopy(self.devices)
 
     def _refuse(self, reason: str) -> None:
         self.refused = reason
@@ -89,15 +99,38 @@ class FlashRecord:
         return old != fresh
 
     def save(self) -> None:
-        """Write the file atomically (a crash leaves the old or the new record, never half),
-        unless what is there now is not a flash record: that is never replaced."""
-        if self.refused is None:
-            found = _existing(self.path)  # again: the file may have changed since the start
-            if isinstance(found, str):
-                self._refuse(found)
+        """Merge this process's entries into the file under its lock and write it
+        atomically (a crash leaves the old or the new record, never half), unless what is
+        there now is not a flash record: that is never replaced."""
         if self.refused is not None:
             return
         self.path.parent.mkdir(parents=True, exist_ok=True)
+        lock = FileLock(self.path.with_name(self.path.name + ".lock"),
+                        timeout=LOCK_TIMEOUT_S)
+        try:
+            with lock:
+                self._merge_and_write()
+        except Timeout:
+            self._refuse(f"is locked by another mpc for more than {LOCK_TIMEOUT_S:g} s "
+                         f"({lock.lock_file})")
+
+    def _merge_and_write(self) -> None:
+        """Under the lock: the file as it is now, with this process's entries in it."""
+        found = _existing(self.path)  # again: another mpc may have written it since
+        if isinstance(found, str):
+            self._refuse(found)
+            return
+        devices = {} if found is None else _entries(found)
+        for address in {*self._seen, *self.devices}:  # what this process changed, only
+            mine = self.devices.get(address)
+            if mine == self._seen.get(address):
+                continue
+            if mine is None:
+                devices.pop(address, None)
+            else:
+                devices[address] = mine
+        self.devices = devices
+        self._seen = copy.deepcopy(devices)
         text = json.dumps({"format": RECORD_FORMAT, "devices": self.devices}, indent=1,
                           sort_keys=True)
         handle, temporary = tempfile.mkstemp(prefix=".flash-record.", dir=self.path.parent)
@@ -108,6 +141,11 @@ class FlashRecord:
         except BaseException:
             Path(temporary).unlink(missing_ok=True)
             raise
+
+
+def _entries(data: dict[str, Any]) -> dict[str, dict[str, Any]]:
+    return {key: entry for key, entry in data["devices"].items()
+            if isinstance(entry, dict) and isinstance(entry.get("slots"), dict)}
 
 
 def _existing(path: Path) -> dict[str, Any] | str | None:

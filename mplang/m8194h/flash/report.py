@@ -13,10 +13,11 @@ from dataclasses import dataclass, field
 
 from mplang.m8194h.modbus import DeviceException
 
-OUTCOMES = ("verified", "no-device", "rejected", "unverified", "interrupted")
+OUTCOMES = ("verified", "no-device", "rejected", "unverified", "interrupted", "leased")
 """`FlashReport.outcome`: every program verified; the device cannot be reached; the device
 refused a program (or cannot take the image); the device did not confirm a download; the link
-failed beyond the retries, the device stayed busy, or the run was cancelled."""
+failed beyond the retries, the device stayed busy, or the run was cancelled; another client
+holds the device's download lease (`lease`), or took it during the flash."""
 
 
 class Refused(Exception):
@@ -36,6 +37,14 @@ class FlashFailure(Exception):
         super().__init__(message)
         self.outcome = outcome
         self.where = where
+
+
+class OtherClient(FlashFailure):
+    """Another client downloads at the same time (the device's registers show it): the
+    flash names it by the device's lease where it holds one."""
+
+    def __init__(self, message: str) -> None:
+        super().__init__("interrupted", message)
 
 
 @dataclass

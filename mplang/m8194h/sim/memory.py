@@ -6,6 +6,7 @@ trigger table and the machine data; loading validates every table like a downloa
 from __future__ import annotations
 
 import json
+import os
 import re
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -27,9 +28,26 @@ def save(vc: VirtualController, path: Path) -> None:
     data = {"format": MEMORY_FORMAT, "word_order": vc.word_order, "programs": programs,
             "initial_table": vc.initial_table.to_json(),
             "triggers": vc.triggers.to_json(), MD_JSON_KEY: vc.md.to_json()}
+    write_atomically(path, json.dumps(data, indent=1))
+
+
+def write_atomically(path: Path, text: str) -> None:
+    """Replace `path` with `text` so that a kill or a power cut at any moment leaves the old
+    file or the new one, never half of one, and the new one is on disk when this returns:
+    a temporary file beside it, flushed to disk, renamed over it, and the directory flushed
+    too where the system lets a directory be opened (POSIX; Windows does not)."""
     tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(json.dumps(data, indent=1))
-    tmp.replace(path)  # never leave a half-written memory file behind
+    with open(tmp, "w", encoding="utf-8") as out:
+        out.write(text)
+        out.flush()
+        os.fsync(out.fileno())
+    os.replace(tmp, path)
+    if os.name == "posix":
+        directory = os.open(path.parent, os.O_RDONLY)
+        try:
+            os.fsync(directory)
+        finally:
+            os.close(directory)
 
 def restore(vc: VirtualController, path: Path) -> None:
     """Load macro memory saved by `save`, validating every table like a download, and

@@ -2,10 +2,12 @@
 
 The library entry point is `serve`; the CLI only parses options and prints. Macro memory
 (the device's FRAM: programs, initial and trigger tables, machine data) can live in a file:
-it is loaded at start and written after every change and at the end, so a restart keeps it
-as the device does. `serve_fleet` serves many controllers from one process, each on its own
-TCP port (consecutive from the one asked for) with its own memory file (`memory_path`), so
-a fleet of devices can be flashed and tested on one machine (`mpc sim --devices N`).
+it is loaded at start and written by every request that changes it, before that request is
+answered (`MemoryFile`), so a restart keeps it as the device does: once the download status
+says a program is stored, it is in the file. `serve_fleet` serves many controllers from one
+process, each on its own TCP port (consecutive from the one asked for) with its own memory
+file (`memory_path`), so a fleet of devices can be flashed and tested on one machine (`mpc sim
+--devices N`).
 """
 
 from __future__ import annotations
@@ -62,6 +64,37 @@ def load_memory(controller: VirtualController, path: Path) -> None:
                            "memory") from None
 
 
+class MemoryFile:
+    """A controller's memory file (`mpc sim --memory`), written as the device's FRAM is: by
+    the request that changed the memory, before it is answered (`DeviceFace.persist`), and
+    after changes made between requests (a running program's machine data) at the next tick
+    and at the end. A failed write is raised by the next `flush`: the simulator stops rather
+    than serve a memory it cannot keep."""
+
+    def __init__(self, controller: VirtualController, path: Path) -> None:
+        self.controller = controller
+        self.path = path
+        self.saved = controller.memory_version
+        self.error: ServiceError | None = None
+
+    def __call__(self) -> bool:
+        """Store now (the face's hook): False, and the error kept, if it cannot be written."""
+        try:
+            save_memory(self.controller, self.path)
+        except ServiceError as exc:
+            self.error = exc
+            return False
+        self.saved = self.controller.memory_version
+        return True
+
+    def flush(self) -> None:
+        """Store what changed since the last write; raise the error of a failed write."""
+        if self.error is None and self.controller.memory_version != self.saved:
+            self()
+        if self.error is not None:
+            raise self.error
+
+
 async def serve(options: SimOptions, controller: VirtualController,
                 announce: Callable[[str], None],
                 stop_event: asyncio.Event | None = None,
@@ -74,7 +107,8 @@ async def serve(options: SimOptions, controller: VirtualController,
     face = DeviceFace(controller, SimClock(options.speed, origin_sim=controller.clock))
     servers: list[Server] = []
     link: PtyLink | None = None
-    saved = controller.memory_version
+    memory = None if options.memory is None else MemoryFile(controller, options.memory)
+    face.persist = memory
     companions = contextlib.AsyncExitStack()
     try:
         if options.tcp is not None:
@@ -103,14 +137,12 @@ async def serve(options: SimOptions, controller: VirtualController,
             announce(f"Modbus RTU on {endpoints.serial} (unit {options.unit}, {settings})")
 
         def tick() -> None:
-            nonlocal saved
             face.catch_up()
             if options.verbose:
                 while controller.log:
                     announce(controller.log.popleft())
-            if options.memory is not None and controller.memory_version != saved:
-                save_memory(controller, options.memory)
-                saved = controller.memory_version
+            if memory is not None:
+                memory.flush()
 
         await _ticking(tick, stop_event, options.duration)
     finally:
@@ -122,8 +154,8 @@ async def serve(options: SimOptions, controller: VirtualController,
             await stop(server)
         if link is not None:
             link.close()
-        if options.memory is not None and controller.memory_version != saved:
-            save_memory(controller, options.memory)
+        if memory is not None:
+            memory.flush()
 
 
 async def _ticking(tick: Callable[[], None], stop_event: asyncio.Event,
@@ -174,16 +206,17 @@ async def serve_fleet(options: SimOptions, controllers: list[VirtualController],
     host, first = options.tcp
     count = len(controllers)
     faces = [DeviceFace(c, SimClock(options.speed, origin_sim=c.clock)) for c in controllers]
-    memories = [memory_path(options.memory, k + 1, count) for k in range(count)]
-    saved = [c.memory_version for c in controllers]
+    memories: list[MemoryFile] = []
+    for k, (controller, face) in enumerate(zip(controllers, faces, strict=True)):
+        path = memory_path(options.memory, k + 1, count)
+        if path is not None:
+            memories.append(MemoryFile(controller, path))
+            face.persist = memories[-1]
     servers: list[Server] = []
 
     def save_changed() -> None:
-        for k, controller in enumerate(controllers):
-            path = memories[k]
-            if path is not None and controller.memory_version != saved[k]:
-                save_memory(controller, path)
-                saved[k] = controller.memory_version
+        for memory in memories:
+            memory.flush()
 
     try:
         for k, face in enumerate(faces):

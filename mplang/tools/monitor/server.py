@@ -232,8 +232,9 @@ class Monitor:
         try:
             async with self.lock:
                 done = await self.device.act(action, args)
-        except CommandError as exc:
-            return web.json_response({"error": str(exc)}, status=400)
+        except CommandError as exc:  # 409: a flash holds the device's download lease
+            return web.json_response({"error": str(exc)},
+                                     status=409 if exc.kind == "leased" else 400)
         except DeviceUnreachable as exc:
             return web.json_response({"error": f"device unreachable: {exc}"}, status=503)
         return web.json_response({"ok": True, "done": done})
