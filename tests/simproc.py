@@ -17,3 +17,15 @@ def start_sim(*args: str) -> tuple[subprocess.Popen[str], int]:
             return proc, int(line.rsplit(":", 1)[1].split()[0])
     proc.wait(10)
     raise AssertionError(f"mpc sim did not start (exit {proc.returncode})")
+
+
+def start_rtu_sim(*args: str) -> tuple[subprocess.Popen[str], str]:
+    """Run `mpc sim --serial pty ARGS...`; return the process and the pty it serves on."""
+    proc = subprocess.Popen([sys.executable, "-m", "mplang", "sim", "--serial", "pty", *args],
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    assert proc.stdout is not None
+    for line in proc.stdout:
+        if "Modbus RTU on " in line:
+            return proc, line.split("Modbus RTU on ", 1)[1].split()[0]
+    proc.wait(10)
+    raise AssertionError(f"mpc sim did not start (exit {proc.returncode})")
