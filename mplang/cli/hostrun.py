@@ -14,12 +14,12 @@ import click
 
 from mplang.cli import style
 from mplang.cli.common import (
+    EXIT_INTERRUPTED,
     EXIT_NO_DEVICE,
     EXIT_NO_INPUT,
     EXIT_OUT_OF_SYNC,
     EXIT_REJECTED,
     EXIT_SOURCE_ERRORS,
-    EXIT_TRANSPORT,
     EXIT_WAIT_TIMEOUT,
     build_setup,
     chosen_device,
@@ -131,7 +131,8 @@ def run_host(plan: Plan, check: bool, werror: bool,
     except WaitTimeout as exc:
         _fail(EXIT_WAIT_TIMEOUT, str(exc))
     except HostLinkError as exc:
-        _fail(EXIT_TRANSPORT if exc.reached else EXIT_NO_DEVICE, str(exc))
+        _fail(EXIT_NO_DEVICE if not exc.reached else EXIT_REJECTED if exc.refused
+              else EXIT_INTERRUPTED, str(exc))
     except HostError as exc:
         _fail(EXIT_NO_INPUT, str(exc))
     raise AssertionError("unreachable")

@@ -74,12 +74,13 @@ class WaitTimeout(HostError, TimeoutError):
 
 
 class HostLinkError(HostError):
-    """The device could not be reached (`reached` False), or a request to it failed on the
-    way or was refused; the message says which and where."""
+    """The device could not be reached (`reached` False), a request to it failed on the way,
+    or the device refused it (`refused`); the message says which and where."""
 
-    def __init__(self, message: str, reached: bool = True) -> None:
+    def __init__(self, message: str, reached: bool = True, refused: bool = False) -> None:
         super().__init__(message)
         self.reached = reached
+        self.refused = refused
 
 
 class UnknownName(HostError, KeyError):

@@ -235,7 +235,7 @@ class ModbusHost:
         except LinkError as exc:
             raise HostLinkError(str(exc)) from None
         except DeviceException as exc:
-            raise HostLinkError(f"{self.describe()}: {exc}") from None
+            raise HostLinkError(f"{self.describe()}: {exc}", refused=True) from None
 
     async def __aexit__(self, *_exc: object) -> None:
         self.link.close()

@@ -7,7 +7,6 @@ registers `mpc export --format csv` names.
 
 from __future__ import annotations
 
-import asyncio
 import csv
 import io
 import json
@@ -20,9 +19,7 @@ from pathlib import Path
 
 import pytest
 from monitorproc import stop
-from pymodbus.client import AsyncModbusSerialClient, AsyncModbusTcpClient
-from pymodbus.framer import FramerType
-from simproc import start_rtu_sim, start_sim
+from simproc import raw_holding, start_rtu_sim, start_sim
 
 from mplang.cli.common import (
     EXIT_NO_DEVICE,
@@ -98,24 +95,8 @@ def device(request: pytest.FixtureRequest, job: Path) -> Iterator[list[str]]:
 
 
 def raw_read(options: list[str], register: int, count: int) -> list[int]:
-    """Holding registers read by pymodbus directly, as any other Modbus client would."""
-    async def read() -> list[int]:
-        client: AsyncModbusTcpClient | AsyncModbusSerialClient
-        if options[0] == "--tcp":
-            host, port = options[1].rsplit(":", 1)
-            client = AsyncModbusTcpClient(host, port=int(port), timeout=2)
-        else:
-            client = AsyncModbusSerialClient(options[1], framer=FramerType.RTU,
-                                             baudrate=115200, timeout=2)
-        await client.connect()
-        try:
-            reply = await client.read_holding_registers(register, count=count, device_id=1)
-            assert not reply.isError(), reply
-            return list(reply.registers)
-        finally:
-            client.close()
-
-    return asyncio.run(read())
+    """`raw_holding` for a device given as `mpc` options."""
+    return raw_holding({options[0].lstrip("-"): options[1]}, register, count)
 
 
 def csv_rows(job: Path) -> dict[str, dict[str, str]]:
