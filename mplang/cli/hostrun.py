@@ -100,6 +100,7 @@ def run_host(plan: Plan, check: bool, werror: bool,
     """Open the controller (checking its build unless told not to), do `work`, close; the
     host's errors as `mpc: error: ...` and their exit codes."""
     from mplang.family.hostview import (
+        BadValue,
         BuildMismatch,
         HostError,
         HostLinkError,
@@ -124,7 +125,7 @@ def run_host(plan: Plan, check: bool, werror: bool,
         sys.exit(EXIT_SOURCE_ERRORS)
     except BuildMismatch as exc:
         _fail(EXIT_OUT_OF_SYNC, f"{plan.device.name}: {exc}")
-    except UnknownName as exc:
+    except (UnknownName, BadValue) as exc:
         raise click.UsageError(str(exc)) from None
     except ProgramRunning as exc:
         _fail(EXIT_REJECTED, str(exc))

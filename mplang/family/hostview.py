@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 VIEW_FORMAT = "mplang-host/1"
+TYPE_RANGES = {"int32": (-2**31, 2**31 - 1), "uint8": (0, 255), "uint16": (0, 0xFFFF)}
 PROGRAM_NUMBER = re.compile(r"(?:MP)?(\d+)", re.IGNORECASE)
 
 
@@ -83,6 +84,10 @@ class HostLinkError(HostError):
         self.refused = refused
 
 
+class BadValue(HostError, ValueError):
+    """A value the variable cannot hold (its type's range); nothing was written."""
+
+
 class UnknownName(HostError, KeyError):
     """A name the build does not declare (with the names it does)."""
 
@@ -137,6 +142,14 @@ class HostVariable:
     word_order: str  # "msw-first", "lsw-first", "" for one register
     access: str  # "read-write"
     source: str
+
+    def check(self, value: int) -> int:
+        """`value` if the variable's type holds it, else BadValue naming the range."""
+        low, high = TYPE_RANGES.get(self.type, (-2**31, 2**31 - 1))
+        if not low <= value <= high:
+            raise BadValue(f"{self.name} ({self.device_name}) is {self.type}: {low}..{high}, "
+                           f"not {value}")
+        return value
 
 
 @dataclass(frozen=True)

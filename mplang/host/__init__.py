@@ -25,6 +25,7 @@ from pathlib import Path
 from typing import Any, TypeVar
 
 from mplang.family.hostview import (
+    BadValue,
     BuildMismatch,
     ExecutionError,
     HostError,
@@ -37,7 +38,7 @@ from mplang.family.hostview import (
 from mplang.host.session import AsyncController, Axis, BuildFailed, CallResult, NoHost, Plan
 from mplang.ir.unit import Options
 
-__all__ = ["AsyncController", "Axis", "BuildFailed", "BuildMismatch", "CallResult",
+__all__ = ["AsyncController", "Axis", "BadValue", "BuildFailed", "BuildMismatch", "CallResult",
            "Controller", "ExecutionError", "HostError", "HostLinkError", "HostView", "NoHost",
            "ProgramRunning",
            "UnknownName", "WaitTimeout", "connect", "connect_async", "plan"]
@@ -57,7 +58,7 @@ def plan(tcp: str | None = None, serial: str | None = None, *,
     from mplang.family.registry import DEFAULT_TARGET, family_of_target
     from mplang.tools import project as project_module
 
-    if (tcp is None) == (serial is None):
+    if bool(tcp) == bool(serial):
         raise ValueError("give one device: tcp=\"HOST[:PORT]\" or serial=\"PORT\"")
     if sum(x is not None for x in (sources, project, image)) != 1:
         raise ValueError("give the build one way: sources=[...], project=... or image=...")

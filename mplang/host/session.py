@@ -160,11 +160,15 @@ class AsyncController:
         return await self.device.read(self.view.variable(name))
 
     async def write_var(self, name: str, value: int) -> None:
-        await self.device.write(self.view.variable(name), value)
+        """`BadValue` (nothing written) when the variable's type cannot hold `value`."""
+        var = self.view.variable(name)
+        await self.device.write(var, var.check(value))
 
     async def write_vars(self, values: Mapping[str, int]) -> None:
-        """Every name is looked up before the first write, so a wrong one writes nothing."""
-        found = [(self.view.variable(name), value) for name, value in values.items()]
+        """Every name and value is checked before the first write, so a wrong one writes
+        nothing."""
+        found = [(var, var.check(value)) for var, value in
+                 ((self.view.variable(name), value) for name, value in values.items())]
         for var, value in found:
             await self.device.write(var, value)
 

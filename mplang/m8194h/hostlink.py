@@ -278,15 +278,9 @@ class ModbusHost:
         return words[0]
 
     async def write(self, var: HostVariable, value: int) -> None:
-        """ValueError when the value does not fit the variable's type."""
-        if var.words == 2:
-            if not -2**31 <= value < 2**31:
-                raise ValueError(f"{var.name} is a 32-bit variable: {value} does not fit")
-            words = split32(value, await self.word_order())
-        else:
-            if not 0 <= value <= 0xFF:
-                raise ValueError(f"{var.name} is a byte variable: 0..255, not {value}")
-            words = [value]
+        """BadValue when the value does not fit the variable's type (nothing written)."""
+        var.check(value)
+        words = split32(value, await self.word_order()) if var.words == 2 else [value]
         await self._guarded(self.link.write_holding(var.register, words))
 
     async def running(self) -> int:

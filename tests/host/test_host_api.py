@@ -65,6 +65,8 @@ def test_vars_call_axes_and_an_execution_error(where: dict[str, str]) -> None:
         assert (err.line, err.code, err.device_code) == (18, "R103", 3)
         assert Path(err.file or "").name == "cell.mp" and err.slot == "MP101 rate"
         assert [e.line for e in cell.errors] == [18]
+        with pytest.raises(mplang.host.BadValue, match=r"batch \(VAR401\) is int32"):
+            cell.vars["batch"] = 2**31
         with pytest.raises(mplang.host.UnknownName, match="declared: speed, batch"):
             cell.vars["sped"] = 1
         with pytest.raises(mplang.host.UnknownName, match="MP100 tour"):
@@ -122,8 +124,9 @@ def test_async_controller_and_an_exported_view(where: dict[str, str], tmp_path: 
 
 
 def test_arguments_are_checked_before_any_connection() -> None:
-    with pytest.raises(ValueError, match="give one device"):
-        mplang.host.connect(sources=["x.mp"])
+    for device in ({}, {"tcp": ""}, {"tcp": "127.0.0.1:1", "serial": "/dev/null"}):
+        with pytest.raises(ValueError, match="give one device"):
+            mplang.host.connect(**device, sources=["x.mp"])
     with pytest.raises(ValueError, match="give the build one way"):
         mplang.host.connect(tcp="127.0.0.1:1", sources=["x.mp"], image="x.json")
     with pytest.raises(mplang.host.HostLinkError) as nobody, \

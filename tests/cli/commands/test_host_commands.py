@@ -207,6 +207,12 @@ def test_unknown_names_are_usage_errors_that_list_the_declared_ones(
     done = mpc(job, "var", "sped=1", "job.mp", *device)
     assert done.returncode == EXIT_USAGE
     assert "no declared variable 'sped'" in done.stderr and "speed" in done.stderr
+    parts = int(csv_rows(job)["parts"]["register"])
+    before = raw_read(device, parts, 2)
+    big = mpc(job, "var", "parts=1", "speed=2147483648", "job.mp", *device)
+    assert big.returncode == EXIT_USAGE
+    assert raw_read(device, parts, 2) == before != [0, 1]  # checked before any write
+    assert "speed (VAR400) is int32: -2147483648..2147483647, not 2147483648" in big.stderr
     call = mpc(job, "call", "nosuch", "job.mp", *device, "--set", "parts=1")
     assert call.returncode == EXIT_USAGE
     assert "MP100 tour" in call.stderr
