@@ -63,6 +63,9 @@ def command(ctx: click.Context, /, files: tuple[str, ...], no_check: bool, as_js
         return [(name, names[name], value) for name, value in read.items()]
 
     rows = run_host(plan, not no_check, werror, work)
+    if not rows:
+        click.echo("mpc: note: the build declares no variables (an image JSON names none: "
+                   "give the sources, or what mpc export --format json wrote)", err=True)
     if as_json:
         json_out({name: value for name, _device, value in rows})
         return

@@ -156,6 +156,17 @@ def test_var_lists_every_declared_variable_and_an_independent_client_agrees(
     assert listed["parts"] == -123456
 
 
+def test_an_export_or_an_image_stands_for_the_sources(job: Path, device: list[str]) -> None:
+    assert mpc(job, "export", "job.mp", "-o", "host.json").returncode == EXIT_OK
+    assert mpc(job, "build", "job.mp", "-o", "image.json").returncode == EXIT_OK
+    exported = mpc(job, "var", "divisor=9", "host.json", *device, "--json")
+    assert exported.returncode == EXIT_OK, exported.stderr
+    assert json.loads(exported.stdout) == {"divisor": 9}
+    image = mpc(job, "var", "image.json", *device)
+    assert image.returncode == EXIT_OK, image.stderr
+    assert image.stdout == "" and "an image JSON names none" in image.stderr
+
+
 @pytest.mark.skipif(MBPOLL is None and os.environ.get("MPC_ALLOW_NO_MBPOLL") == "1",
                     reason="mbpoll is not installed (make tools installs it)")
 def test_mbpoll_writes_and_reads_the_registers_the_csv_names(job: Path,
