@@ -112,8 +112,13 @@ def run_host(plan: Plan, check: bool, werror: bool,
 
     logging.getLogger("pymodbus").setLevel(logging.CRITICAL)
 
+    try:
+        opened = AsyncController(plan, check=check)
+    except ValueError as exc:  # the build manifest's range, from --identity or [flash]
+        raise click.BadParameter(str(exc), param_hint="--identity") from None
+
     async def session() -> T:
-        async with AsyncController(plan, check=check) as controller:
+        async with opened as controller:
             if controller.build is not None:
                 _diagnostics(controller, werror)
             return await work(controller)

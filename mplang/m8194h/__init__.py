@@ -213,12 +213,14 @@ class _HostSide:
 
     def device(self, target: FlashTarget, identity: str | bool | None, timeout: float,
                retries: int) -> HostDevice:
+        """ValueError for a malformed machine-data range."""
         from mplang.m8194h import hostlink as host_module
-        from mplang.m8194h.flashing import identity_range
+        from mplang.m8194h.flash.manifest import DEFAULT_RANGE, parse_range
         from mplang.m8194h.status import endpoint_of
 
-        return host_module.ModbusHost(endpoint_of(target, timeout, retries),
-                                      identity_range(identity, None))
+        md = None if identity is False else parse_range(
+            identity if isinstance(identity, str) else DEFAULT_RANGE)
+        return host_module.ModbusHost(endpoint_of(target, timeout, retries), md)
 
     def located(self, view: HostView, error: Sequence[int]) -> ExecutionError:
         from mplang.m8194h import hostlink as host_module

@@ -245,6 +245,8 @@ def test_a_device_that_is_not_there_is_exit_7(job: Path) -> None:
     done = mpc(job, "var", "job.mp", "--tcp", "127.0.0.1:1")
     assert done.returncode == EXIT_NO_DEVICE
     assert done.stderr.startswith("mpc: error: cannot connect to 127.0.0.1:1")
+    bad = mpc(job, "var", "job.mp", "--tcp", "127.0.0.1:1", "--identity", "MD5-MD2")
+    assert bad.returncode == EXIT_USAGE and "MD5 comes after MD2" in bad.stderr
 
 
 def test_a_fatek_build_is_refused_with_the_reason(job: Path) -> None:
