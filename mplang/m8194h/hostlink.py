@@ -220,6 +220,7 @@ class ModbusHost:
         self.link = DeviceLink(endpoint)
         self.identity = identity
         self.order: int | None = None
+        self._one_at_a_time = asyncio.Lock()  # the link sends one request at a time
 
     async def __aenter__(self) -> ModbusHost:
         try:
@@ -229,9 +230,11 @@ class ModbusHost:
         return self
 
     async def _guarded(self, request: Awaitable[T]) -> T:
-        """A request's link failures and refusals as HostLinkError."""
+        """A request (never two at once, whatever the caller gathers), its link failures and
+        refusals as HostLinkError."""
         try:
-            return await request
+            async with self._one_at_a_time:
+                return await request
         except LinkError as exc:
             raise HostLinkError(str(exc)) from None
         except DeviceException as exc:

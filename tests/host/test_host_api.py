@@ -112,8 +112,9 @@ def test_async_controller_and_an_exported_view(where: dict[str, str], tmp_path: 
 
     async def session() -> tuple[dict[str, int], int]:
         async with mplang.host.connect_async(**where, image=tmp_path / "cell.json") as cell:
-            await cell.write_var("batch", 1)
-            await cell.write_var("speed", 8000)
+            await asyncio.gather(cell.write_var("batch", 1), cell.write_var("speed", 8000))
+            both = await asyncio.gather(cell.read_var("batch"), cell.read_vars(["speed"]))
+            assert both == [1, {"speed": 8000}]  # one request at a time on the link
             done = await cell.call("tour", timeout=60)
             axes = await cell.axes()
             return done.vars, axes["X"].position
