@@ -49,6 +49,8 @@ EXIT_MISSING_EXTRA = 15
 EXIT_OUT_OF_SYNC = 16
 EXIT_BAD_MACHINE = 17
 EXIT_LEASED = 19
+EXIT_WAIT_TIMEOUT = 20
+"""`mpc call --wait`: the program did not end within --timeout."""
 EXIT_INTERNAL = 70
 SERVER_PORT = 1502
 """`mpc sim --tcp HOST`'s port (502 needs privileges; 1502 is the usual unprivileged one)."""

@@ -40,6 +40,12 @@ debug = None
 """No `mpc dap`: the virtual CSIM runs its command lines with no place to stop (`NO_DEBUG`)."""
 NO_DEBUG = ("the virtual CSIM runs its command lines with no place to stop at a source "
             "line; debug the same .mp sources with target et (the virtual M8194H)")
+host = None
+NO_HOST = ("mpc call, var and export speak Modbus registers and the build manifest in machine "
+           "data; a CSIM speaks its RS232 ASCII command set and holds no build manifest, and "
+           "this mpc does not yet run a CSIM's programs or variables by name: start them with "
+           "mpc run on the virtual CSIM, or flash and check them with mpc flash and mpc status")
+"""No host view yet (`NO_HOST` says why)."""
 watch = None
 """No live view (`mpc monitor`): the dashboard polls Modbus registers, and a CSIM speaks its
 RS232 ASCII command set (docs/monitor.md)."""
@@ -52,6 +58,7 @@ __all__ = [
     "FLASH_OPTIONS",
     "FORMATS",
     "NO_DEBUG",
+    "NO_HOST",
     "NO_MACHINE",
     "NO_TRANSPORT",
     "POSITION_UNIT",
@@ -71,6 +78,7 @@ __all__ = [
     "debug",
     "disassemble",
     "flash_devices",
+    "host",
     "load_machine",
     "run_build",
     "serve",

@@ -23,6 +23,12 @@ from pathlib import Path
 from typing import Any, Protocol, TypeVar
 
 from mplang.family.debug import DebugStart
+from mplang.family.hostview import (
+    ExecutionError,
+    HostProgram,
+    HostVariable,
+    HostView,
+)
 from mplang.family.run_error import RunError
 from mplang.family.trace import Trace
 from mplang.family.watch import Watch
@@ -334,6 +340,70 @@ class FamilyRun(Protocol):
     def to_json(self) -> Mapping[str, object]: ...
 
 
+class HostDevice(Protocol):
+    """One device spoken to in a build's names (`mpc call`, `mpc var`, `mplang.host`), as an
+    async context manager that opens and closes the connection. Every method raises the
+    family's link errors as `HostLinkError`."""
+
+    async def __aenter__(self) -> HostDevice: ...
+
+    async def __aexit__(self, *exc: object) -> None: ...
+
+    def describe(self) -> str: ...
+
+    async def word_order(self) -> int:
+        """The word order of the device's 32-bit values (what a build for it uses)."""
+        ...
+
+    async def check(self, view: HostView) -> None:
+        """Raise `BuildMismatch` unless the device holds `view`'s build; writes nothing."""
+        ...
+
+    async def read(self, var: HostVariable) -> int: ...
+
+    async def write(self, var: HostVariable, value: int) -> None: ...
+
+    async def running(self) -> int:
+        """The number of the program running now, 0 when none."""
+        ...
+
+    async def last_error(self) -> tuple[int, ...]:
+        """The device's record of its last execution error (all 0: none)."""
+        ...
+
+    async def start(self, program: HostProgram) -> None: ...
+
+    async def wait(self, timeout: float | None) -> float:
+        """Until no program runs (raising `WaitTimeout` past `timeout`); the seconds."""
+        ...
+
+    async def axes(self) -> dict[str, dict[str, Any]]:
+        """Per axis name: "position" and "state" ("moving" or "stopped")."""
+        ...
+
+
+class HostSide(Protocol):
+    """What a family offers a host program (`Family.host`)."""
+
+    def build_view(self, paths: list[Path], options: Options) -> tuple[FamilyBuild, HostView]:
+        """Build the sources (diagnostics in the build) and the host's view of the build."""
+        ...
+
+    def load_view(self, path: Path) -> HostView:
+        """A view from a file (`mpc export --format json`, an image): ValueError, OSError."""
+        ...
+
+    def device(self, target: FlashTarget, identity: str | bool | None, timeout: float,
+               retries: int) -> HostDevice:
+        """One device (not yet open); `identity` the build manifest's place as `mpc flash`
+        takes it (False: none)."""
+        ...
+
+    def located(self, view: HostView, error: Sequence[int]) -> ExecutionError:
+        """The device's record of an execution error at its source line in `view`."""
+        ...
+
+
 Say = Callable[[str], None]
 """Where a virtual device reports what it does (one line at a time)."""
 
@@ -458,6 +528,18 @@ class Family(Protocol):
     @property
     def NO_MACHINE(self) -> str:
         """Why `--machine` does not apply to this family; "" where it does."""
+        ...
+
+    @property
+    def host(self) -> HostSide | None:
+        """`mpc call`, `mpc var`, `mpc export` and `mplang.host`: a build's names on a
+        device, or None where a host cannot reach the family's programs and variables
+        (`NO_HOST` says why)."""
+        ...
+
+    @property
+    def NO_HOST(self) -> str:
+        """Why a host cannot use this family's names on a device; "" where it can."""
         ...
 
     def check_native(self, paths: list[Path], target: str | None = None) -> FamilyBuild: ...

@@ -44,6 +44,12 @@ debug = None
 to stop between steps (`NO_DEBUG`)."""
 NO_DEBUG = ("the virtual FATEK PLC runs whole positioning-table steps and cannot stop at a "
             "source line; debug the same .mp sources with target et (the virtual M8194H)")
+host = None
+NO_HOST = ("a host cannot reach a FATEK positioning table by name: FB documents no way to "
+           "download the table or read its state from a host (tables are entered with "
+           "WinProladder's table editor, FB 809-839, 861), so there is no program to call and "
+           "no declared variable to read on the PLC")
+"""No `mpc call`, `mpc var`, `mpc export` or `mplang.host` (`NO_HOST` says why)."""
 watch = None
 """No live view (`mpc monitor`): nothing can reach a FATEK positioning table
 (`NO_TRANSPORT`)."""
@@ -56,6 +62,7 @@ __all__ = [
     "FLASH_OPTIONS",
     "FORMATS",
     "NO_DEBUG",
+    "NO_HOST",
     "NO_MACHINE",
     "NO_TRANSPORT",
     "POSITION_UNIT",
@@ -75,6 +82,7 @@ __all__ = [
     "debug",
     "disassemble",
     "flash_devices",
+    "host",
     "load_machine",
     "run_build",
     "serve",

@@ -11,6 +11,7 @@ The package satisfies the family face (`mplang.family.face.Family`) like `mplang
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -18,7 +19,10 @@ from typing import TYPE_CHECKING
 from mplang.family.face import FamilyBuild as AnyBuild
 from mplang.family.face import (
     FlashJob,
+    FlashTarget,
     FlashUI,
+    HostDevice,
+    HostSide,
     NoSuchProgram,
     RunSetupError,
     Say,
@@ -27,6 +31,7 @@ from mplang.family.face import (
     StatusUI,
     WatchJob,
 )
+from mplang.family.hostview import ExecutionError, HostView
 from mplang.family.watch import Watch
 from mplang.ir.unit import Options
 from mplang.m8194h.compiler import compile_paths
@@ -58,6 +63,7 @@ FLASHES_FLEETS = True
 FLASH_INSTEAD = ""
 NO_DEBUG = ""
 NO_MACHINE = ""
+NO_HOST = ""
 """`--machine` applies: the virtual controller's sensors and inputs (docs/machine.md)."""
 SERVE_OPTIONS = frozenset({"--unit", "--memory", "--word-order", "--devices"})
 """`mpc sim` options beyond the common ones: the RTU address, the macro memory file, the
@@ -85,6 +91,7 @@ __all__ = [
     "FLASH_OPTIONS",
     "FORMATS",
     "NO_DEBUG",
+    "NO_HOST",
     "NO_MACHINE",
     "NO_TRANSPORT",
     "POSITION_UNIT",
@@ -103,6 +110,7 @@ __all__ = [
     "debug",
     "disassemble",
     "flash_devices",
+    "host",
     "load_machine",
     "run_build",
     "serve",
@@ -189,3 +197,37 @@ def watch(job: WatchJob) -> Watcher:
     from mplang.m8194h import live
 
     return live.watch(job)
+
+
+class _HostSide:
+    """`Family.host`: a build's names on a device over Modbus (`mplang.m8194h.hostlink`,
+    imported when called, as `serve`)."""
+
+    def build_view(self, paths: list[Path], options: Options) -> tuple[AnyBuild, HostView]:
+        from mplang.m8194h import hostlink as host_module
+
+        return host_module.compile_view(paths, options)
+
+    def load_view(self, path: Path) -> HostView:
+        from mplang.m8194h import hostlink as host_module
+
+        return host_module.load_view(path)
+
+    def device(self, target: FlashTarget, identity: str | bool | None, timeout: float,
+               retries: int) -> HostDevice:
+        """ValueError for a malformed machine-data range."""
+        from mplang.m8194h import hostlink as host_module
+        from mplang.m8194h.flash.manifest import DEFAULT_RANGE, parse_range
+        from mplang.m8194h.status import endpoint_of
+
+        md = None if identity is False else parse_range(
+            identity if isinstance(identity, str) else DEFAULT_RANGE)
+        return host_module.ModbusHost(endpoint_of(target, timeout, retries), md)
+
+    def located(self, view: HostView, error: Sequence[int]) -> ExecutionError:
+        from mplang.m8194h import hostlink as host_module
+
+        return host_module.located(view, error)
+
+
+host: HostSide = _HostSide()

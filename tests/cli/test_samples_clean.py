@@ -36,7 +36,7 @@ def test_samples_pass_their_own_tools(command: list[str]) -> None:
 
 def test_every_family_folder_is_a_project_that_builds_on_its_own(
         monkeypatch: pytest.MonkeyPatch) -> None:
-    assert {p.name for p in PROJECTS} == {"controller", "csim", "families", "fatek"}
+    assert {p.name for p in PROJECTS} == {"controller", "csim", "families", "fatek", "host"}
     for project in PROJECTS:
         monkeypatch.chdir(project)
         result = CliRunner().invoke(main, ["build", "-o", "-"])
