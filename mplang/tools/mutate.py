@@ -93,13 +93,15 @@ def prepare(group: Group, common: dict[str, Any]) -> None:
 
 
 def fingerprint(group: Group, common: dict[str, Any]) -> str:
-    """What a group's results depend on: its modules, its tests and its settings."""
-    digest = hashlib.sha256(repr(group).encode())
-    digest.update(json.dumps(common, sort_keys=True).encode())
-    for path in sorted({*group.modules, *(t.split("::")[0] for t in group.tests),
-                        "tests/conftest.py"}):
-        digest.update(path.encode() + b"\0" + (ROOT / path).read_bytes())
-    return digest.hexdigest()
+    """What a group's results depend on: its modules (first line), then its tests and its
+    settings (second line)."""
+    sources, rest = hashlib.sha256(), hashlib.sha256(repr(group).encode())
+    rest.update(json.dumps(common, sort_keys=True).encode())
+    for digest, paths in ((sources, group.modules),
+                          (rest, {*(t.split("::")[0] for t in group.tests), "tests/conftest.py"})):
+        for path in sorted(paths):
+            digest.update(path.encode() + b"\0" + (ROOT / path).read_bytes())
+    return f"{sources.hexdigest()}\n{rest.hexdigest()}"
 
 
 def results(group: Group) -> dict[str, dict[str, int | None]]:
@@ -123,16 +125,23 @@ def run(group: Group, common: dict[str, Any]) -> int:
     prepare(group, common)
     done, started = group.work / "fingerprint", group.work / "started"
     current = fingerprint(group, common)
-    pending = [name for codes in results(group).values() for name, code in codes.items()
-               if code is None]
-    if done.is_file() and done.read_text() == current and not pending:
+    codes = {name: code for found in results(group).values() for name, code in found.items()}
+    pending = [name for name, code in codes.items() if code is None]
+    last = done.read_text() if done.is_file() else ""
+    if last == current and not pending:
         print(f"{group.name}: up to date")
         return 0
-    # mutmut runs named mutants again even when it has their result: name them only to
-    # resume an unfinished run of unchanged code. After a change, the group's patterns (or
-    # nothing: mutmut then keeps the results of unchanged functions) start it afresh.
-    resuming = started.is_file() and started.read_text() == current and pending
-    names = pending if resuming else []
+    # mutmut runs named mutants again even when it has their result, and only those. So:
+    # resuming an unfinished run of unchanged code, name the mutants still to run; after a
+    # change of the tests alone, name the ones no test killed yet (a killed mutant stays
+    # killed when tests are added); after a change of the modules, the group's patterns (or
+    # nothing: mutmut keeps the results of unchanged functions) start it afresh.
+    if started.is_file() and started.read_text() == current and pending:
+        names = pending
+    elif last and last.split("\n")[0] == current.split("\n")[0]:
+        names = [name for name, code in codes.items() if STATUS.get(code) != "killed"]
+    else:
+        names = []
     started.write_text(current)
     mutmut = Path(sys.executable).parent / "mutmut"
     command = [str(mutmut), "run", "--max-children", str(common["max_children"]),
