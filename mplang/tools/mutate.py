@@ -93,15 +93,15 @@ def prepare(group: Group, common: dict[str, Any]) -> None:
 
 
 def fingerprint(group: Group, common: dict[str, Any]) -> str:
-    """What a group's results depend on: its modules (first line), then its tests and its
-    settings (second line)."""
-    sources, rest = hashlib.sha256(), hashlib.sha256(repr(group).encode())
-    rest.update(json.dumps(common, sort_keys=True).encode())
+    """What a group's results depend on, a line each: its modules and settings (a change
+    makes mutmut start afresh), then the contents of its test files."""
+    sources = hashlib.sha256(repr(group).encode() + json.dumps(common, sort_keys=True).encode())
+    tests = hashlib.sha256()
     for digest, paths in ((sources, group.modules),
-                          (rest, {*(t.split("::")[0] for t in group.tests), "tests/conftest.py"})):
+                          (tests, {*(t.split("::")[0] for t in group.tests), "tests/conftest.py"})):
         for path in sorted(paths):
             digest.update(path.encode() + b"\0" + (ROOT / path).read_bytes())
-    return f"{sources.hexdigest()}\n{rest.hexdigest()}"
+    return f"{sources.hexdigest()}\n{tests.hexdigest()}"
 
 
 def results(group: Group) -> dict[str, dict[str, int | None]]:
@@ -133,9 +133,10 @@ def run(group: Group, common: dict[str, Any]) -> int:
         return 0
     # mutmut runs named mutants again even when it has their result, and only those. So:
     # resuming an unfinished run of unchanged code, name the mutants still to run; after a
-    # change of the tests alone, name the ones no test killed yet (a killed mutant stays
-    # killed when tests are added); after a change of the modules, the group's patterns (or
-    # nothing: mutmut keeps the results of unchanged functions) start it afresh.
+    # change of the tests' contents alone, name the ones no test killed yet (a killed mutant
+    # stays killed when tests are added); after a change of the modules or of the settings
+    # (mutmut itself drops every result when the test selection changes), the group's
+    # patterns (or nothing: mutmut keeps the results of unchanged functions) start afresh.
     if started.is_file() and started.read_text() == current and pending:
         names = pending
     elif last and last.split("\n")[0] == current.split("\n")[0]:
