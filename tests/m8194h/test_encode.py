@@ -115,6 +115,12 @@ def test_frnet_out_sends_a_var_as_its_holding_address_and_reads_it_back() -> Non
         assert frame == [out.code, 0x0080, *data_words]
         assert encoder.decode(frame) == (out, (BVarRef(0), VarRef(1)))
     encoder = Encoder(CAT)
+    frame = encoder.frame(MacroLine(out, (BVarRef(5), 7), SPAN))
+    assert frame == [out.code, 0x0085, 0, 7]  # bVAR5 is 0x80 + 5
+    assert encoder.decode(frame)[1] == (BVarRef(5), 7)
+    assert encoder.decode([out.code, 0x0080 + 127, 0, 7])[1] == (BVarRef(127), 7)
+    assert encoder.decode([out.code, 0x0080 + 128, 0, 7])[1] == (0x0100, 7)  # past bVAR127
+    assert encoder.decode([out.code, 0x007F, 0, 7])[1] == (0x007F, 7)
     last = 300 + 2 * 511
     assert encoder.decode([out.code, 3, 0, last])[1] == (3, VarRef(511))
     for raw in (299, 301, last + 2, 0x7FFF0001):
