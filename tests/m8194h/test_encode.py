@@ -123,6 +123,7 @@ def test_frnet_out_sends_a_var_as_its_holding_address_and_reads_it_back() -> Non
     assert encoder.decode([out.code, 0x007F, 0, 7])[1] == (0x007F, 7)
     last = 300 + 2 * 511
     assert encoder.decode([out.code, 3, 0, last])[1] == (3, VarRef(511))
+    assert encoder.decode([out.code, 3, 0, 300])[1] == (3, VarRef(0))
     for raw in (299, 301, last + 2, 0x7FFF0001):
         assert encoder.decode([out.code, 3, *split32(raw, 0)])[1] == (3, raw)
 
@@ -145,5 +146,6 @@ def test_refusals_say_what_is_wrong() -> None:
 
 def test_join32_is_signed_unless_told() -> None:
     assert join32([0xFFFF, 0xFFFF], 0) == -1
+    assert join32([0x0000, 0x0005], 0) == 5 and join32([0x7FFF, 0xFFFF], 0) == 0x7FFFFFFF
     assert join32([0xFFFF, 0xFFFF], 0, signed=False) == 0xFFFFFFFF
     assert join32([0x0001, 0x8000], 1) == -(1 << 31) + 1
