@@ -33,3 +33,23 @@ def test_the_json_form_names_every_field() -> None:
                                 for p in manifest.programs]
     assert data["programs"] and data["build_id"] == manifest.build_id
     assert mf.decode(mf.encode(manifest)) == manifest
+
+
+def test_seven_md_are_one_too_few_and_floats_are_named() -> None:
+    with pytest.raises(ValueError, match=r"^MD0-MD6: a manifest needs at least 8 MD$"):
+        mf.parse_range("MD0-MD6")
+    with pytest.raises(ValueError) as caught:
+        mf.parse_range("MD1000-MD1100")
+    assert str(caught.value).endswith(
+        "(MD1024-MD2047 are floats, whose bit patterns a device may change)")
+
+
+def test_a_long_name_is_cut_at_a_character_boundary() -> None:
+    """Program names keep at most 12 bytes of UTF-8, never half a character: six 'ä' (two
+    bytes each) fill the 12; after an 'x', the sixth 'ä' would end at byte 13, so five stay;
+    '€' takes three bytes, so four fit."""
+    for name, kept in (("ääääääää", "ääääää"), ("xääääääää", "xäääää"),
+                       ("abcdefghijklmn", "abcdefghijkl"), ("€€€€€", "€€€€")):
+        program = mf.ManifestProgram("mp", 1, "0" * 16, name)
+        manifest = mf.Manifest("b", "t", 0, 0, (0, 0, 0, 0, 0), (program,))
+        assert mf.decode(mf.encode(manifest)).programs[0].name == kept, name
