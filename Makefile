@@ -4,10 +4,11 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test lint docs bench clean tools
+.PHONY: demo test lint docs bench clean tools mutate
 
-# Debian packages the tests use: mbpoll, an independent Modbus client (libmodbus), and
-# chromium, the browser the mpc monitor test drives (playwright, pointed at /usr/bin/chromium).
+# Debian packages the tests use: mbpoll, an independent Modbus client (libmodbus), gcc (the
+# generated C header is compiled), chromium, the browser the mpc monitor test drives
+# (playwright, pointed at /usr/bin/chromium), and Node.js with npm (the editor tests).
 SUDO := $(shell [ "$$(id -u)" != 0 ] && command -v sudo >/dev/null 2>&1 && echo sudo)
 
 $(STAMP): pyproject.toml
@@ -35,19 +36,31 @@ test: $(STAMP) tools lint
 # installed when missing or older than package-lock.json.
 VSCODE_EXT := editors/vscode
 
+# Each program: found on PATH, or installed with apt-get (after one `apt-get update` if the
+# first try fails), or `make tools` stops with a message and a non-zero exit: never a test
+# suite that runs on without it.
+define ensure
+	@command -v $(1) >/dev/null 2>&1 || $(SUDO) apt-get install -y -q $(2) >/dev/null 2>&1 \
+	  || { $(SUDO) apt-get update -q >/dev/null 2>&1 && $(SUDO) apt-get install -y -q $(2) >/dev/null; } \
+	  || { echo "make tools: could not install $(2) (apt-get install $(2)) for $(3)" >&2; exit 1; }
+	@command -v $(1) >/dev/null 2>&1 \
+	  || { echo "make tools: $(2) is installed but there is no $(1) on PATH" >&2; exit 1; }
+endef
+
 tools:
-	@command -v mbpoll >/dev/null 2>&1 || $(SUDO) apt-get install -y -q mbpoll >/dev/null 2>&1 \
-	  || { $(SUDO) apt-get update -q >/dev/null 2>&1 && $(SUDO) apt-get install -y -q mbpoll >/dev/null; } \
-	  || echo "make: could not install mbpoll; the tests that use it will fail"
-	@command -v npm >/dev/null 2>&1 || $(SUDO) apt-get install -y -q nodejs npm >/dev/null 2>&1 \
-	  || { $(SUDO) apt-get update -q >/dev/null 2>&1 && $(SUDO) apt-get install -y -q nodejs npm >/dev/null; } \
-	  || echo "make: could not install nodejs and npm; the editor tests will fail"
-	@command -v chromium >/dev/null 2>&1 || $(SUDO) apt-get install -y -q chromium >/dev/null 2>&1 \
-	  || { $(SUDO) apt-get update -q >/dev/null 2>&1 && $(SUDO) apt-get install -y -q chromium >/dev/null; } \
-	  || echo "make: could not install chromium; the mpc monitor browser test will fail"
+	$(call ensure,mbpoll,mbpoll,the Modbus tests)
+	$(call ensure,gcc,gcc,the C header test)
+	$(call ensure,chromium,chromium,the mpc monitor browser test)
+	$(call ensure,npm,nodejs npm,the editor tests)
 	@[ $(VSCODE_EXT)/node_modules/.package-lock.json -nt $(VSCODE_EXT)/package-lock.json ] \
 	  || npm ci --prefix $(VSCODE_EXT) --no-audit --no-fund --loglevel=error >/dev/null \
-	  || echo "make: npm ci in $(VSCODE_EXT) failed; the editor tests will fail"
+	  || { echo "make tools: npm ci in $(VSCODE_EXT) failed; the editor tests need it" >&2; exit 1; }
+
+# Mutation testing (docs/testing.md): mutmut over the modules that guard correctness, each
+# group against its own tests, cached in build/mutation/ so a second run only redoes what
+# changed. Not part of `make test`. `make mutate GROUPS="manifest encoder"` runs some groups.
+mutate: $(STAMP)
+	$(BIN)/python -m mplang.tools.mutate $(GROUPS)
 
 # mypy twice: for this machine and as on Windows (docs/platforms.md), where pty, termios and
 # the other POSIX-only modules do not exist.

@@ -18,7 +18,6 @@ MPLANG_FUZZ=N to run N times as many examples, freshly random, when hunting.
 
 from __future__ import annotations
 
-import contextlib
 import json
 import os
 import shutil
@@ -29,6 +28,7 @@ import pytest
 from click.testing import CliRunner
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from outcomes import assert_diagnostics, assert_refusal
 
 from mplang import csim, fatek, m8194h
 from mplang.cli import main
@@ -55,8 +55,13 @@ INTERNAL = 70
 
 def fuzz_settings(examples: int) -> settings:
     """Bounded and repeatable by default; MPLANG_FUZZ=N: N times more, freshly random."""
+    # Every health check stays on (an empty or over-filtered strategy fails) except these:
+    # too_slow, as each example builds and runs programs; data_too_large and
+    # large_base_example, as the hostile lines are thousands of characters by design.
     return settings(max_examples=examples * max(SCALE, 1), deadline=None, database=None,
-                    derandomize=SCALE == 0, suppress_health_check=list(HealthCheck))
+                    derandomize=SCALE == 0,
+                    suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large,
+                                           HealthCheck.large_base_example])
 
 
 # ------------------------------------------------------------------------ mutations
@@ -149,11 +154,18 @@ def place(workspace: Path, seed: Path, text: str) -> Path:
 
 
 def run_if_ok(family: object, build: object) -> None:
-    """`mpc run` of a build without errors, briefly: only RunSetupError may escape."""
+    """The build's diagnostics, then `mpc run` of a build without errors, briefly: a run
+    report, or a RunSetupError that says why (documented: exit 5, or a usage error)."""
+    assert_diagnostics(build)
     if not getattr(build, "ok", False):
         return
-    with contextlib.suppress(RunSetupError):  # documented: exit 5 (or a usage error)
-        family.run_build(build, None, 0.2)  # type: ignore[attr-defined]
+    try:
+        report = family.run_build(build, None, 0.2)  # type: ignore[attr-defined]
+    except RunSetupError as refused:
+        assert str(refused), "a refusal without a reason"
+        return
+    assert isinstance(report.called, str) and report.called
+    assert report.error is None or (isinstance(report.error, str) and report.error)
 
 
 # ---------------------------------------------------------------- library entry points
@@ -168,7 +180,7 @@ def test_mp_mutants_only_give_diagnostics(workspace: Path, mutant: tuple[Path, s
     build = m8194h.compile_mp([path], Options(), "et")
     run_if_ok(m8194h, build)
     for family, target in ((fatek, "fbs-fun140"), (csim, "csim")):
-        family.compile_mp([path], Options(target=target), target)
+        assert_diagnostics(family.compile_mp([path], Options(target=target), target))
     try:
         formatted = format_source(text, name=str(path))
     except SourceNotFormattable:
@@ -258,9 +270,12 @@ def test_image_mutants_only_give_image_errors(workspace: Path, image_text: str) 
         path.write_text(text, encoding="utf-8")
         try:
             image = load_image(path)
-        except ImageError:
+        except ImageError as refused:
+            assert_refusal(refused, str(path))
             return
-        disasm.disassemble(image)
+        result = disasm.disassemble(image)
+        assert isinstance(result.text, str) and result.text
+        assert result.exact or (result.problems and all(result.problems))
 
     check()
 
@@ -301,8 +316,12 @@ def test_project_mutants_only_give_project_errors(workspace: Path) -> None:
     @given(mutant=mutated([seed], HOSTILE_TOML))
     def check(mutant: tuple[Path, str]) -> None:
         path.write_text(mutant[1], encoding="utf-8")
-        with contextlib.suppress(ProjectError):
-            load_project(path)
+        try:
+            project = load_project(path)
+        except ProjectError as refused:
+            assert_refusal(refused, str(path))
+            return
+        assert project is not None
 
     check()
 

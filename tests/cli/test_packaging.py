@@ -5,7 +5,6 @@ of `mpc completion` completes commands and file names."""
 from __future__ import annotations
 
 import os
-import shutil
 import subprocess
 import sys
 import tomllib
@@ -109,7 +108,7 @@ def test_completion_refuses_other_shells() -> None:
     assert result.exit_code == EXIT_USAGE and "tcsh" in result.stderr
 
 
-@pytest.mark.skipif(shutil.which("bash") is None, reason="needs bash")
+@pytest.mark.needs_tool("bash")
 def test_bash_script_completes_through_the_installed_mpc() -> None:
     """The printed script, sourced in bash, asks the `mpc` on PATH and fills COMPREPLY."""
     mpc = Path(sys.executable).parent / "mpc"

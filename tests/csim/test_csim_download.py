@@ -75,18 +75,21 @@ def fake_device(link: PtyLink, answer: bytes) -> threading.Thread:
     return thread
 
 
-@pytest.mark.parametrize(("answer", "kind", "text"), [
-    (b"DLX\r\nOK\r\n", "echo", "wrong echo: sent 'DLP', the device echoed 'DLX'"),
-    (b"DLP\r\n\xff\xfe\r\n", "reply", "garbled reply"),
-    (b"DLP\r\nWHAT?\r\n", "reply", "unexpected reply to 'DLP'"),
-    (b"DLP\r\nERR 4 busy\r\n", "device-error", "the device refused 'DLP': ERR 4 busy"),
-    (b"DLP\r\nOK", "no-answer", "got 'OK' so far"),
+# A full answer ends the wait at once, so its timeout can be generous; a cut answer waits
+# the whole timeout, and must have arrived before it ends.
+@pytest.mark.parametrize(("answer", "kind", "text", "timeout"), [
+    (b"DLX\r\nOK\r\n", "echo", "wrong echo: sent 'DLP', the device echoed 'DLX'", 10.0),
+    (b"DLP\r\n\xff\xfe\r\n", "reply", "garbled reply", 10.0),
+    (b"DLP\r\nWHAT?\r\n", "reply", "unexpected reply to 'DLP'", 10.0),
+    (b"DLP\r\nERR 4 busy\r\n", "device-error", "the device refused 'DLP': ERR 4 busy", 10.0),
+    (b"DLP\r\nOK", "no-answer", "got 'OK' so far", 2.0),
 ])
-def test_garbled_and_wrong_replies(link: PtyLink, answer: bytes, kind: str, text: str) -> None:
+def test_garbled_and_wrong_replies(link: PtyLink, answer: bytes, kind: str, text: str,
+                                   timeout: float) -> None:
     thread = fake_device(link, answer)
     try:
         with pytest.raises(DownloadError) as caught:
-            download(["MA 1"], link.client_end, timeout=0.3)
+            download(["MA 1"], link.client_end, timeout=timeout)
         assert caught.value.kind == kind and text in caught.value.message
     finally:
         thread.stop.set()  # type: ignore[attr-defined]

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from outcomes import assert_diagnostics
 
 from mplang.lang import ast
 from mplang.lang.diagnostics import DiagnosticSink
@@ -98,7 +99,7 @@ def test_arbitrary_text_only_gives_diagnostics(text: str) -> None:
 @settings(max_examples=200, deadline=None)
 @given(st.text(max_size=200))
 def test_arbitrary_unicode_only_gives_diagnostics(text: str) -> None:
-    compile_source(text)
+    assert_diagnostics(compile_source(text))
 
 
 def test_leading_zeros_are_decimal_not_a_crash() -> None:

@@ -396,7 +396,14 @@ def test_any_c_text_converts_without_crashing(text: str) -> None:
 @settings(max_examples=60, deadline=None)
 @given(st.text(max_size=200))
 def test_any_text_converts_without_crashing(text: str) -> None:
-    convert(text)
+    """A conversion, with its warnings at lines of the text and a source line for each
+    line written, never an exception."""
+    result = convert(text)
+    total = text.count("\n") + 2
+    assert all(1 <= w.line <= total and w.message for w in result.warnings)
+    # lines as the compiler splits them: at "\n" only (a NEL in a comment is no line end)
+    assert result.text.endswith("\n")
+    assert len(result.line_map) == result.text.count("\n")
 
 
 def test_read_c_file_falls_back_for_chinese_comments() -> None:

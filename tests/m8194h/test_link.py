@@ -2,6 +2,11 @@
 
 from __future__ import annotations
 
+import json
+import os
+import subprocess
+import sys
+
 from mplang.m8194h.compiler import compile_source
 
 
@@ -25,9 +30,28 @@ def test_pinned_slots_are_left_alone() -> None:
     assert placed == {"pinned": 1, "auto": 2}
 
 
+PLACE = """
+import json, sys
+from mplang.m8194h.compiler import compile_source
+result = compile_source(sys.stdin.read())
+assert result.ok
+print(json.dumps({p.program.name: p.placement.slot for p in result.programs}, sort_keys=True))
+"""
+
+
 def test_placement_is_deterministic() -> None:
-    source = "".join(f"MP p{i}\n{body(i % 20)}END MP\n" for i in range(30))
-    assert slots(source) == slots(source)
+    """The same placement in processes with different string hash seeds, so an order that
+    follows a set or a hash of names would show."""
+    source = "".join(f"MP p{i}\n{body(i % 20)}END MP\n" for i in range(30)) + "".join(
+        f"ISR q{i}\n{body(i % 3)}END ISR\n" for i in range(5))
+    placements = set()
+    for seed in ("1", "2", "987654"):
+        done = subprocess.run([sys.executable, "-c", PLACE], input=source, capture_output=True,
+                              text=True, timeout=120, env={**os.environ, "PYTHONHASHSEED": seed})
+        assert done.returncode == 0, done.stderr
+        placements.add(done.stdout)
+    assert len(placements) == 1
+    assert json.loads(placements.pop()) == slots(source)
 
 
 def test_costs_count_in_budgets() -> None:

@@ -6,7 +6,6 @@ from __future__ import annotations
 import asyncio
 import importlib.util
 import json
-import shutil
 import subprocess
 from pathlib import Path
 from types import ModuleType
@@ -70,7 +69,7 @@ def test_the_json_map() -> None:
          "source": "job.mp:2"}]
 
 
-@pytest.mark.skipif(shutil.which("gcc") is None, reason="needs a C compiler")
+@pytest.mark.needs_tool("gcc")
 def test_the_c_header_compiles(tmp_path: Path) -> None:
     (tmp_path / "mpc_vars.h").write_text(render_variables_c(build(JOB)))
     (tmp_path / "use.c").write_text(

@@ -1,29 +1,24 @@
 """Prove stdlib/m8194h/commands.toml against the RS-M8194H API manual (v3.1).
 
-The manual is parsed here on its own (regular expressions over its tab-separated tables and
-its C prototypes), so that a wrong code, count, scope or parameter in the catalogue fails.
-Deviations from the manual are allowed only for rows that carry a ``choice`` and are listed
-below with the value the catalogue must hold.
+The manual's tables (table 1, appendix table 21, the 9.3.2 list, the C prototypes and the
+worked examples' lines) are parsed by `rs_manual.py`, each row with its line in the manual,
+and stored in tests/data/rs-manual-tables.json: every clone runs these checks, with or
+without the manual beside it, so that a wrong code, count, scope, cost or parameter in the
+catalogue fails. Where the manual is beside the repository (../shared/manuals), the stored
+tables are extracted again from it and must be identical. Deviations from the manual are
+allowed only for rows that carry a ``choice`` and are listed below with the value the
+catalogue must hold.
 """
 
 from __future__ import annotations
 
-import re
 import tomllib
 from functools import cache
-from pathlib import Path
+from typing import Any
 
 import pytest
-
-HERE = Path(__file__).resolve()
-REPO = HERE.parents[2]
-MANUAL = HERE.parents[3] / "shared/manuals/001_404865bff90dda3e.txt"
-CATALOGUE = REPO / "stdlib/m8194h/commands.toml"
-
-needs_manual = pytest.mark.skipif(
-    not MANUAL.is_file(),
-    reason=f"RS-M8194H manual not found at {MANUAL} (expected shared/ next to the repository)",
-)
+import rs_manual
+from rs_manual import CATALOGUE, MANUAL
 
 # --- deviations from appendix table 21 that a `choice` explains --------------------------
 CODE_DEVIATIONS = {
@@ -125,105 +120,25 @@ def by_name() -> dict[str, dict]:
     return {c["name"]: c for c in catalogue()}
 
 
-@cache
-def manual_lines() -> tuple[str, ...]:
-    return tuple(MANUAL.read_text(encoding="utf-8").split("\n"))
+def table1() -> dict[str, dict[str, Any]]:
+    """Table 1: name -> section, scope, cost, line (RS ~366-666)."""
+    return rs_manual.stored()["table1"]  # type: ignore[no-any-return]
 
 
-def _block(start_pat: str, end_pat: str) -> list[tuple[int, str]]:
-    lines = manual_lines()
-    start = next(i for i, text in enumerate(lines) if re.search(start_pat, text))
-    end = next(i for i in range(start + 1, len(lines)) if re.search(end_pat, lines[i]))
-    return [(i + 1, lines[i]) for i in range(start, end)]
+def appendix() -> list[dict[str, Any]]:
+    """Appendix table 21: section, name, code, registers, line (RS ~11502-11820)."""
+    return rs_manual.stored()["appendix"]  # type: ignore[no-any-return]
 
 
-@cache
-def table1() -> dict[str, dict]:
-    """Table 1 (RS ~366-666): section, function, RTC, MP, ISR, IT cells."""
-    rows = {}
-    row_re = re.compile(r"^(\d+(?:\.\d+)*)\t(RSM_\w+)\t([^\t]*)\t([^\t]*)\t([^\t]*)\t([^\t]*)$")
-    start, end = r"^Table 1: Command types and command scope", r"^1\.3 API Command Modbus Setup"
-    for no, line in _block(start, end):
-        m = row_re.match(line.rstrip("\r"))
-        if not m:
-            continue
-        cells = m.group(3, 4, 5, 6)
-        scope = [s for s, c in zip(("rtc", "mp", "isr", "it"), cells, strict=True) if c.strip()]
-        costs = {int(x) for c in cells for x in re.findall(r"x(\d)", c)}
-        assert len(costs) <= 1, line
-        cost = costs.pop() if costs else 1
-        rows[m.group(2)] = dict(section=m.group(1), scope=scope, cost=cost, line=no)
-    return rows
-
-
-@cache
-def appendix() -> list[dict]:
-    """Appendix table 21 (RS ~11502-11820)."""
-    rows = []
-    row_re = re.compile(r"^(\d+(?:\.\d+)*)\t(RSM_\w+)\t(\S+)\t(\S+)\t(\S+)\s*$")
-    start, end = r"^Appendix table 21: Sub Function Code mapping table", r"^12\.4 MODBUS Coil Table"
-    for no, line in _block(start, end):
-        m = row_re.match(line)
-        if not m:
-            continue
-        hexcode, deccode, regs = m.group(3, 4, 5)
-        code = int(hexcode, 16) if hexcode.lower().startswith("0x") else None
-        if code is not None:
-            assert int(deccode) == code, f"hex/dec columns disagree at RS {no}"
-        rows.append(
-            dict(
-                section=m.group(1),
-                name=m.group(2),
-                code=code,
-                registers=int(regs) if regs.isdigit() else None,
-                line=no,
-            )
-        )
-    return rows
-
-
-@cache
 def rvar_list() -> list[str]:
     """Commands whose result SET_RVAR reads (9.3.2, RS ~10183-10195)."""
-    lines = manual_lines()
-    marker = "reads the return values of the following commands"
-    start = next(i for i, text in enumerate(lines) if marker in text)
-    names = []
-    for text in lines[start + 1 :]:
-        if text.startswith("Category"):
-            break
-        m = re.match(r"^\s*-\s*(RSM_\w+)\s*$", text)
-        if m:
-            names.append(m.group(1))
-    return names
+    return rs_manual.stored()["rvar"]["names"]  # type: ignore[no-any-return]
 
 
-@cache
 def prototypes() -> dict[str, list[tuple[str, str, bool]]]:
     """name -> [(type, param, is_pointer)] from the C prototypes in the function sections."""
-    text = [re.sub(r"<[^>]+>", "", raw) for raw in manual_lines()]
-    head = re.compile(r"(?:eRTU|HANDLE|WORD|eCOM_PORT)\**\s+\**(RSM_\w+?)\**\s*\(")
-    protos: dict[str, list[tuple[str, str, bool]]] = {}
-    for i, line in enumerate(text):
-        for m in head.finditer(line):
-            name = m.group(1)
-            if name in protos:
-                continue
-            rest, j = line[m.end() :], i
-            while ")" not in rest:
-                j += 1
-                rest += " " + text[j]
-            args = []
-            for raw in rest[: rest.index(")")].split(","):
-                a = re.sub(r"\*\*(\w+)\*\*", r"\1", raw.strip())
-                a = re.sub(r"\*(\w+)\*", r"\1", a)
-                if not a or a == "void":
-                    continue
-                pointer = "*" in a
-                typ, pname = re.findall(r"\w+", a)
-                args.append((typ, pname, pointer))
-            protos[name] = args
-    return protos
+    return {name: [(t, n, ptr) for t, n, ptr in proto["args"]]
+            for name, proto in rs_manual.stored()["prototypes"].items()}
 
 
 # --- tests --------------------------------------------------------------------------------
@@ -301,14 +216,12 @@ def test_targets():
             assert c["targets"] == ["rs", "et"], c["name"]
 
 
-@needs_manual
 def test_returns_match_9_3_2():
     manual = rvar_list()
     assert len(manual) == 12, manual
     assert sorted(c["name"] for c in catalogue() if c["returns"]) == sorted(manual)
 
 
-@needs_manual
 def test_appendix_rows_present_with_same_code_and_count():
     rows = by_name()
     app = appendix()
@@ -333,7 +246,6 @@ def test_appendix_rows_present_with_same_code_and_count():
     assert deviating == set(CODE_DEVIATIONS) | set(REGISTER_DEVIATIONS)
 
 
-@needs_manual
 def test_swapped_codes_stay_unique_pairs():
     # the six corrected codes are exactly the appendix's codes permuted
     rows = by_name()
@@ -345,7 +257,6 @@ def test_swapped_codes_stay_unique_pairs():
 IT_ADDED = {"RSM_EXD_DISABLE"}
 
 
-@needs_manual
 def test_scope_and_cost_equal_table1():
     t1 = table1()
     assert len(t1) == 276
@@ -376,7 +287,6 @@ def test_scope_and_cost_equal_table1():
     assert it_dropped == expected
 
 
-@needs_manual
 def test_it_rows_take_table5_axes():
     for c in catalogue():
         if "rtc" in c["scope"] and "it" in c["scope"]:
@@ -384,7 +294,6 @@ def test_it_rows_take_table5_axes():
             assert axes and axes[0]["kind"] == "axis_it", c["name"]
 
 
-@needs_manual
 def test_parameters_match_prototypes():
     protos = prototypes()
     for c in catalogue():
@@ -400,7 +309,6 @@ def test_parameters_match_prototypes():
         assert got == expected, c["name"]
 
 
-@needs_manual
 def test_prototype_counts_explain_register_deviations():
     # 12.2.5 rule on the prototype reproduces every count except the FRnet group rows
     protos = prototypes()
@@ -416,26 +324,46 @@ def test_prototype_counts_explain_register_deviations():
             assert c["registers"] == n, c["name"]
 
 
-@needs_manual
 def test_var_operands_are_documented():
-    lines = manual_lines()
+    protos = rs_manual.stored()["prototypes"]
     for c in catalogue():
         for p in c.get("param", []):
-            if not (p["var"] or p["kind"] == "var"):
-                continue
-            start = c["lines"]["signature"]
-            window = "\n".join(lines[start - 1 : start + 60])
-            assert re.search(r"VAR0 ~ VAR511|use VARn", window), (c["name"], p["name"])
+            if p["var"] or p["kind"] == "var":
+                # the 60 lines after the prototype give VAR0 ~ VAR511 (or "use VARn")
+                assert protos[c["name"]]["var_documented"], (c["name"], p["name"])
 
 
-@needs_manual
 def test_line_references_point_at_the_row():
-    lines = manual_lines()
+    protos = rs_manual.stored()["prototypes"]
+    examples = rs_manual.stored()["examples"]
     for c in catalogue():
-        sig = re.sub(r"[*]|<[^>]+>", "", lines[c["lines"]["signature"] - 1])
-        assert re.search(re.escape(c["name"]) + r"\s*\(", sig), c["name"]
+        assert c["lines"]["signature"] == protos[c["name"]]["line"], c["name"]
         ex = c["lines"].get("example")
         if ex:
-            text = lines[ex - 1]
+            assert str(ex) in examples, (
+                f"{c['name']}: example line RS {ex} is not in {rs_manual.TABLES.name}; "
+                "run python tests/stdlib/rs_manual.py with the manual beside the repository")
+            text = examples[str(ex)]
             code_bytes = f"{c['code'] >> 8:02X} {c['code'] & 0xFF:02X}" if "code" in c else None
             assert c["name"] in text or (code_bytes and code_bytes in text), c["name"]
+
+
+def test_the_stored_tables_are_the_manual_s():
+    """The table in tests/data is what the manual says, row for row, line for line."""
+    if not MANUAL.is_file():
+        pytest.skip(f"the manual is not beside the repository ({MANUAL}); the checks above "
+                    f"ran from {rs_manual.TABLES.name}")
+    fresh = rs_manual.extract()
+    stored = rs_manual.stored()
+    for key in sorted(set(fresh) | set(stored)):
+        assert fresh.get(key) == stored.get(key), (
+            f"{rs_manual.TABLES.name}: {key!r} differs from the manual; regenerate it with "
+            "python tests/stdlib/rs_manual.py")
+    assert rs_manual.render(fresh) == rs_manual.TABLES.read_text(encoding="utf-8")
+
+
+def test_a_changed_cost_fails_without_the_manual():
+    """RSM_HELIX_3D costs three lines (table 1, RS 607): the stored row says so."""
+    row = table1()["RSM_HELIX_3D"]
+    assert (row["cost"], row["line"]) == (3, 607)
+    assert by_name()["RSM_HELIX_3D"]["line_cost"] == row["cost"]

@@ -25,7 +25,7 @@ def mpc(*args: str) -> subprocess.CompletedProcess[str]:
                           text=True, timeout=120)
 
 
-@pytest.mark.skipif(MBPOLL is None, reason="mbpoll is not installed (make test installs it)")
+@pytest.mark.needs_tool("mbpoll")
 def test_a_running_program_is_stopped_only_with_stop_running(tmp_path: Path) -> None:
     waiter, job = tmp_path / "waiter.mp", tmp_path / "job.mp"
     waiter.write_text(WAITER)

@@ -160,8 +160,13 @@ def test_9_13_change_vel_on_fly_example_accelerates_a_programs_drive_to_120000()
             assert frame == [0x0A43, 0x0001, 0x0001, 0xD4C0]  # the manual's table, RS 11044
             assert not (await client.write_registers(8000, frame)).isError()
             face.clock = SimClock(100.0, origin_sim=vc.clock)  # let the ramp pass quickly
-            await asyncio.sleep(0.2)
-            cv = await client.read_input_registers(42, count=2)  # current speed X (12.1.4)
+            loop = asyncio.get_running_loop()
+            end = loop.time() + 30  # polled, however long a loaded machine takes
+            while True:
+                cv = await client.read_input_registers(42, count=2)  # current speed X (12.1.4)
+                if long_of(cv.registers) == 120000 or loop.time() > end:
+                    break
+                await asyncio.sleep(0.01)
             running = await client.read_input_registers(101, count=1)
             return long_of(cv.registers), running.registers[0]
         finally:
