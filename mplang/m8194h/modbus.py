@@ -12,6 +12,11 @@ The client side (`DeviceLink`, below the server) is the downloader's transport t
 or virtual device over Modbus TCP or RTU. It raises mplang's own exceptions (`LinkError`
 and its kinds, `DeviceException`, defined with `Endpoint` in `mplang.m8194h.endpoint` and
 re-exported here) so that `mplang.m8194h.flash` never sees a pymodbus type.
+
+Client and server stay in one file because it is the one adapter of a library that renames
+its API in minor releases: every pymodbus name mplang uses is here, so an upgrade is checked
+in one place. The server's pymodbus modules are imported only when a server starts, so the
+commands that only talk to a device (flash, status, call, var) never load them.
 """
 
 from __future__ import annotations

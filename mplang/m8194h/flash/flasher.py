@@ -35,6 +35,11 @@ Failures, and what is done about them:
   repair it (`tidy`).
 
 `FlashOptions` holds the choices of a run: word order, incremental record, busy timeout.
+
+`Flasher` is one file because it is one state machine: every step reads and changes the same
+download state (whether the link is settled, the program under way, the lease, the report),
+and the order of its methods is the protocol's; spread over modules it would be read out of
+order. The lease itself (`lease`), the record, the manifest and the report live apart.
 """
 
 from __future__ import annotations

@@ -175,14 +175,6 @@ def _reach_time(m: _Motion, s: float) -> float:
             lo = mid
     return m.t0 + hi
 
-_VECTOR_KIND = {
-    0: "const", 7: "const",
-    1: "symT", 5: "symT", 8: "symT",
-    2: "symS", 9: "symS",
-    3: "asymT", 6: "asymT", 10: "asymT",
-    4: "asymS", 11: "asymS",
-}
-
 
 def _chain_builder(cid: int) -> Callable[[MotionModel, float], _Motion | None]:
     """Start chain `cid` (looked up in the model, so copies of the model stay separate)."""

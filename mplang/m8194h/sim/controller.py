@@ -20,7 +20,6 @@ from mplang.ir import catalogue as catalogue_module
 from mplang.ir.catalogue import Catalogue
 from mplang.ir.lower import apply_operator, wrap32
 from mplang.ir.macro import BVarRef, Operand, VarRef
-from mplang.m8194h.chipvalues import ChipRules
 from mplang.m8194h.encode import Encoder
 from mplang.m8194h.sim import (
     axis_commands,
@@ -115,8 +114,7 @@ class VirtualController:
         self.bvars = [0] * self.profile.var("byte_count")
         self.frnet = [0] * 16  # groups 0-7 DO, 8-15 DI (16 bits each)
         self.tables: dict[tuple[str, int], MacroTable] = {}
-        self.motion = MotionModel(self.profile.limit("motion_queue"),
-                                  ChipRules.from_profile(self.profile.raw))
+        self.motion = MotionModel.for_device(self.profile)
         self.stops: dict[tuple[str, int], Failure] = {}  # axes stopped on limits, alarms, EMG
         watch_axis_stops(self)
         self.clock = 0.0
@@ -513,8 +511,7 @@ class VirtualController:
         self.fifo.clear()
         self.isr_queue.clear()
         self.triggers.waiting.clear()
-        self.motion = MotionModel(self.profile.limit("motion_queue"),
-                                  ChipRules.from_profile(self.profile.raw))
+        self.motion = MotionModel.for_device(self.profile)
         watch_axis_stops(self)
         self.handlers = self._handlers()
         self.programs.clear()

@@ -88,6 +88,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from mplang.ir.catalogue import Profile
 from mplang.m8194h.chipvalues import ChipRules
 from mplang.m8194h.sim.axes import AXES, _axis_index, _mask_axes, _round
 from mplang.m8194h.sim.axis_io import AxisIO
@@ -113,6 +114,7 @@ from mplang.m8194h.sim.chains import (
 from mplang.m8194h.sim.fork import fork
 from mplang.m8194h.sim.io_state import AxisReport
 from mplang.m8194h.sim.profiles import (
+    VECTOR_KIND,
     _AxisSettings,
     _Plan,
     _Profile,
@@ -124,15 +126,6 @@ from mplang.m8194h.sim.profiles import (
 _INF = math.inf
 
 __all__ = ["MotionModel", "QueueFull"]
-
-_VECTOR_KIND = {
-    0: "const", 7: "const",
-    1: "symT", 5: "symT", 8: "symT",
-    2: "symS", 9: "symS",
-    3: "asymT", 6: "asymT", 10: "asymT",
-    4: "asymS", 11: "asymS",
-}
-
 
 @dataclass
 class _VectorSettings:
@@ -163,8 +156,7 @@ class MotionModel:
     time ``now`` and first finishes motions that ended at or before it.
     """
 
-    def __init__(self, queue_capacity: int | None = None,
-                 rules: ChipRules | None = None) -> None:
+    def __init__(self, queue_capacity: int | None = None, rules: ChipRules | None = None) -> None:
         self.queue_capacity = queue_capacity  # None: unbounded (a bare model in tests)
         self.rules = rules or ChipRules()  # the values the chip holds (manual defaults)
         self.settings = [_AxisSettings() for _ in AXES]
@@ -179,6 +171,11 @@ class MotionModel:
         self._chains: dict[int, _Chain] = {}
         self._chain_seq = 0
         self._open: _Chain | None = None
+
+    @classmethod
+    def for_device(cls, profile: Profile) -> MotionModel:
+        """The model of a device with `profile`: its motion queue and the values its chip holds."""
+        return cls(profile.limit("motion_queue"), ChipRules.from_profile(profile.raw))
 
     def plan(self, axis: int) -> _Plan:
         """The plan a single-axis drive of axis index `axis` latches now."""
@@ -250,7 +247,7 @@ class MotionModel:
         self.assigned = tuple(axes)
 
     def set_vector_mode(self, mode: int) -> None:
-        if mode not in _VECTOR_KIND:
+        if mode not in VECTOR_KIND:
             raise ValueError(f"VECTOR_SPEED mode must be 0..11, got {mode}")
         self.vector.mode = mode
 
@@ -281,7 +278,7 @@ class MotionModel:
         max_v = self.settings[self.assigned[0]].max_v
         v = rules.speed(vs.vv, max_v)
         sv = rules.speed(vs.vsv, max_v)
-        kind = _VECTOR_KIND[vs.mode]
+        kind = VECTOR_KIND[vs.mode]
         if kind == "const":
             return _Plan(v, v, 1.0, 1.0, False, constant=True)
         offset = float(vs.vao)
@@ -733,7 +730,7 @@ class MotionModel:
         if not plan.s_curve:
             return plan
         vs = self.vector
-        dec = vs.vd if _VECTOR_KIND[vs.mode] == "asymS" else vs.va
+        dec = vs.vd if VECTOR_KIND[vs.mode] == "asymS" else vs.va
         max_v = self.settings[self.assigned[0]].max_v
         return _Plan(plan.sv, plan.v, self.rules.acceleration(vs.va, max_v),
                      self.rules.acceleration(dec, max_v), False)

@@ -50,6 +50,16 @@ from dataclasses import dataclass
 
 from mplang.m8194h.chipvalues import DEFAULT_MAX_V, ChipRules
 
+# The profile each vector speed mode (SET_VECTOR_SPEED_MODE / continuous interpolation's mode)
+# drives: constant, symmetric or asymmetric T-curve, symmetric or asymmetric S-curve.
+VECTOR_KIND = {
+    0: "const", 7: "const",
+    1: "symT", 5: "symT", 8: "symT",
+    2: "symS", 9: "symS",
+    3: "asymT", 6: "asymT", 10: "asymT",
+    4: "asymS", 11: "asymS",
+}
+
 _INF = math.inf
 
 

@@ -95,8 +95,10 @@ def soft_file_limit() -> int | None:
     stay under (Windows, or unlimited)."""
     if sys.platform == "win32":
         return None
-    import resource
-
+    try:
+        import resource
+    except ImportError:  # a POSIX system without it: no limit to stay under
+        return None
     soft = resource.getrlimit(resource.RLIMIT_NOFILE)[0]
     return None if soft == resource.RLIM_INFINITY else soft
 

@@ -29,7 +29,7 @@ from mplang.tools.lsp.workspace import MAX_FILE_BYTES, BuildContext, RefusedFile
 
 SERVER = [sys.executable, "-m", "mplang", "lsp"]
 ANSWER_SECONDS = 30.0  # generous: a loaded 2-core machine starts the server in ~8 s
-MAIN = "CONST SPEED = 5\nMP 1\n    SET_V X, SPEED\nEND MP\n"
+MAIN = "CONST SPEED = 5000\nMP 1\n    SET_V X, SPEED\nEND MP\n"
 
 
 def frame(message: object) -> bytes:
