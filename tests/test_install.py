@@ -13,8 +13,6 @@ from pathlib import Path
 
 import pytest
 
-from mplang.tools import report
-
 ROOT = Path(__file__).resolve().parent.parent
 
 
@@ -93,11 +91,13 @@ def test_wheel_ships_the_check_and_runtime_pages(wheel: Path, tmp_path: Path) ->
         "rule = json.loads(render_sarif([d]))['runs'][0]['tool']['driver']['rules'][0]\n"
         "print(rule['helpUri'])\n"
     )
-    proc = subprocess.run([sys.executable, "-c", script, str(target)], cwd=tmp_path,
-                          env={"PYTHONPATH": str(target), "PATH": "/usr/bin:/bin"},
+    env = {"PYTHONPATH": str(target), "PATH": "/usr/bin:/bin",
+           "MPC_DOCS_URL": "https://docs.example.org/mplang"}
+    proc = subprocess.run([sys.executable, "-c", script, str(target)], cwd=tmp_path, env=env,
                           capture_output=True, text=True, check=False)
     assert proc.returncode == 0, proc.stderr
-    assert proc.stdout.strip() == report.docs_url("checks/E201.md")  # public, not site-packages
+    # the published address, never a path into site-packages
+    assert proc.stdout.strip() == "https://docs.example.org/mplang/checks/E201.md"
 
 
 def test_wheel_metadata_lsp_extra(wheel: Path) -> None:

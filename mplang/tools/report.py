@@ -18,12 +18,12 @@ from mplang.lang.rules import RULES, Rule
 from mplang.lang.severity import Severity
 
 SRCROOT = "%SRCROOT%"
-DOCS_URL = "https://github.com/mplang/mplang/blob/main/docs/"
-"""Where mplang's documentation is published, the one base of every public link mpc writes:
-SARIF's `helpUri` is `DOCS_URL + "checks/CODE.md"` and its `informationUri`
-`DOCS_URL + "checks/README.md"` (the repository's own docs/ folder), so that code scanning
-links work for whoever reads the results, not only on the machine that ran mpc. The
-environment variable `MPC_DOCS_URL` replaces it (a fork, a mirror, an intranet copy)."""
+DOCS_URL_VARIABLE = "MPC_DOCS_URL"
+"""The environment variable that names where mplang's docs/ folder is published. SARIF's
+`helpUri` is then its `checks/CODE.md` and `informationUri` its `checks/README.md`. Unset, no
+link is written: the project has no public address yet, and a guessed one would be a dead
+link in code scanning, as a path into the runner's site-packages was. Each rule's help is
+always embedded (`help.text`, `help.markdown`), which code scanning shows without a link."""
 # docs/checks/<CODE>.md: shipped inside the package (mplang/docs/checks) or, in a source
 # checkout, at the top of the repository.
 _PACKAGE = Path(__file__).resolve().parents[1]
@@ -64,10 +64,10 @@ def check_page(code: str) -> Path | None:
                 None)
 
 
-def docs_url(page: str) -> str:
-    """The public address of a page of docs/ (`DOCS_URL`, or `MPC_DOCS_URL` when set)."""
-    base = os.environ.get("MPC_DOCS_URL") or DOCS_URL
-    return base.rstrip("/") + "/" + page
+def docs_url(page: str) -> str | None:
+    """The public address of a page of docs/ under `MPC_DOCS_URL`, None when it is unset."""
+    base = os.environ.get(DOCS_URL_VARIABLE, "").strip()
+    return base.rstrip("/") + "/" + page if base else None
 
 
 def rule_markdown(rule: Rule) -> str:
@@ -101,7 +101,9 @@ def _sarif_rule(code: str) -> dict[str, Any]:
         "defaultConfiguration": {"level": rule.severity.value},
         "properties": {"tags": ["mplang", "device" if rule.device else "correctness"]},
     }
-    descriptor["helpUri"] = docs_url(f"checks/{code}.md")
+    help_uri = docs_url(f"checks/{code}.md")
+    if help_uri is not None:
+        descriptor["helpUri"] = help_uri
     return descriptor
 
 
@@ -132,7 +134,9 @@ def render_sarif(diagnostics: list[Diagnostic], root: Path | None = None) -> str
                 "artifactLocation": _artifact(d.span.file, root), "region": region}}],
         })
     driver: dict[str, Any] = {"name": "mplang", "version": __version__}
-    driver["informationUri"] = docs_url("checks/README.md")
+    information_uri = docs_url("checks/README.md")
+    if information_uri is not None:
+        driver["informationUri"] = information_uri
     driver["rules"] = [_sarif_rule(code) for code in used]
     sarif = {
         "$schema": "https://json.schemastore.org/sarif-2.1.0.json",
