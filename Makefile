@@ -29,8 +29,9 @@ demo: $(STAMP)
 	$(BIN)/mpc run samples/home_then_square.mp --call home_then_square
 	$(BIN)/mpc run samples/tour.mp --call tour --json
 
+# Two workers: most tests wait on subprocesses and sockets, and the machines have two cores.
 test: $(STAMP) tools lint
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest -n 2
 
 # The VS Code extension's node packages (grammar tester, language client), from its lock file:
 # installed when missing or older than package-lock.json.
