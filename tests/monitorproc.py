@@ -56,14 +56,7 @@ def start_monitor(cwd: Path, *args: str, stderr: IO[str] | None = None,
                             stderr=subprocess.STDOUT if stderr is None else stderr, text=True,
                             cwd=cwd, preexec_fn=None if open_files is None else
                             (lambda: limit_open_files(open_files)))
-    assert proc.stdout is not None
-    seen = []
-    for line in proc.stdout:
-        seen.append(line)
-        if "dashboard on " in line:
-            return proc, line.split("dashboard on ", 1)[1].split()[0]
-    proc.wait(10)
-    raise AssertionError(f"mpc monitor did not start (exit {proc.returncode}): {seen}")
+    return proc, dashboard_url(proc, "mpc monitor")
 
 
 def start_sim_monitor(cwd: Path, *args: str) -> tuple[subprocess.Popen[str], str]:
@@ -72,14 +65,19 @@ def start_sim_monitor(cwd: Path, *args: str) -> tuple[subprocess.Popen[str], str
     proc = subprocess.Popen([sys.executable, "-m", "mplang", "sim", "--tcp", "127.0.0.1:0",
                              *args, "--monitor", "0"], stdout=subprocess.PIPE,
                             stderr=subprocess.STDOUT, text=True, cwd=cwd)
+    return proc, dashboard_url(proc, "mpc sim --monitor")
+
+
+def dashboard_url(proc: subprocess.Popen[str], command: str) -> str:
+    """The URL a starting dashboard prints; a failure names `command` and what it printed."""
     assert proc.stdout is not None
     seen = []
     for line in proc.stdout:
         seen.append(line)
         if "dashboard on " in line:
-            return proc, line.split("dashboard on ", 1)[1].split()[0]
+            return line.split("dashboard on ", 1)[1].split()[0]
     proc.wait(10)
-    raise AssertionError(f"mpc sim --monitor did not start (exit {proc.returncode}): {seen}")
+    raise AssertionError(f"{command} did not start (exit {proc.returncode}): {seen}")
 
 
 def limit_open_files(soft: int, pid: int = 0) -> None:
