@@ -50,9 +50,12 @@ def flash(job: FlashJob, ui: FlashUI) -> str:
         return "verified"
     for device_job in devices:
         device_job.options = replace(device_job.options, record=record)
-    if not job.fleet:
-        return _flash_one(devices[0], job.as_json, ui)
-    return _flash_fleet(devices, job.as_json, ui)
+    try:
+        if not job.fleet:
+            return _flash_one(devices[0], job.as_json, ui)
+        return _flash_fleet(devices, job.as_json, ui)
+    finally:
+        record.close()  # the journal of the devices' saves folded into the file, once
 
 
 def identity_range(identity: str | bool | None, where: str | None) -> MdRange | None:
