@@ -38,6 +38,7 @@ _HEADER = (json.dumps({"format": JOURNAL_FORMAT}) + "\n").encode()
 LOCK_TIMEOUT_S = 30.0  # another mpc holds the lock only while it merges and writes
 
 Entries = dict[str, dict[str, Any]]
+FileId = tuple[int, int, int]  # inode, modification time (ns), size
 
 
 def default_record_path() -> Path:
@@ -78,11 +79,12 @@ class FlashRecord:
         self.refused: str | None = None
         """Why the files at `path` are not written (None: they may be)."""
         self._file_entries = 0  # devices in the file when last read: the compaction's cue
+        self._checked: FileId | None = None  # the file as last found to be a record
         data = _read(path)
         if isinstance(data, str):
             self._refuse(data)
             return
-        self.devices, self._file_entries = data
+        self.devices, self._file_entries, self._checked = data
         self._seen = _copy(self.devices)
 
     def _refuse(self, reason: str) -> None:
@@ -157,10 +159,13 @@ class FlashRecord:
         rewritten with the journal applied."""
         journal = journal_path(self.path)
         lines = self._changes()
-        base = _base(self.path)
-        if isinstance(base, str):
-            self._refuse(base)
-            return
+        now = _identity(self.path)
+        if now is not None and now != self._checked:  # replaced since: parsed again
+            base = _base(self.path)
+            if isinstance(base, str):
+                self._refuse(base)
+                return
+            self._checked = now
         held = _journal_lines(journal)
         if isinstance(held, str):
             self._refuse(held)
@@ -195,6 +200,7 @@ class FlashRecord:
         except BaseException:
             Path(temporary).unlink(missing_ok=True)
             raise
+        self._checked = _identity(self.path)
         journal_path(self.path).unlink(missing_ok=True)
         for address, entry in merged.items():  # what another process wrote, for `entry`
             mine = self.devices.get(address)  # (a run's own entry object stays its own)
@@ -219,16 +225,16 @@ def _copy(devices: Entries) -> Entries:
     return copied
 
 
-def _read(path: Path) -> tuple[Entries, int] | str:
-    """The record's entries, the journal applied to the file, and how many the file itself
-    holds; or why it is not a record. Read again if the file was replaced meanwhile (a
-    compaction: its journal is gone, and the old file without it would be behind)."""
+def _read(path: Path) -> tuple[Entries, int, FileId | None] | str:
+    """The record's entries (the journal applied to the file), how many the file itself
+    holds and which file it was; or why it is not a record. Read again if the file was
+    replaced meanwhile (a compaction: its journal is gone, the old file alone is behind)."""
     for _ in range(10):
         before = _identity(path)
         found = _read_once(path)
         if isinstance(found, str) or _identity(path) == before:
             break
-    return found
+    return found if isinstance(found, str) else (*found, before)
 
 
 def _read_once(path: Path) -> tuple[Entries, int] | str:
@@ -254,7 +260,8 @@ def _applied(devices: Entries, changes: list[tuple[str, dict[str, Any] | None]]
     return devices, in_file
 
 
-def _identity(path: Path) -> tuple[int, int, int] | None:
+def _identity(path: Path) -> FileId | None:
+    """Which file is at `path` now (None: none): a replacement or a write changes it."""
     try:
         info = os.stat(path)
     except OSError:
