@@ -74,12 +74,9 @@ docs: $(STAMP)
 	$(BIN)/python -m mplang.tools.docgen
 	$(BIN)/python -m mplang.tools.editors
 
+# Every bench script, then a summary of the target rows they print (bench/README.md).
 bench: $(STAMP)
-	$(BIN)/python bench/compile.py
-	$(BIN)/python bench/interp.py
-	$(BIN)/python bench/modbus.py
-	$(BIN)/python bench/flash.py
-	$(BIN)/python bench/soak.py
+	$(BIN)/python bench/run.py
 
 clean:
 	rm -rf $(VENV) build *.egg-info
