@@ -102,6 +102,13 @@ def test_a_fleet_killed_mid_way_leaves_a_record_that_says_what_is_stored_where(
             assert stored == {p.slot_label.lower(): p.frames[1:-1] for p in image.programs}
         assert {a: record.entry(a) for a in others} == others
         assert len(record.devices) == 43  # the silent device: nothing recorded
+        plan = subprocess.run([*command, "--dry-run", "--json"], cwd=tmp_path,
+                              capture_output=True, text=True, timeout=120)
+        assert plan.returncode == 0, plan.stderr
+        assert [[p["recorded"] for p in device["programs"]]  # what --dry-run reads too
+                for device in json.loads(plan.stdout)["devices"]] == [[True, True]] * 3 + [
+                    [False, False]]
+        assert journal_path(record_path).read_text() == journal  # a reader writes nothing
 
         (tmp_path / "fleet.toml").write_text(fleet)  # a device the kill left leased waits
         again = subprocess.run([*command, "--json", "--wait-lease", "60"], cwd=tmp_path,
