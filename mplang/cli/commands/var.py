@@ -13,9 +13,10 @@ from mplang.cli.common import guarded
 from mplang.cli.hostrun import host_options, json_out, make_plan, name_values, run_host
 
 if TYPE_CHECKING:
+    from mplang.family.hostview import HostValue
     from mplang.host.session import AsyncController
 
-FILE_SUFFIXES = (".mp", ".json")
+FILE_SUFFIXES = (".mp", ".csim", ".json")
 
 
 def split_arguments(arguments: tuple[str, ...]) -> tuple[list[str], list[str], list[str]]:
@@ -55,7 +56,7 @@ def command(ctx: click.Context, /, files: tuple[str, ...], no_check: bool, as_js
     plan = make_plan(ctx, {**kw, "files": tuple(sources), "werror": werror})
     shown = [*reads, *[name for name in values if name not in reads]]
 
-    async def work(controller: AsyncController) -> list[tuple[str, str, int]]:
+    async def work(controller: AsyncController) -> list[tuple[str, str, HostValue]]:
         found = [controller.view.variable(name) for name in shown]  # all known before a write
         await controller.write_vars(values)
         read = await controller.read_vars(shown or None)
