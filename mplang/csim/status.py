@@ -83,7 +83,8 @@ def read(port: str, baud: int, parity: str, stopbits: int, timeout: float) -> di
             "manifest": None, "not_readable": [
                 "build manifest: a CSIM has no documented identity store (its program "
                 "listing is compared instead)",
-                "variables by declared name: .mp names are not kept on a CSIM"]}
+                "variables by declared name: .mp names are not kept on a CSIM (mpc var "
+                "reads them through the build's names)"]}
 
 
 def _ask(line: SerialLine, text: str, first: bool = False, many: bool = False

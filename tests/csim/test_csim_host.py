@@ -28,6 +28,7 @@ from mplang.cli.common import (
     EXIT_USAGE,
     EXIT_WAIT_TIMEOUT,
 )
+from mplang.family.ptylink import PtyLink
 
 JOB = """CONST STEP = 250
 VAR parts
@@ -231,7 +232,7 @@ def test_a_script_calls_its_labels_and_declares_no_variables(job: Path,
     assert whole.returncode == EXIT_OK, whole.stderr
     assert ask(served, "?R5") == ["1"]
     names = mpc(job, "var", "script.csim", "--serial", served)
-    assert names.returncode == EXIT_OK and "declares no variables" in names.stderr
+    assert names.returncode == EXIT_OK and "a .csim script has no declarations" in names.stderr
     unknown = mpc(job, "call", "nowhere", "script.csim", "--serial", served)
     assert unknown.returncode == EXIT_USAGE
     assert "callable: G script, $START, $AGAIN, $DONE)" in unknown.stderr
@@ -260,6 +261,10 @@ def test_bad_input_is_refused_with_its_reason(job: Path, served: str) -> None:
     assert two.returncode == EXIT_NO_INPUT and "a CSIM holds one" in two.stderr
     missing = mpc(job, "var", "job.mp", *CSIM, "--serial", str(job / "no-such-port"))
     assert missing.returncode == EXIT_NO_DEVICE and "cannot open serial port" in missing.stderr
+    with PtyLink() as silent:  # a line with nothing on the other end
+        quiet = mpc(job, "call", "tour", "job.mp", *CSIM, "--serial", silent.client_end,
+                    "--answer-timeout", "0.2")
+    assert quiet.returncode == EXIT_NO_DEVICE and "no answer from the device" in quiet.stderr
 
 
 def test_the_python_api_speaks_to_a_csim(job: Path, served: str) -> None:
