@@ -25,7 +25,8 @@ from typing import Any, TypeVar
 import serial  # type: ignore[import-untyped]  # pyserial ships no type hints
 
 from mplang.csim import profile as profile_module
-from mplang.csim.build import CsimProgram, FamilyBuild
+from mplang.csim.build import CsimProgram, FamilyBuild, check_native
+from mplang.csim.compile import compile_mp
 from mplang.csim.download import DownloadError, SerialLine, open_port
 from mplang.csim.machine_state import format_number
 from mplang.csim.status import first_difference
@@ -126,8 +127,6 @@ def _writes(program: CsimProgram, start: int) -> tuple[str, ...]:
 def compile_view(paths: list[Path], options: Options) -> tuple[FamilyBuild, HostView]:
     """Build `.mp` sources (with `--target csim`) or `.csim` scripts, and the view of the
     build's one program (an empty view where the build has errors)."""
-    from mplang.csim import check_native, compile_mp
-
     if paths and all(p.suffix.lower() == ".csim" for p in paths):
         build = check_native(paths)
     else:

@@ -6,6 +6,7 @@ program listing (ULP, CS 119) is compared with the build before anything is writ
 
 from __future__ import annotations
 
+import asyncio
 import csv
 import io
 import json
@@ -301,3 +302,17 @@ def test_the_python_api_speaks_to_a_csim(job: Path, served: str) -> None:
     with pytest.raises(mplang.host.BuildMismatch, match="XMR 260"), \
             mplang.host.connect(serial=served, sources=[job / "other.mp"], target="csim"):
         pass
+
+
+def test_the_async_api_speaks_to_a_csim(job: Path, served: str) -> None:
+    flashed(job, served)
+
+    async def host() -> tuple[object, object, object]:
+        async with mplang.host.connect_async(serial=served, sources=[job / "job.mp"],
+                                             target="csim") as ctl:
+            await ctl.write_vars({"parts": 1, "total": 0.25})
+            result = await ctl.call("tally", timeout=30)
+            return result.vars, await ctl.read_vars(["parts"]), await ctl.running()
+
+    assert asyncio.run(host()) == ({"total": 1.25}, {"parts": 1}, False)
+    assert ask(served, "?R1") == ["1.25"]
