@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import asyncio
 import logging
+import math
 import sys
 from collections.abc import Callable, Coroutine
 from typing import TYPE_CHECKING, Any, TypeVar
@@ -30,6 +31,7 @@ from mplang.cli.common import (
 )
 from mplang.cli.families import device_selection, identity_choice
 from mplang.cli.shell import complete_paths
+from mplang.family.hostview import HostValue
 
 if TYPE_CHECKING:
     from mplang.host.session import AsyncController, Plan
@@ -43,17 +45,21 @@ def host_options(func: F) -> F:
     --json and the common build options."""
     options = [
         click.argument("files", nargs=-1, shell_complete=complete_paths),
-        device_options("The serial port of a Modbus RTU device (RS-M8194H).",
+        device_options("The serial port of a Modbus RTU device (RS-M8194H), or of a CSIM's "
+                       "RS232 line.",
                        "The device [targets.NAME] of mpc.toml."),
         click.option("--identity", default=None, metavar="MDa-MDb",
                      help="The machine data holding the build manifest [default: [flash] "
-                     "identity of mpc.toml, else MD768-MD1023]."),
+                     "identity of mpc.toml, else MD768-MD1023]. Not for a CSIM: it holds no "
+                     "manifest, its program listing is compared."),
         click.option("--no-check", is_flag=True,
                      help="Do not compare the device's build with FILE's: write anyway."),
         click.option("--answer-timeout", type=click.FloatRange(min=0.01, max=60), default=1.0,
-                     show_default=True, help="Seconds to wait for each Modbus answer."),
+                     show_default=True, help="Seconds to wait for each answer (Modbus, or a "
+                     "CSIM's line)."),
         click.option("--retries", type=click.IntRange(0, 100), default=3, show_default=True,
-                     help="Repeats of a read after a timeout or a lost connection."),
+                     help="Repeats of a Modbus read after a timeout or a lost connection (a "
+                     "CSIM's line asks once)."),
         click.option("--json", "as_json", is_flag=True, help="Print the outcome as JSON."),
         project_option,
         with_common,
@@ -79,6 +85,13 @@ def make_plan(ctx: click.Context, kw: dict[str, Any]) -> Plan:
     family = selection.family
     if family.host is None:
         raise click.UsageError(f"{family.TITLE}: {family.NO_HOST}")
+    if device.serial is None and "tcp" not in family.TRANSPORTS:
+        raise click.UsageError(f"a {family.TITLE} is reached over its RS232 line: give "
+                               "--serial PORT (--tcp is Modbus TCP, for the ET-M8194H)")
+    if family.PROTOCOL != "modbus" and kw["identity"] is not None:
+        raise click.UsageError(f"--identity names the machine data of an M8194H's build "
+                               f"manifest; a {family.TITLE} holds none (its program listing "
+                               "is compared with the build's)")
     paths = selection.paths
     if not paths:
         raise click.UsageError("give FILE... (the .mp sources of the build the device holds, "
@@ -156,18 +169,28 @@ def _fail(code: int, message: str) -> None:
     sys.exit(code)
 
 
-def parse_value(text: str, what: str) -> int:
-    """An integer as the sources write one (decimal or 0x hex, optional sign)."""
+def parse_value(text: str, what: str) -> HostValue:
+    """An integer as the sources write one (decimal or 0x hex, optional sign), or a finite
+    decimal number (2.5, -1e3) for a real variable; whether the variable takes it is the
+    variable's check."""
+    cleaned = text.strip().replace("_", "")
     try:
-        return int(text.strip().replace("_", ""), 0)
+        return int(cleaned, 0)
     except ValueError:
-        raise click.BadParameter(f"{text!r} is not an integer (write 120, -5 or 0x7F)",
-                                 param_hint=what) from None
+        pass
+    try:
+        value = float(cleaned)
+    except ValueError:
+        value = math.nan
+    if not math.isfinite(value) or cleaned.lower().startswith(("inf", "+inf", "-inf", "nan")):
+        raise click.BadParameter(f"{text!r} is not a number (write 120, -5, 0x7F, or 2.5 for "
+                                 "a real variable)", param_hint=what)
+    return value
 
 
-def name_values(pairs: tuple[str, ...], what: str) -> dict[str, int]:
+def name_values(pairs: tuple[str, ...], what: str) -> dict[str, HostValue]:
     """NAME=VALUE pairs, in order (a later one of the same name wins)."""
-    values: dict[str, int] = {}
+    values: dict[str, HostValue] = {}
     for pair in pairs:
         name, sep, value = pair.partition("=")
         if not sep or not name.strip():

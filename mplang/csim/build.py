@@ -46,6 +46,8 @@ class CsimProgram:
     variables: dict[str, str] = field(default_factory=dict)  # compiled: VARn -> Rk
     compiled_from: list[str] = field(default_factory=list)
     names: dict[str, str] = field(default_factory=dict)  # compiled: declared name -> Rk
+    declared_at: dict[str, str] = field(default_factory=dict)  # declared name -> file:line
+    consts: list[tuple[str, int, str]] = field(default_factory=list)  # name, value, file:line
 
     @property
     def lines(self) -> list[str]:

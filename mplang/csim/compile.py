@@ -33,6 +33,9 @@ from mplang.lang.followon import settle_includes
 from mplang.lang.sources import load_sources
 from mplang.lang.structure import build_unit
 
+Declared = tuple[str, int, str]
+"""A declared name, its number (VARn, or a CONST's value) and its source line (file:line)."""
+
 AXIS_MODULE = {"X": 0, "Y": 1, "Z": 2, "U": 3}
 LOGICAL_OF = {"X": "X", "Y": "Y", "Z": "Z", "U": "W"}
 MIRROR = {"<": ">", ">": "<", "<=": ">=", ">=": "<=", "==": "==", "!=": "!="}
@@ -495,9 +498,11 @@ def _angle(degrees: float) -> str:
 
 def _lower(paths: list[Path], options: Options, sink: DiagnosticSink,
            texts: dict[Path, str] | None = None
-           ) -> tuple[list[LoweredProgram], dict[str, list[str]], list[tuple[str, int]]]:
+           ) -> tuple[list[LoweredProgram], dict[str, list[str]], list[Declared],
+                      list[Declared]]:
     """The M8194H front end and lowering, as compile_paths runs them (without linking);
-    and the declared variables (VAR name, ALIAS) with their VARn, by number."""
+    the declared variables (VAR name, ALIAS) with their VARn, by number, and the CONSTs with
+    their values, each with its source line (for the host's view)."""
     catalogue = catalogue_module.load()
     sources = load_sources(paths, sink, allow_outside=options.allow_outside_includes,
                            texts=texts)
@@ -511,9 +516,13 @@ def _lower(paths: list[Path], options: Options, sink: DiagnosticSink,
     names = {p.name.upper(): p for p in unit.programs if p.name}
     lowered = [ProgramLowerer(scope, program, options.temps, LOWERING_TARGET, names)
                .lower_program() for program in unit.programs]
-    declared = sorted(((v.name, v.index) for v in [*scope.variables, *scope.alias_names]),
+    declared = sorted(((v.name, v.index, f"{v.span.file}:{v.span.line}")
+                       for v in [*scope.variables, *scope.alias_names]),
                       key=lambda item: item[1])
-    return lowered, {f.display: f.text.splitlines() for f in sources.files}, declared
+    consts = [(decl.name, value, f"{decl.name_span.file}:{decl.name_span.line}")
+              for key, decl in scope.const_exprs.items()
+              if (value := scope.const_values.get(key)) is not None]
+    return lowered, {f.display: f.text.splitlines() for f in sources.files}, declared, consts
 
 
 def _default_first(programs: list[LoweredProgram], first: Path | None) -> list[LoweredProgram]:
@@ -542,7 +551,7 @@ def compile_mp(paths: list[Path], options: Options, target: str, *,
         raise ValueError(f"unknown CSIM target {target!r}: choose one of {', '.join(TARGETS)}")
     profile = profile_module.load()
     sink = DiagnosticSink()
-    lowered, source_lines, declared = _lower(paths, options, sink, texts)
+    lowered, source_lines, declared, consts = _lower(paths, options, sink, texts)
     ordered = _default_first(lowered, paths[0] if paths else None)
     translator = Translator(profile, sink, ordered)
     translator.translate()
@@ -562,10 +571,12 @@ def compile_mp(paths: list[Path], options: Options, target: str, *,
         [d for d in sink.sorted() if not suppressed(d, source_lines)], source_lines)
     build = FamilyBuild(diagnostics)
     if lowered:
-        names = {variable: translator.variables[f"VAR{index}"] for variable, index in declared
-                 if f"VAR{index}" in translator.variables}
-        build.programs.append(CsimProgram(name, str(paths[0]) if paths else "", script, origins,
-                                          entries, translator.variables, sources, names))
+        placed = [(variable, index, at) for variable, index, at in declared
+                  if f"VAR{index}" in translator.variables]
+        names = {variable: translator.variables[f"VAR{index}"] for variable, index, _ in placed}
+        build.programs.append(CsimProgram(
+            name, str(paths[0]) if paths else "", script, origins, entries, translator.variables,
+            sources, names, {variable: at for variable, _, at in placed}, consts))
     return build
 
 

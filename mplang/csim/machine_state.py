@@ -37,9 +37,12 @@ class NotModelled(RunError):
 def float32(value: float) -> float:
     """The value as a 32-bit float holds it (R variables, see real_format in the profile)."""
     try:
-        return float(struct.unpack("f", struct.pack("f", value))[0])
+        stored = float(struct.unpack("f", struct.pack("f", value))[0])
     except OverflowError:
-        raise RunError(f"{value:g} does not fit a 32-bit real") from None
+        stored = math.inf
+    if math.isinf(stored) or math.isnan(stored):  # struct rounds some overflows to inf
+        raise RunError(f"{value:g} does not fit a 32-bit real")
+    return stored
 
 
 def format_number(value: float) -> str:

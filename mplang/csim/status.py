@@ -16,6 +16,7 @@ program cannot be compared then, and that counts as out of sync.
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
 from typing import Any
 
 import serial  # type: ignore[import-untyped]  # pyserial ships no type hints
@@ -82,7 +83,8 @@ def read(port: str, baud: int, parity: str, stopbits: int, timeout: float) -> di
             "manifest": None, "not_readable": [
                 "build manifest: a CSIM has no documented identity store (its program "
                 "listing is compared instead)",
-                "variables by declared name: .mp names are not kept on a CSIM"]}
+                "variables by declared name: .mp names are not kept on a CSIM (mpc var "
+                "reads them through the build's names)"]}
 
 
 def _ask(line: SerialLine, text: str, first: bool = False, many: bool = False
@@ -112,11 +114,12 @@ def compare(listed: dict[str, Any], program: CsimProgram) -> dict[str, Any]:
     elif lines == program.lines:
         row.update(status="in sync", detail=f"{len(lines)} line(s), identical")
     else:
-        row.update(status="differs", detail=_difference(program.lines, lines))
+        row.update(status="differs", detail=first_difference(program.lines, lines))
     return {"build": program.name, "slots": [row], "in_sync": row["status"] == "in sync"}
 
 
-def _difference(built: list[str], listed: list[str]) -> str:
+def first_difference(built: Sequence[str], listed: Sequence[str]) -> str:
+    """Where a listing differs from a build's lines (`mpc status`, `mpc call`'s check)."""
     for index, (mine, there) in enumerate(zip(built, listed, strict=False)):
         if mine != there:
             return f"line {index}: the device holds {there!r}, the build has {mine!r}"

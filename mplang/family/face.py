@@ -26,6 +26,7 @@ from mplang.family.debug import DebugStart
 from mplang.family.hostview import (
     ExecutionError,
     HostProgram,
+    HostValue,
     HostVariable,
     HostView,
 )
@@ -359,9 +360,14 @@ class HostDevice(Protocol):
         """Raise `BuildMismatch` unless the device holds `view`'s build; writes nothing."""
         ...
 
-    async def read(self, var: HostVariable) -> int: ...
+    async def read(self, var: HostVariable) -> HostValue:
+        """An int, or a float for a real variable (`HostVariable.type` float32)."""
+        ...
 
-    async def write(self, var: HostVariable, value: int) -> None: ...
+    async def write(self, var: HostVariable, value: Any) -> None:
+        """`value` as `var.check` passed it: an int, or a float for a real variable (typed
+        Any so that a family whose variables are all integers may take an int)."""
+        ...
 
     async def running(self) -> int:
         """The number of the program running now, 0 when none."""

@@ -10,12 +10,18 @@ errors a host meets are the same for every family.
 
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass, field
 from typing import Any
 
 VIEW_FORMAT = "mplang-host/1"
 TYPE_RANGES = {"int32": (-2**31, 2**31 - 1), "uint8": (0, 255), "uint16": (0, 0xFFFF)}
+FLOAT32_MAX = 3.4028234663852886e38
+REAL_TYPES = frozenset({"float32"})
+HostValue = int | float
+"""A variable's value as a host reads it: an int, or a float where the device's variable is
+real (a CSIM's R variables)."""
 PROGRAM_NUMBER = re.compile(r"(?:MP)?(\d+)", re.IGNORECASE)
 
 
@@ -27,11 +33,12 @@ class BuildMismatch(HostError):
     """The device holds another build than the host's (or none, or one it cannot vouch
     for): nothing was written to it."""
 
-    def __init__(self, device_build: str | None, expected: str, reason: str = "") -> None:
+    def __init__(self, device_build: str | None, expected: str, reason: str = "",
+                 held: str = "") -> None:
         self.device_build = device_build
         self.expected = expected
         self.reason = reason
-        held = f"build {device_build}" if device_build else "no build manifest"
+        held = held or (f"build {device_build}" if device_build else "no build manifest")
         why = f" ({reason})" if reason else ""
         super().__init__(f"the device holds {held}{why}, the host expects build {expected}: "
                          "flash the build first (mpc flash), or skip the check (--no-check, "
@@ -120,10 +127,11 @@ class HostProgram:
     writes: tuple[str, ...] = ()  # the declared variables it (or what it calls) writes
     lines: tuple[HostLine, ...] = ()
     end: tuple[str, int, int] | None = None  # its END line: where it returns
+    device: str = ""  # the device's own name for it where it is no `MPn` (a CSIM's `$LABEL`)
 
     @property
     def device_name(self) -> str:
-        return f"{self.kind.upper()}{self.slot}"
+        return self.device or f"{self.kind.upper()}{self.slot}"
 
 
 @dataclass(frozen=True)
@@ -143,8 +151,19 @@ class HostVariable:
     access: str  # "read-write"
     source: str
 
-    def check(self, value: int) -> int:
-        """`value` if the variable's type holds it, else BadValue naming the range."""
+    def check(self, value: HostValue) -> HostValue:
+        """`value` if the variable's type holds it, else BadValue naming the range: a real
+        type takes any finite number in its range, an integer type a whole number."""
+        if self.type in REAL_TYPES:
+            if not math.isfinite(value) or abs(value) > FLOAT32_MAX:
+                raise BadValue(f"{self.name} ({self.device_name}) is {self.type}: a finite "
+                               f"number within +-{FLOAT32_MAX:.7g}, not {value}")
+            return value
+        if isinstance(value, float):
+            if not value.is_integer():
+                raise BadValue(f"{self.name} ({self.device_name}) is {self.type}: a whole "
+                               f"number, not {value}")
+            value = int(value)
         low, high = TYPE_RANGES.get(self.type, (-2**31, 2**31 - 1))
         if not low <= value <= high:
             raise BadValue(f"{self.name} ({self.device_name}) is {self.type}: {low}..{high}, "
@@ -170,18 +189,32 @@ class HostView:
     programs: list[HostProgram] = field(default_factory=list)
     variables: list[HostVariable] = field(default_factory=list)
     consts: list[HostConst] = field(default_factory=list)
+    protocol: str = "modbus"  # how a host reaches it: "modbus", or "rs232-ascii" (a CSIM)
+    listing: list[str] = field(default_factory=list)  # a CSIM: the program lines it holds
 
     def program(self, name: str) -> HostProgram:
-        """An MP by declared name, `MPn` or `n` (UnknownName lists the callable ones)."""
-        mps = [p for p in self.programs if p.kind == "mp"]
+        """A program by declared name, `MPn` or `n`, or by its device name (a CSIM's
+        `$LABEL`); UnknownName lists the callable ones."""
+        callable_programs = [p for p in self.programs if p.kind != "isr"]
+        wanted = name.strip().upper()
         number = PROGRAM_NUMBER.fullmatch(name.strip())
-        for p in mps:
-            if (number and p.slot == int(number.group(1))) or \
-                    (p.name and p.name.upper() == name.strip().upper()):
+        for p in callable_programs:
+            if (number and p.kind == "mp" and p.slot == int(number.group(1))) or \
+                    (p.name and p.name.upper() in (wanted, wanted.lstrip("$"))) or \
+                    (p.device and p.device.upper() == wanted):
                 return p
-        callable_ = ", ".join(f"{p.device_name} {p.name}".rstrip() for p in mps) or "none"
-        raise UnknownName(f"no MP named {name!r} in build {self.build_id} (callable: "
-                          f"{callable_})")
+        known = ", ".join(p.device_name if p.name == p.device.lstrip("$")
+                          else f"{p.device_name} {p.name}".rstrip()
+                          for p in callable_programs) or "none"
+        raise UnknownName(f"no program named {name!r} in build {self.build_id} (callable: "
+                          f"{known})")
+
+    def running_name(self, number: int) -> str:
+        """What `running()`'s number names: `MPn` where programs are started by number,
+        else "a program" (a CSIM does not say which of its labels runs)."""
+        if any(p.kind == "mp" and p.register is not None for p in self.programs):
+            return f"MP{number}"
+        return "a program"
 
     def variable(self, name: str) -> HostVariable:
         """A declared variable by name (UnknownName lists the declared ones)."""
@@ -193,6 +226,17 @@ class HostView:
                           f"(declared: {known})")
 
     def to_json(self) -> dict[str, Any]:
+        """The view as JSON; `protocol`, a program's `device` and the `listing` are written
+        only where they are not a Modbus device's (an M8194H's export is as it was)."""
+        data = self._json()
+        if self.protocol != "modbus":
+            data["protocol"] = self.protocol
+            data["listing"] = list(self.listing)
+            for entry, p in zip(data["programs"], self.programs, strict=True):
+                entry["device"] = p.device
+        return data
+
+    def _json(self) -> dict[str, Any]:
         return {
             "format": VIEW_FORMAT, "family": self.family, "build_id": self.build_id,
             "word_order": self.word_order,
@@ -224,7 +268,7 @@ class HostView:
                 tuple(HostLine(int(a), int(b), str(c), int(d), int(e))
                       for a, b, c, d, e in p["lines"]),
                 None if p["end"] is None else (str(p["end"][0]), int(p["end"][1]),
-                                               int(p["end"][2])))
+                                               int(p["end"][2])), str(p.get("device", "")))
                 for p in data["programs"]]
             variables = [HostVariable(
                 str(v["name"]), str(v["kind"]), str(v["device_name"]), int(v["index"]),
@@ -234,7 +278,8 @@ class HostView:
             consts = [HostConst(str(c["name"]), int(c["value"]), str(c["source"]))
                       for c in data["consts"]]
             return cls(str(data["family"]), str(data["build_id"]), int(data["word_order"]),
-                       programs, variables, consts)
+                       programs, variables, consts, str(data.get("protocol", "modbus")),
+                       [str(line) for line in data.get("listing", [])])
         except (KeyError, TypeError, ValueError) as exc:
             raise ValueError(f"a host view with a missing or malformed entry ({exc!r})"
                              ) from None

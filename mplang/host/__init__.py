@@ -30,6 +30,7 @@ from mplang.family.hostview import (
     ExecutionError,
     HostError,
     HostLinkError,
+    HostValue,
     HostView,
     ProgramRunning,
     UnknownName,
@@ -39,9 +40,9 @@ from mplang.host.session import AsyncController, Axis, BuildFailed, CallResult, 
 from mplang.ir.unit import Options
 
 __all__ = ["AsyncController", "Axis", "BadValue", "BuildFailed", "BuildMismatch", "CallResult",
-           "Controller", "ExecutionError", "HostError", "HostLinkError", "HostView", "NoHost",
-           "ProgramRunning",
-           "UnknownName", "WaitTimeout", "connect", "connect_async", "plan"]
+           "Controller", "ExecutionError", "HostError", "HostLinkError", "HostValue",
+           "HostView", "NoHost", "ProgramRunning", "UnknownName", "WaitTimeout", "connect",
+           "connect_async", "plan"]
 
 T = TypeVar("T")
 PathLike = str | Path
@@ -135,16 +136,16 @@ class _Loop:
         self.loop.close()
 
 
-class Variables(MutableMapping[str, int]):
+class Variables(MutableMapping[str, HostValue]):
     """`Controller.vars`: the declared variables by name, read and written on the device."""
 
     def __init__(self, ctl: Controller) -> None:
         self._ctl = ctl
 
-    def __getitem__(self, name: str) -> int:
+    def __getitem__(self, name: str) -> HostValue:
         return self._ctl._run(self._ctl.async_controller.read_var(name))
 
-    def __setitem__(self, name: str, value: int) -> None:
+    def __setitem__(self, name: str, value: HostValue) -> None:
         self._ctl._run(self._ctl.async_controller.write_var(name, value))
 
     def __delitem__(self, name: str) -> None:

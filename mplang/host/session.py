@@ -18,6 +18,7 @@ from mplang.family.hostview import (
     ExecutionError,
     HostError,
     HostProgram,
+    HostValue,
     HostView,
     ProgramRunning,
 )
@@ -73,7 +74,7 @@ class CallResult:
 
     program: HostProgram
     build_id: str
-    vars: dict[str, int]
+    vars: dict[str, HostValue]
     time_ms: float | None
     error: ExecutionError | None = None
     note: str = ""  # what the device's error record cannot tell (see `_new_error`)
@@ -88,10 +89,11 @@ class CallResult:
 
 @dataclass(frozen=True)
 class Axis:
-    """One axis as read: its logical position (pulses) and "moving" / "stopped"."""
+    """One axis as read: its logical position (pulses; a CSIM's units, a real) and
+    "moving" / "stopped" (a CSIM: "running" while a program runs, see docs/host.md)."""
 
     name: str
-    position: int
+    position: HostValue
     state: str
 
 
@@ -156,15 +158,15 @@ class AsyncController:
     def build_id(self) -> str:
         return self.view.build_id
 
-    async def read_var(self, name: str) -> int:
+    async def read_var(self, name: str) -> HostValue:
         return await self.device.read(self.view.variable(name))
 
-    async def write_var(self, name: str, value: int) -> None:
+    async def write_var(self, name: str, value: HostValue) -> None:
         """`BadValue` (nothing written) when the variable's type cannot hold `value`."""
         var = self.view.variable(name)
         await self.device.write(var, var.check(value))
 
-    async def write_vars(self, values: Mapping[str, int]) -> None:
+    async def write_vars(self, values: Mapping[str, HostValue]) -> None:
         """Every name and value is checked before the first write, so a wrong one writes
         nothing."""
         found = [(var, var.check(value)) for var, value in
@@ -172,7 +174,7 @@ class AsyncController:
         for var, value in found:
             await self.device.write(var, value)
 
-    async def read_vars(self, names: list[str] | None = None) -> dict[str, int]:
+    async def read_vars(self, names: list[str] | None = None) -> dict[str, HostValue]:
         """The named (default: every declared) variables, by declared name."""
         chosen = [self.view.variable(n) for n in names] if names else self.view.variables
         return {v.name: await self.device.read(v) for v in chosen}
@@ -181,7 +183,7 @@ class AsyncController:
         return bool(await self.device.running())
 
     async def axes(self) -> dict[str, Axis]:
-        return {name: Axis(name, int(a["position"]), str(a["state"]))
+        return {name: Axis(name, a["position"], str(a["state"]))
                 for name, a in (await self.device.axes()).items()}
 
     async def errors(self) -> list[ExecutionError]:
@@ -205,7 +207,8 @@ class AsyncController:
         program = self.view.program(name)
         running = await self.device.running()
         if running:
-            raise ProgramRunning(f"MP{running} is running: the device takes no call until it "
+            raise ProgramRunning(f"{self.view.running_name(running)} is running: the device "
+                                 "takes no call until it "
                                  f"ends (wait for it, or stop it), so {program.device_name} "
                                  "was not started")
         before = await self.device.last_error()
@@ -215,10 +218,11 @@ class AsyncController:
             return CallResult(program, self.build_id, {}, None)
         await self.device.wait(timeout)
         elapsed = round((time.monotonic() - began) * 1000, 3)
-        error = await self._new_error(before)
+        after = await self.device.last_error()
+        error = self._new_error(before, after)
         values = await self.read_vars(list(program.writes)) if program.writes else {}
         note = ""
-        if error is None and any(before):
+        if error is None and any(before) and after == before:
             held = self.side.located(self.view, before)
             note = (f"the device recorded execution error {held.code} in {held.slot} "
                     "before this call and keeps only its last one: a failure of this call "
@@ -229,15 +233,15 @@ class AsyncController:
         """Until no program runs (`WaitTimeout` past `timeout`)."""
         before = await self.device.last_error()
         await self.device.wait(timeout)
-        error = await self._new_error(before)
+        error = self._new_error(before, await self.device.last_error())
         if error is not None:
             raise error
 
-    async def _new_error(self, before: tuple[int, ...]) -> ExecutionError | None:
-        """The device's execution error record, when it changed since `before`: the device
-        keeps only its last one, so a new error identical to the one it held already cannot
-        be told apart from it."""
-        after = await self.device.last_error()
+    def _new_error(self, before: tuple[int, ...], after: tuple[int, ...]
+                   ) -> ExecutionError | None:
+        """The device's execution error record `after`, when it changed since `before`: the
+        device keeps only its last one, so a new error identical to the one it held already
+        cannot be told apart from it."""
         if after == before or not any(after):
             return None
         return self.side.located(self.view, after)

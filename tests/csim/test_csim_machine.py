@@ -30,6 +30,7 @@ def test_run_errors_stop_the_program_with_the_line(tmp_path: Path) -> None:
         "HOFF\nMA 5\n": "T0 is not held (HOFF)",
         "N1=32766\nN1=N1+1\n": "32767 does not fit N1",
         "N1=0\nN2=5/N1\n": "division by zero",
+        "R1=1000000\n$A\nR1=R1*1000000\nJP $A\n": "1e+42 does not fit a 32-bit real",
         "SPI 1,2,3,4\n": "SPI is not modelled",
         "WI 1\n": "'WI 1' waits for ever",
         "GETI N1\n": "'GETI N1' waits for ever",

@@ -9,10 +9,8 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
-from collections.abc import Iterator
 from pathlib import Path
 
-import pytest
 import serial  # type: ignore[import-untyped]
 
 from mplang.cli.common import EXIT_NO_DEVICE, EXIT_OK, EXIT_OUT_OF_SYNC, EXIT_USAGE
@@ -24,22 +22,6 @@ LOOP = "$AGAIN\nOUT \"tick\"\nWT 20\nJP $AGAIN\n"
 def mpc(cwd: Path, *args: str) -> subprocess.CompletedProcess[str]:
     return subprocess.run([sys.executable, "-m", "mplang", *args], capture_output=True,
                           text=True, timeout=60, cwd=cwd)
-
-
-@pytest.fixture
-def served() -> Iterator[str]:
-    """A served virtual CSIM: the pty end a host opens."""
-    proc = subprocess.Popen([sys.executable, "-m", "mplang", "sim", "--target", "csim",
-                             "--serial", "pty", "--duration", "60"], stdout=subprocess.PIPE,
-                            stderr=subprocess.STDOUT, text=True)
-    assert proc.stdout is not None
-    line = proc.stdout.readline()
-    assert "CSIM RS232 on " in line, line
-    try:
-        yield line.split("CSIM RS232 on ", 1)[1].split()[0]
-    finally:
-        proc.terminate()
-        proc.wait(10)
 
 
 def test_cs_148_171_status_queries_and_the_listing_compared(served: str,

@@ -38,7 +38,11 @@ def command(ctx: click.Context, /, name: str, settings: tuple[str, ...], wait: b
     the device's word order, and the program is started (holding register 8). With --wait,
     the declared variables the program writes are printed when it ends; an execution error
     (input registers 115-119) is reported at its source line with its run-time code, exit 5.
-    Exit 20: the program did not end within --timeout."""
+    Exit 20: the program did not end within --timeout.
+
+    A CSIM (--target csim, --serial): its program listing (ULP) is compared with the build,
+    the program started with G $LABEL, --wait asks ?ST, and an error (?ERR) is reported
+    without a source line: the CSIM does not say where it stopped."""
     if timeout is not None and not wait:
         raise click.UsageError("--timeout S applies to --wait: give both, or neither")
     values = name_values(settings, "--set")

@@ -50,7 +50,12 @@ def command(ctx: click.Context, files: tuple[str, ...], fmt: str, output: str | 
     family = selection.family
     if family.host is None:
         raise click.UsageError(f"{family.TITLE}: {family.NO_HOST}")
-    build, view = family.host.build_view(setup.paths, setup.options)
+    from mplang.family.hostview import HostError
+
+    try:
+        build, view = family.host.build_view(setup.paths, setup.options)
+    except HostError as exc:
+        raise InputError(str(exc)) from None
     code = report(build, setup.werror, setup.ignore)
     if code:
         sys.exit(EXIT_SOURCE_ERRORS)

@@ -13,9 +13,10 @@ from mplang.cli.common import guarded
 from mplang.cli.hostrun import host_options, json_out, make_plan, name_values, run_host
 
 if TYPE_CHECKING:
+    from mplang.family.hostview import HostValue
     from mplang.host.session import AsyncController
 
-FILE_SUFFIXES = (".mp", ".json")
+FILE_SUFFIXES = (".mp", ".csim", ".json")
 
 
 def split_arguments(arguments: tuple[str, ...]) -> tuple[list[str], list[str], list[str]]:
@@ -46,16 +47,18 @@ def command(ctx: click.Context, /, files: tuple[str, ...], no_check: bool, as_js
     RTU, by the names of the build of FILE... (.mp sources, or one image or
     `mpc export --format json` file; default: the project's sources). With no NAME, every
     declared variable is read. Values are 32-bit, in the device's word order (holding
-    register 14); writes go first, then every named variable is read back.
+    register 14); writes go first, then every named variable is read back. A CSIM
+    (--target csim, --serial): the R variables the names became, real values (?Rk, Rk=v).
 
     As `mpc call`, the device's build manifest must name FILE's build, or the command is
-    refused with exit 16 before anything is written (--no-check skips this)."""
+    refused with exit 16 before anything is written (--no-check skips this); a CSIM's
+    program listing (ULP) is compared instead."""
     reads, assignments, sources = split_arguments(files)
     values = name_values(tuple(assignments), "NAME=VALUE")
     plan = make_plan(ctx, {**kw, "files": tuple(sources), "werror": werror})
     shown = [*reads, *[name for name in values if name not in reads]]
 
-    async def work(controller: AsyncController) -> list[tuple[str, str, int]]:
+    async def work(controller: AsyncController) -> list[tuple[str, str, HostValue]]:
         found = [controller.view.variable(name) for name in shown]  # all known before a write
         await controller.write_vars(values)
         read = await controller.read_vars(shown or None)
@@ -63,9 +66,13 @@ def command(ctx: click.Context, /, files: tuple[str, ...], no_check: bool, as_js
         return [(name, names[name], value) for name, value in read.items()]
 
     rows = run_host(plan, not no_check, werror, work)
-    if not rows:
+    if not rows and plan.family.PROTOCOL == "modbus":
         click.echo("mpc: note: the build declares no variables (an image JSON names none: "
                    "give the sources, or what mpc export --format json wrote)", err=True)
+    elif not rows:
+        click.echo("mpc: note: the build declares no variables: a .csim script has no "
+                   "declarations, and a .mp build's declared variables that its programs "
+                   "never use get no CSIM variable (docs/host.md#a-csim)", err=True)
     if as_json:
         json_out({name: value for name, _device, value in rows})
         return
