@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import re
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -31,7 +32,9 @@ def example() -> str:
 def test_the_documented_host_program_runs_against_mpc_sim(tmp_path: Path) -> None:
     program = tmp_path / "host_example.py"
     program.write_text(example())
-    cell = ROOT / "samples" / "host"
+    # a copy, laid out as in the repository: the flash writes the project's flash record
+    cell = tmp_path / "samples" / "host"
+    shutil.copytree(ROOT / "samples" / "host", cell, ignore=shutil.ignore_patterns(".mpc"))
     proc, port = start_sim("--duration", "120")
     try:
         flashed = subprocess.run([sys.executable, "-m", "mplang", "flash", "--tcp", str(port)],
@@ -41,7 +44,7 @@ def test_the_documented_host_program_runs_against_mpc_sim(tmp_path: Path) -> Non
             [sys.executable, "-m", "mplang", "export"], capture_output=True, text=True,
             timeout=60, cwd=cell).stdout)["build_id"]
         ran = subprocess.run([sys.executable, str(program), f"127.0.0.1:{port}"],
-                             capture_output=True, text=True, timeout=120, cwd=ROOT)
+                             capture_output=True, text=True, timeout=120, cwd=tmp_path)
     finally:
         stop(proc)
     assert ran.returncode == 0, ran.stderr
