@@ -24,6 +24,7 @@ from pathlib import Path
 
 from mplang.lang import ast, frontcache
 from mplang.lang.diagnostics import DiagnosticSink, Span
+from mplang.lang.linecache import StatementCache
 
 
 @dataclass
@@ -112,12 +113,15 @@ class SourceSet:
 def load_sources(paths: list[Path], sink: DiagnosticSink, *,
                  allow_outside: bool = False,
                  texts: dict[Path, str] | None = None,
-                 store: bool | Callable[[Path], bool] = True) -> SourceSet:
+                 store: bool | Callable[[Path], bool] = True,
+                 lines: StatementCache | None = None) -> SourceSet:
     """Read and parse `paths` and everything they include.
 
     `texts` supplies in-memory contents for some paths (editors, tests); other files are read
     from disk. Parses come from the front-end cache (`frontcache`) when it holds them, and
-    are kept there unless `store` is false (or, a function, false for that path).
+    are kept there unless `store` is false (or, a function, false for that path). `lines`,
+    a caller's own `StatementCache` kept between calls (the language server's), parses only
+    the lines it has not seen before.
     """
     result = SourceSet()
     seen: set[Path] = set()
@@ -170,7 +174,7 @@ def load_sources(paths: list[Path], sink: DiagnosticSink, *,
         seen.add(resolved)
         source = SourceFile(path, display, text, frontcache.parse(
             text, display, sink, store=store if isinstance(store, bool) else store(path),
-            where=str(resolved)))
+            where=str(resolved), lines=lines))
         result.files.append(source)
         depth = 0
         for statement in source.statements:

@@ -18,6 +18,7 @@ from mplang.ir.unit import DEFAULT_TEMPS, Options, lower_unit
 from mplang.lang import ast
 from mplang.lang.diagnostics import DiagnosticSink, suppressed
 from mplang.lang.followon import settle_includes
+from mplang.lang.linecache import StatementCache
 from mplang.lang.sources import SourceSet, load_sources
 from mplang.lang.structure import build_unit
 from mplang.m8194h.chipvalues import warn_changed
@@ -48,11 +49,13 @@ class Lowering:
 
 
 def compile_paths(paths: list[Path], options: Options = Options(), *,
-                  texts: dict[Path, str] | None = None) -> BuildResult:
-    """Compile files (and their includes) together into one image."""
+                  texts: dict[Path, str] | None = None,
+                  lines: StatementCache | None = None) -> BuildResult:
+    """Compile files (and their includes) together into one image; `lines`, kept between
+    builds, parses only the lines it has not seen (`mplang.lang.linecache`)."""
     sink = DiagnosticSink()
     sources = load_sources(paths, sink, allow_outside=options.allow_outside_includes,
-                           texts=texts)
+                           texts=texts, lines=lines)
     return compile_sources(paths, sources, sink, options)
 
 
