@@ -498,6 +498,7 @@ def _parse_slowly(text: str, file: str, sink: DiagnosticSink) -> list[ast.Statem
             if not isinstance(problem, _SyntaxProblem):
                 raise
             _report_problem(problem, file, index, sink)
+            del problem  # its traceback holds this frame: a cycle through every local
             statements.extend(_placeholder(line_text, Span(file, index + 1)))
     return _bounded(statements, text, sink)
 

@@ -155,6 +155,10 @@ def load_sources(paths: list[Path], sink: DiagnosticSink, *,
                          hint="include paths are relative to the including file")
         return None
 
+    # visit calls itself through this table, which is cleared when done: a closure naming
+    # itself is a reference cycle, which would hold every statement until a collection
+    recurse: dict[str, Callable[[Path, Path, Span | None, list[Path]], None]] = {}
+
     def visit(path: Path, root: Path, at: Span | None, stack: list[Path]) -> None:
         resolved = path.resolve()
         if resolved in stack:
@@ -192,7 +196,7 @@ def load_sources(paths: list[Path], sink: DiagnosticSink, *,
                     if target_entry is not None:
                         target = Path(str(target_entry))
                         library[target.resolve()] = target_entry
-                        visit(target, root, statement.span, [*stack, resolved])
+                        recurse["visit"](target, root, statement.span, [*stack, resolved])
                     continue
                 target = (path.parent / statement.path)
                 if "\0" in statement.path:  # no file can have it; Path.resolve would raise
@@ -204,7 +208,7 @@ def load_sources(paths: list[Path], sink: DiagnosticSink, *,
                              f"{statement.path!r} is outside the project ({_display(root)})",
                              hint="pass --allow-outside-includes to permit it")
                     continue
-                visit(target, root, statement.span, [*stack, resolved])
+                recurse["visit"](target, root, statement.span, [*stack, resolved])
 
     def library_entry(statement: ast.Include) -> Traversable | None:
         name = statement.path.removeprefix(LIBRARY_PREFIX)
@@ -217,6 +221,8 @@ def load_sources(paths: list[Path], sink: DiagnosticSink, *,
                                                          for n in sorted(available)))
         return found
 
+    recurse["visit"] = visit
     for path in paths:
         visit(path, project_root(path.resolve()), None, [])
+    recurse.clear()  # visit reached itself through it: no cycle keeps the statements
     return result
