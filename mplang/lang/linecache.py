@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Callable
-from dataclasses import fields, is_dataclass, replace
+from dataclasses import replace
 from typing import Any
 
 from mplang.lang import ast
@@ -49,9 +49,6 @@ def _parse_text(text: str, file: str, sink: DiagnosticSink) -> list[ast.Statemen
     return parser.parse_text(text, file, sink)
 
 
-_FIELDS: dict[type, tuple[str, ...]] = {}
-
-
 def moved(value: Any, file: str, line: int) -> Any:
     """`value` (a statement, an expression, a list of them) with every span moved to
     `file`:`line`, columns kept; shared parts that hold no span are not copied."""
@@ -60,14 +57,12 @@ def moved(value: Any, file: str, line: int) -> Any:
         return Span(file, line, value.col, value.end_col)
     if kind is list:
         return [moved(item, file, line) for item in value]
-    names = _FIELDS.get(kind)
-    if names is None:
-        if not is_dataclass(value):
-            return value
-        names = _FIELDS[kind] = tuple(f.name for f in fields(value))
+    names: tuple[str, ...] | None = getattr(kind, "_fields", None)
+    if names is None:  # a string, a number, None: nothing to move
+        return value
     copy = object.__new__(kind)
     for name in names:
-        object.__setattr__(copy, name, moved(getattr(value, name), file, line))
+        setattr(copy, name, moved(getattr(value, name), file, line))
     return copy
 
 

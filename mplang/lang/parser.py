@@ -17,7 +17,6 @@ import re
 import sys
 import tempfile
 from collections.abc import Callable
-from dataclasses import replace
 from functools import cache
 from importlib import resources
 from typing import Any
@@ -428,14 +427,14 @@ def _shallow(statement: ast.Statement, sink: DiagnosticSink) -> list[ast.Stateme
     zero, one = ast.Num(0, deep.span), ast.Num(1, deep.span)
     match statement:
         case ast.Const():
-            return [replace(statement, value=zero)]
+            return [statement.replace(value=zero)]
         case ast.IfStmt() | ast.WhileStmt():
-            return [replace(statement, left=zero, right=zero)]
+            return [statement.replace(left=zero, right=zero)]
         case ast.ForStmt() | ast.RepeatStmt():
-            return [replace(statement, count=one)]
+            return [statement.replace(count=one)]
         case ast.Command() if statement.name.upper().removeprefix("RSM_MACRO_") \
                 .removeprefix("ETM_MACRO_") in ("IF", "FOR"):
-            return [replace(statement, args=[zero if expression_depth(a) > MAX_EXPRESSION_DEPTH
+            return [statement.replace(args=[zero if expression_depth(a) > MAX_EXPRESSION_DEPTH
                                              else a for a in statement.args])]
     return []
 
