@@ -29,7 +29,7 @@ from dataclasses import replace
 from typing import Any
 
 from mplang.lang import ast
-from mplang.lang.diagnostics import Diagnostic, DiagnosticSink, Span
+from mplang.lang.diagnostics import Diagnostic, DiagnosticSink, Span, make_span
 
 Parse = Callable[[str, str, DiagnosticSink], list[ast.Statement]]
 """`parser.parse_text`'s shape: text, file name, sink -> statements."""
@@ -54,7 +54,7 @@ def moved(value: Any, file: str, line: int) -> Any:
     `file`:`line`, columns kept; shared parts that hold no span are not copied."""
     kind = type(value)
     if kind is Span:
-        return Span(file, line, value.col, value.end_col)
+        return make_span(file, line, value.col, value.end_col)
     if kind is list:
         return [moved(item, file, line) for item in value]
     names: tuple[str, ...] | None = getattr(kind, "_fields", None)

@@ -27,7 +27,7 @@ from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedTok
 
 from mplang.lang import ast
 from mplang.lang.caches import user_cache_dir
-from mplang.lang.diagnostics import DiagnosticSink, Span
+from mplang.lang.diagnostics import DiagnosticSink, Span, make_span
 from mplang.lang.limits import (
     MAX_EXPRESSION_DEPTH,
     expression_depth,
@@ -105,7 +105,7 @@ class _Builder(Transformer[Token, Any]):
     def _span(self, token: Token) -> Span:
         line = (token.line or 1) + self.line_offset
         col = token.column or 1
-        return Span(self.file, line, col, col + len(token))  # a token is its text
+        return make_span(self.file, line, col, col + len(token))  # a token is its text
 
     def _first_span(self, *items: Any) -> Span:
         for item in items:

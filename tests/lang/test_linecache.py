@@ -5,6 +5,8 @@ Parses are counted through the cache's own parse function, never timed."""
 
 from __future__ import annotations
 
+import dataclasses
+import pickle
 from pathlib import Path
 from typing import ClassVar
 
@@ -13,7 +15,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from mplang.lang import caches, frontcache, linecache
-from mplang.lang.diagnostics import DiagnosticSink
+from mplang.lang.diagnostics import DiagnosticSink, Span, make_span
 from mplang.lang.linecache import StatementCache
 from mplang.lang.parser import parse_text
 from mplang.m8194h.compiler import compile_paths
@@ -199,3 +201,14 @@ def test_the_front_cache_keeps_lines_of_an_earlier_text(
     sink = DiagnosticSink()
     assert frontcache.parse(edited, "full.mp", sink, where="/p/full.mp") == statements
     assert counted.texts == [] and [d.code for d in sink.items] == ["E101"]
+
+
+def test_a_made_span_is_a_span() -> None:
+    """make_span (the parser's and the cache's) gives what Span(...) gives: equal, same
+    hash and order, frozen, pickled alike."""
+    made, built = make_span("a.mp", 3, 5, 9), Span("a.mp", 3, 5, 9)
+    assert made == built and hash(made) == hash(built) and repr(made) == repr(built)
+    assert make_span("a.mp", 3) == Span("a.mp", 3) and made < make_span("a.mp", 4)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        made.line = 4  # type: ignore[misc]
+    assert pickle.loads(pickle.dumps(made)) == built
