@@ -1,9 +1,10 @@
-"""Front-end and start-up figures of issue 16 (rows 1-5 of its table), each printed with its
-target beside it; never asserted, and never a test.
+"""Front-end and start-up figures of issues 16 and 28, each printed with its target beside
+it; never asserted, and never a test.
 
-1. the full-device image (every MP and ISR slot filled to its budget, ~5,800 lines) compiled
-   warm in this process, with the parse's share (target <= 100 ms);
-2. `mpc build` of that image as a process, beyond `mpc --version` (target <= 120 ms), with
+1. the full-device image (every MP and ISR slot filled to its budget, ~5,900 lines) compiled
+   warm in this process with every cache off, with the parse's share (target <= 100 ms);
+2. `mpc build` of that image as a process, beyond `mpc --version` (target <= 120 ms): right
+   after a one-number edit of the source (the front cache holds the text before it), with
    the front-end cache warm (a re-build) and with --no-cache (every file parsed);
 3. `mpc lint` of one 512-line file as a process, against `python -c pass` measured in the
    same run (target <= 4x);
@@ -11,8 +12,10 @@ target beside it; never asserted, and never a test.
 5. the language server's work for one didChange of a 512-line file: the analysis that
    gives its diagnostics (target <= 20 ms).
 
-Processes run `mpc` as its console script does; medians of several runs, after one run that
-fills the caches (lark's tables, the catalogue) as any earlier run of mpc would have. They run
+Rows 1-3 are also printed as `ROW <name> <figure> <target> met|MISSED` lines, which
+`make bench` collects. Processes run `mpc` as its console script does; medians of several
+runs, after one run that fills the caches (lark's tables, the catalogue) as any earlier run
+of mpc would have. They run
 with Python's bytecode cache on (PYTHONDONTWRITEBYTECODE removed), as an installed mpc runs:
 without it every start compiles mpc's modules from source again.
 """
@@ -87,6 +90,18 @@ def best_of(runs: int, action: Callable[[], object]) -> tuple[float, float]:
     return min(times), statistics.median(times)
 
 
+def best_of_prepared(runs: int, prepare: Callable[[], object],
+                     action: Callable[[], object]) -> tuple[float, float]:
+    """`best_of`, with `prepare` run untimed before each call."""
+    times = []
+    for _ in range(runs):
+        prepare()
+        start = time.perf_counter()
+        action()
+        times.append(time.perf_counter() - start)
+    return min(times), statistics.median(times)
+
+
 def process(args: list[str], cwd: Path, env: dict[str, str] | None = None) -> Callable[[], object]:
     """A call that runs `args` as a process and waits for it."""
     def run() -> None:
@@ -101,6 +116,11 @@ def ms(seconds: float) -> str:
 
 def verdict(met: bool) -> str:
     return "met" if met else "MISSED"
+
+
+def row(name: str, figure: str, target: str, met: bool) -> str:
+    """The line `make bench` collects for one target."""
+    return f"ROW {name} {figure} {target} {verdict(met)}"
 
 
 def main() -> None:
@@ -145,6 +165,14 @@ def main() -> None:
         _, base_s = best_of(runs, baseline)
         _, version_s = best_of(runs, version)
         _, warm_s = best_of(runs, build_warm)
+        numbers = iter(range(1, 1_000_000))
+
+        def edit_one_number() -> None:
+            """A new value in the first program's first line, as a person edits it."""
+            (work / "full.mp").write_text(source.replace("VAR1 = 0", f"VAR1 = {next(numbers)}",
+                                                         1))
+
+        _, edited_s = best_of_prepared(runs, edit_one_number, build_warm)
         _, cold_s = best_of(runs, build_cold)
         _, lint_s = best_of(runs, lint)
 
@@ -152,13 +180,18 @@ def main() -> None:
           f"{source.count(chr(10))} source lines (medians of {runs} runs)")
     print(f"1. build in process, warm: {ms(build)} (target <= 100 ms: {verdict(build <= 0.1)}); "
           f"parse {ms(parse)} = {parse / build:.0%}; with the front-end cache {ms(cached)}")
-    print(f"2. mpc build as a process, beyond mpc --version: re-build {ms(warm_s - version_s)},"
-          f" --no-cache {ms(cold_s - version_s)} (target <= 120 ms: "
-          f"{verdict(warm_s - version_s <= 0.12)} / {verdict(cold_s - version_s <= 0.12)})")
+    print(f"2. mpc build as a process, beyond mpc --version: after a one-number edit "
+          f"{ms(edited_s - version_s)}, re-build {ms(warm_s - version_s)}, --no-cache "
+          f"{ms(cold_s - version_s)} (target <= 120 ms: {verdict(edited_s - version_s <= 0.12)}"
+          f" / {verdict(warm_s - version_s <= 0.12)} / {verdict(cold_s - version_s <= 0.12)})")
     print(f"3. mpc lint of a 512-line file: {ms(lint_s)} = {lint_s / base_s:.1f}x python -c "
           f"pass ({ms(base_s)}) (target <= 4x: {verdict(lint_s / base_s <= 4)})")
     print(f"4. mpc --version: {ms(version_s)} = {version_s / base_s:.1f}x python -c pass "
           f"(target <= 2.5x: {verdict(version_s / base_s <= 2.5)})")
+    print(row("full-device-compile", f"{build * 1000:.0f}ms", "<=100ms", build <= 0.1))
+    print(row("build-after-edit", f"{(edited_s - version_s) * 1000:.0f}ms", "<=120ms",
+              edited_s - version_s <= 0.12))
+    print(row("lint-512", f"{lint_s / base_s:.1f}x", "<=4x", lint_s / base_s <= 4))
     print(f"5. LSP didChange -> diagnostics, 512-line file: {ms(lsp)} (target <= 20 ms: "
           f"{verdict(lsp <= 0.02)})")
 

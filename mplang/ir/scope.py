@@ -311,28 +311,30 @@ class Scope:
 def _named_variables(unit: ast.Unit) -> set[int]:
     """Every VARn written literally anywhere in the programs of the build."""
     found: set[int] = set()
-
-    def visit(node: object) -> None:
-        if isinstance(node, ast.Name):
-            match = VAR_RE.fullmatch(node.name)
-        elif isinstance(node, ast.Assign):
-            match = VAR_RE.fullmatch(node.target)
-        else:
-            match = None
-        if match:
-            found.add(int(match.group(1)))
-        if isinstance(node, list):
-            for item in node:
-                visit(item)
-        elif hasattr(node, "__dataclass_fields__"):
-            for name in node.__dataclass_fields__:
-                value = getattr(node, name)
-                if isinstance(value, list) or hasattr(value, "__dataclass_fields__"):
-                    visit(value)
-
     for program in unit.programs:
-        visit(program.body)
+        _collect_named(program.body, found)
     return found
+
+
+def _collect_named(node: object, found: set[int]) -> None:
+    """Add to `found` every VARn that `node` (a syntax node or a list of them) names, at any
+    depth: read in an expression or written by an assignment."""
+    if isinstance(node, list):
+        for item in node:
+            _collect_named(item, found)
+        return
+    if isinstance(node, ast.Name):
+        match = VAR_RE.fullmatch(node.name)
+    elif isinstance(node, ast.Assign):
+        match = VAR_RE.fullmatch(node.target)
+    else:
+        match = None
+    if match:
+        found.add(int(match.group(1)))
+    for name in getattr(node, "_fields", ()):
+        value = getattr(node, name)
+        if isinstance(value, list) or hasattr(value, "_fields"):
+            _collect_named(value, found)
 
 
 def did_you_mean(name: str, candidates: list[str]) -> str:

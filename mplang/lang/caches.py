@@ -1,6 +1,7 @@
 """Where mpc keeps what it can rebuild (lark's parse tables, the catalogue, front-end
 results), and how: pickles written under a fresh name and renamed into place, so a
-concurrent run reads a whole file or none, and read back only when their key matches.
+concurrent run reads a whole file or none, and read back only when their key matches: the
+keys head the file, compared before anything is unpickled.
 
 The user cache directory is `mplang` in the user's cache directory (`mplang.lang.userdirs`:
 `$XDG_CACHE_HOME`, else `~/.cache` on Linux, `%LOCALAPPDATA%` on Windows); `MPLANG_CACHE`
@@ -58,16 +59,31 @@ def digest(*parts: str | bytes) -> str:
 
 def load(path: Path, key: str) -> object | None:
     """What `store` kept at `path` under `key`, or None (absent, damaged, another key)."""
+    found = load_keyed(path, (key,))
+    return None if found is None else found[1]
+
+
+def load_keyed(path: Path, keys: tuple[str, ...]) -> tuple[int, object] | None:
+    """The first of `keys` the entry at `path` was stored under (its index) and its value,
+    or None. The keys head the file, so an entry of other inputs is never unpickled."""
     try:
         with open(path, "rb") as stream:
-            stored_key, value = pickle.load(stream)
+            stored = stream.readline(_HEAD_LIMIT).rstrip(b"\n").decode("ascii").split(" ")
+            index = next((i for i, key in enumerate(keys) if key in stored), None)
+            if index is None:
+                return None
+            value = pickle.load(stream)
     except Exception:
         return None
-    return value if stored_key == key else None
+    return index, value
 
 
-def store(path: Path, key: str, value: object) -> None:
-    """Keep `value` at `path` under `key`, atomically; silently nothing when it cannot."""
+_HEAD_LIMIT = 4096
+
+
+def store(path: Path, key: str, value: object, *also: str) -> None:
+    """Keep `value` at `path` under `key` (and the keys `also`), atomically; silently
+    nothing when it cannot."""
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         descriptor, scratch = tempfile.mkstemp(dir=path.parent, prefix=".", suffix=".tmp")
@@ -75,7 +91,8 @@ def store(path: Path, key: str, value: object) -> None:
         return
     try:
         with os.fdopen(descriptor, "wb") as stream:
-            pickle.dump((key, value), stream, protocol=pickle.HIGHEST_PROTOCOL)
+            stream.write(" ".join((key, *also)).encode("ascii") + b"\n")
+            pickle.dump(value, stream, protocol=pickle.HIGHEST_PROTOCOL)
         os.replace(scratch, path)
     except Exception:
         with contextlib.suppress(OSError):

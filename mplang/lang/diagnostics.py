@@ -31,6 +31,22 @@ class Span:
         return f"{self.file}:{self.line}:{self.col}"
 
 
+_new = object.__new__
+
+
+def make_span(file: str, line: int, col: int = 1, end_col: int | None = None) -> Span:
+    """`Span(file, line, col, end_col)`, without the frozen dataclass's `__init__` (one
+    `object.__setattr__` per field): the parser makes one per token, the statement cache
+    one per moved span."""
+    made: Span = _new(Span)
+    fields = made.__dict__
+    fields["file"] = file
+    fields["line"] = line
+    fields["col"] = col
+    fields["end_col"] = end_col
+    return made
+
+
 @dataclass(frozen=True)
 class Diagnostic:
     code: str

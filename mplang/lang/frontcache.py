@@ -1,14 +1,16 @@
 """Front-end results kept across runs, as ruff and mypy keep theirs: the statements and
-syntax diagnostics of each source text, so re-building a project where one file changed
-parses that one file.
+syntax diagnostics of each source line, so re-building a project where one file changed
+parses that file's changed lines only (`mplang.lang.linecache`).
 
 An entry is found by the file's path and its name as diagnostics show it, and kept under a
 key of that name, its text and the front end itself (the grammar and the source of the
-modules that read it, with mpc's and Python's version): any change to one of them is a
-miss, and the file is parsed again. Entries live in the user cache dir
-(`mplang.lang.caches`, `front/`), one file per source file, replaced atomically, so runs
-side by side never read half of one; a damaged entry is a miss too. `--no-cache` (or
-`MPLANG_CACHE=off`) parses everything.
+modules that read it, with mpc's and Python's version), and under a second key without the
+text: the first is a hit for the whole file; the second gives the lines of an earlier text,
+and only lines not among them are parsed. A change of the front end misses both, and the
+file is parsed again. The keys head the entry and are compared before it is unpickled.
+Entries live in the user cache dir (`mplang.lang.caches`, `front/`), one file per source
+file, replaced atomically, so runs side by side never read half of one; a damaged entry is
+a miss too. `--no-cache` (or `MPLANG_CACHE=off`) parses everything.
 """
 
 from __future__ import annotations
@@ -18,13 +20,14 @@ from functools import cache
 from importlib import resources
 
 from mplang.lang import ast, caches
-from mplang.lang.diagnostics import Diagnostic, DiagnosticSink
+from mplang.lang.diagnostics import DiagnosticSink
+from mplang.lang.linecache import Line, StatementCache
 
-KEYED_MODULES = ("ast", "diagnostics", "limits", "parser", "tokenizer")
+KEYED_MODULES = ("ast", "diagnostics", "limits", "linecache", "parser", "tokenizer")
 """The modules of `mplang.lang` whose source is part of the key, named, not imported: the
 parser and tokenizer bring lark, which a run where every file hits needs never load."""
 
-FORMAT = "front 1"
+FORMAT = "front 2"
 """Part of the key: change it when what an entry holds changes shape."""
 
 
@@ -44,32 +47,54 @@ def front_end_key() -> str:
 
 
 def parse(text: str, display: str, sink: DiagnosticSink, *, store: bool = True,
-          where: str = "") -> list[ast.Statement]:
+          where: str = "", lines: StatementCache | None = None) -> list[ast.Statement]:
     """`parser.parse_text(text, display, sink)`, from the cache when it holds this text;
     a text parsed here is kept for the next run unless `store` is false (the language
     server: what it parses is mostly text being typed, never to be seen again). `where`
     (the file's resolved path) keeps apart files shown under the same name from two
-    projects."""
+    projects. `lines`, a process's own `StatementCache` (the language server's), parses the
+    lines it has not seen; without it, an entry of an earlier text of the file gives the
+    lines that did not change, so an edit parses the edited lines."""
     directory = caches.user_cache_dir()
     if directory is None:
+        if lines is not None:
+            return lines.parse(text, display, sink)
         return _parse_text(text, display, sink)
-    key = caches.digest(front_end_key(), display, text)
+    front = front_end_key()
+    key = caches.digest(front, display, text)
+    file_key = caches.digest(front, display, where)
     name = hashlib.sha256(f"{where}\0{display}".encode("utf-8", "surrogatepass")
                           ).hexdigest()[:32]
     path = directory / "front" / f"{name}.pickle"
-    found = caches.load(path, key)
-    if isinstance(found, tuple) and len(found) == 2:
-        statements, reported = found
+    table = lines
+    if table is None or not table.lines_of(display):
+        found = caches.load_keyed(path, (key, file_key))
+        if found is not None and _well_formed(found[1]):
+            if found[0] == 0 and table is None:
+                return _replayed(found[1], sink)  # type: ignore[arg-type]
+            table = table or StatementCache()
+            table.seed(display, found[1])  # type: ignore[arg-type]
+    table = table or StatementCache()
+    statements = table.parse(text, display, sink)
+    if store:
+        caches.store(path, key, table.lines_of(display), file_key)
+    return statements
+
+
+def _well_formed(kept: object) -> bool:
+    """An entry's lines have the shape `linecache.Line` (a damaged one may not)."""
+    return isinstance(kept, list) and all(
+        type(line) is tuple and len(line) == 3 and type(line[0]) is str
+        and type(line[1]) is list and type(line[2]) is list for line in kept)
+
+
+def _replayed(kept: list[Line], sink: DiagnosticSink) -> list[ast.Statement]:
+    """The statements of a file's stored lines, their diagnostics reported to `sink`."""
+    statements: list[ast.Statement] = []
+    for _, found, reported in kept:
+        statements.extend(found)
         for item in reported:
             sink.add(item.code, item.span, item.message, item.hint, item.related)
-        return statements  # type: ignore[no-any-return]
-    scratch = DiagnosticSink()
-    statements = _parse_text(text, display, scratch)
-    reported_now: list[Diagnostic] = scratch.items
-    for item in reported_now:
-        sink.add(item.code, item.span, item.message, item.hint, item.related)
-    if store:
-        caches.store(path, key, (statements, reported_now))
     return statements
 
 

@@ -17,7 +17,6 @@ import re
 import sys
 import tempfile
 from collections.abc import Callable
-from dataclasses import replace
 from functools import cache
 from importlib import resources
 from typing import Any
@@ -28,7 +27,7 @@ from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedTok
 
 from mplang.lang import ast
 from mplang.lang.caches import user_cache_dir
-from mplang.lang.diagnostics import DiagnosticSink, Span
+from mplang.lang.diagnostics import DiagnosticSink, Span, make_span
 from mplang.lang.limits import (
     MAX_EXPRESSION_DEPTH,
     expression_depth,
@@ -106,7 +105,7 @@ class _Builder(Transformer[Token, Any]):
     def _span(self, token: Token) -> Span:
         line = (token.line or 1) + self.line_offset
         col = token.column or 1
-        return Span(self.file, line, col, col + len(token))  # a token is its text
+        return make_span(self.file, line, col, col + len(token))  # a token is its text
 
     def _first_span(self, *items: Any) -> Span:
         for item in items:
@@ -428,14 +427,14 @@ def _shallow(statement: ast.Statement, sink: DiagnosticSink) -> list[ast.Stateme
     zero, one = ast.Num(0, deep.span), ast.Num(1, deep.span)
     match statement:
         case ast.Const():
-            return [replace(statement, value=zero)]
+            return [statement.replace(value=zero)]
         case ast.IfStmt() | ast.WhileStmt():
-            return [replace(statement, left=zero, right=zero)]
+            return [statement.replace(left=zero, right=zero)]
         case ast.ForStmt() | ast.RepeatStmt():
-            return [replace(statement, count=one)]
+            return [statement.replace(count=one)]
         case ast.Command() if statement.name.upper().removeprefix("RSM_MACRO_") \
                 .removeprefix("ETM_MACRO_") in ("IF", "FOR"):
-            return [replace(statement, args=[zero if expression_depth(a) > MAX_EXPRESSION_DEPTH
+            return [statement.replace(args=[zero if expression_depth(a) > MAX_EXPRESSION_DEPTH
                                              else a for a in statement.args])]
     return []
 
@@ -498,6 +497,7 @@ def _parse_slowly(text: str, file: str, sink: DiagnosticSink) -> list[ast.Statem
             if not isinstance(problem, _SyntaxProblem):
                 raise
             _report_problem(problem, file, index, sink)
+            del problem  # its traceback holds this frame: a cycle through every local
             statements.extend(_placeholder(line_text, Span(file, index + 1)))
     return _bounded(statements, text, sink)
 

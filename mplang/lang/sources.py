@@ -24,6 +24,7 @@ from pathlib import Path
 
 from mplang.lang import ast, frontcache
 from mplang.lang.diagnostics import DiagnosticSink, Span
+from mplang.lang.linecache import StatementCache
 
 
 @dataclass
@@ -112,12 +113,15 @@ class SourceSet:
 def load_sources(paths: list[Path], sink: DiagnosticSink, *,
                  allow_outside: bool = False,
                  texts: dict[Path, str] | None = None,
-                 store: bool | Callable[[Path], bool] = True) -> SourceSet:
+                 store: bool | Callable[[Path], bool] = True,
+                 lines: StatementCache | None = None) -> SourceSet:
     """Read and parse `paths` and everything they include.
 
     `texts` supplies in-memory contents for some paths (editors, tests); other files are read
     from disk. Parses come from the front-end cache (`frontcache`) when it holds them, and
-    are kept there unless `store` is false (or, a function, false for that path).
+    are kept there unless `store` is false (or, a function, false for that path). `lines`,
+    a caller's own `StatementCache` kept between calls (the language server's), parses only
+    the lines it has not seen before.
     """
     result = SourceSet()
     seen: set[Path] = set()
@@ -151,6 +155,10 @@ def load_sources(paths: list[Path], sink: DiagnosticSink, *,
                          hint="include paths are relative to the including file")
         return None
 
+    # visit calls itself through this table, which is cleared when done: a closure naming
+    # itself is a reference cycle, which would hold every statement until a collection
+    recurse: dict[str, Callable[[Path, Path, Span | None, list[Path]], None]] = {}
+
     def visit(path: Path, root: Path, at: Span | None, stack: list[Path]) -> None:
         resolved = path.resolve()
         if resolved in stack:
@@ -170,7 +178,7 @@ def load_sources(paths: list[Path], sink: DiagnosticSink, *,
         seen.add(resolved)
         source = SourceFile(path, display, text, frontcache.parse(
             text, display, sink, store=store if isinstance(store, bool) else store(path),
-            where=str(resolved)))
+            where=str(resolved), lines=lines))
         result.files.append(source)
         depth = 0
         for statement in source.statements:
@@ -188,7 +196,7 @@ def load_sources(paths: list[Path], sink: DiagnosticSink, *,
                     if target_entry is not None:
                         target = Path(str(target_entry))
                         library[target.resolve()] = target_entry
-                        visit(target, root, statement.span, [*stack, resolved])
+                        recurse["visit"](target, root, statement.span, [*stack, resolved])
                     continue
                 target = (path.parent / statement.path)
                 if "\0" in statement.path:  # no file can have it; Path.resolve would raise
@@ -200,7 +208,7 @@ def load_sources(paths: list[Path], sink: DiagnosticSink, *,
                              f"{statement.path!r} is outside the project ({_display(root)})",
                              hint="pass --allow-outside-includes to permit it")
                     continue
-                visit(target, root, statement.span, [*stack, resolved])
+                recurse["visit"](target, root, statement.span, [*stack, resolved])
 
     def library_entry(statement: ast.Include) -> Traversable | None:
         name = statement.path.removeprefix(LIBRARY_PREFIX)
@@ -213,6 +221,8 @@ def load_sources(paths: list[Path], sink: DiagnosticSink, *,
                                                          for n in sorted(available)))
         return found
 
+    recurse["visit"] = visit
     for path in paths:
         visit(path, project_root(path.resolve()), None, [])
+    recurse.clear()  # visit reached itself through it: no cycle keeps the statements
     return result

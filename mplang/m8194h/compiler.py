@@ -18,6 +18,8 @@ from mplang.ir.unit import DEFAULT_TEMPS, Options, lower_unit
 from mplang.lang import ast
 from mplang.lang.diagnostics import DiagnosticSink, suppressed
 from mplang.lang.followon import settle_includes
+from mplang.lang.heap import collection_paused
+from mplang.lang.linecache import StatementCache
 from mplang.lang.sources import SourceSet, load_sources
 from mplang.lang.structure import build_unit
 from mplang.m8194h.chipvalues import warn_changed
@@ -48,12 +50,15 @@ class Lowering:
 
 
 def compile_paths(paths: list[Path], options: Options = Options(), *,
-                  texts: dict[Path, str] | None = None) -> BuildResult:
-    """Compile files (and their includes) together into one image."""
-    sink = DiagnosticSink()
-    sources = load_sources(paths, sink, allow_outside=options.allow_outside_includes,
-                           texts=texts)
-    return compile_sources(paths, sources, sink, options)
+                  texts: dict[Path, str] | None = None,
+                  lines: StatementCache | None = None) -> BuildResult:
+    """Compile files (and their includes) together into one image; `lines`, kept between
+    builds, parses only the lines it has not seen (`mplang.lang.linecache`)."""
+    with collection_paused():  # mplang.lang.heap: a build makes no cycles
+        sink = DiagnosticSink()
+        sources = load_sources(paths, sink, allow_outside=options.allow_outside_includes,
+                               texts=texts, lines=lines)
+        return compile_sources(paths, sources, sink, options)
 
 
 def compile_sources(paths: list[Path], sources: SourceSet, sink: DiagnosticSink,
@@ -62,8 +67,9 @@ def compile_sources(paths: list[Path], sources: SourceSet, sink: DiagnosticSink,
     """`compile_paths` for sources already read into `sources` (their diagnostics in
     `sink`); `lowering`, when given, receives the scope, lowered programs and placements."""
     catalogue = catalogue_module.load()
-    unit = build_unit(sources, sink)
-    result = _finish(unit, catalogue, sink, options, lowering)
+    with collection_paused():
+        unit = build_unit(sources, sink)
+        result = _finish(unit, catalogue, sink, options, lowering)
     result.sources = {f.display: f.text.splitlines() for f in sources.files}
     if paths:
         first = paths[0].resolve()

@@ -11,6 +11,7 @@ import hashlib
 import json
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from json import dumps
 from typing import Any
 
 from mplang.ir import catalogue as catalogue_module
@@ -166,12 +167,21 @@ def _slot_lines(first: int, cost: int) -> str:
 
 def _frames_object(obj: dict[str, Any], indent: str) -> str:
     """A JSON object at `indent` whose frame_lines sit on one line and whose frames are one
-    per line (the object's first line carries no indent: the caller places it)."""
+    per line (the object's first line carries no indent: the caller places it).
+
+    Written through json's C encoder: every scalar and all frames at once (a frame is a list
+    of numbers, so `], [` is only ever between two of them), byte for byte what the
+    indented pure-Python encoder gives; a member that is not a scalar goes through it."""
     frames = obj.pop("frames")
     lines = obj.pop("frame_lines")
-    body = json.dumps(obj, indent=2).replace("\n", "\n" + indent)[:-(len(indent) + 2)]
-    frame_text = ",\n".join(f"{indent}    {json.dumps(f)}" for f in frames)
-    return (f"{body},\n{indent}  \"frame_lines\": {json.dumps(lines)},\n"
+    if all(value is None or isinstance(value, (str, int, float)) for value in obj.values()):
+        body = "{\n" + ",\n".join(f"{indent}  {dumps(key)}: {dumps(value)}"
+                                   for key, value in obj.items())
+    else:
+        body = json.dumps(obj, indent=2).replace("\n", "\n" + indent)[:-(len(indent) + 2)]
+    frame_text = f"{indent}    " + dumps(frames)[1:-1].replace("], [", f"],\n{indent}    [") \
+        if frames else ""
+    return (f"{body},\n{indent}  \"frame_lines\": {dumps(lines)},\n"
             f"{indent}  \"frames\": [\n{frame_text}\n{indent}  ]\n{indent}}}")
 
 

@@ -9,6 +9,7 @@ number), so the same sources always give the same placement.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 from mplang.ir.catalogue import Profile
@@ -172,6 +173,7 @@ def _check_calls(placements: list[Placement], names: dict[str, LoweredProgram],
     limit = profile.limit("call_depth")
     depth_memo: dict[int, int] = {}
     reported: set[int] = set()
+    recurse: dict[str, Callable[[int, list[int]], int]] = {}  # cleared after: no cycle
 
     def depth(slot: int, path: list[int]) -> int:
         """Levels of programs from `slot` down (1 = calls nothing); cycles report E432."""
@@ -190,10 +192,11 @@ def _check_calls(placements: list[Placement], names: dict[str, LoweredProgram],
                         f"MP{n}" for n in cycle),
                         hint="the device has no recursion; use a loop instead")
                 continue
-            best = max(best, 1 + depth(callee, [*path, slot]))
+            best = max(best, 1 + recurse["depth"](callee, [*path, slot]))
         depth_memo[slot] = best
         return best
 
+    recurse["depth"] = depth
     for slot in sorted(edges):
         levels = depth(slot, [])
         if levels > limit and slot not in reported:
@@ -202,3 +205,4 @@ def _check_calls(placements: list[Placement], names: dict[str, LoweredProgram],
             sink.add("E433", program.span, f"MP{slot} starts a chain of {levels} nested "
                      f"programs; the device allows {limit}",
                      hint="flatten the call chain")
+    recurse.clear()  # depth reached itself through it: no cycle keeps the programs

@@ -144,3 +144,12 @@ def test_a_host_sets_and_reads_variables_by_name_over_modbus(tmp_path: Path,
             await stop(server)
 
     assert asyncio.run(session()) == -1500 * 2 + 70000
+
+
+def test_placement_skips_variables_named_deep_in_expressions_and_blocks() -> None:
+    """VARn read inside an expression, a call's arguments or a nested block is taken too."""
+    result = compile_source("VAR speed\nMP 156\n  FOR 2\n    IF 1 + VAR400 > 0\n      speed = 5\n"
+                            "    END IF\n  NEXT\n  speed = (VAR401 * 2) + 1\n"
+                            "  speed = -VAR402\nEND MP\n", "job.mp")
+    assert result.ok, [d.render() for d in result.diagnostics]
+    assert {v.name: v.index for v in result.variables} == {"speed": 403}

@@ -1,0 +1,173 @@
+"""Parsed statements kept by line text, so an edit parses the edited lines only.
+
+The grammar is one statement per line (`grammar/mplang.lark`): no token, comment or string
+crosses a newline, and the tokenizer's choices depend on the parser state within the line
+only. So a line's statements and syntax diagnostics are a function of its text, and of its
+position only through their spans. A `StatementCache` keeps, per line text, the result of
+one parse and where it was made; a line found at another place (lines moved, the same text
+elsewhere, another file) gets a copy whose spans name its own file and line. A line where
+it was last time is the very same result, objects shared: nothing downstream changes an AST
+node.
+
+Lark stays the parser: the lines nobody has parsed yet are parsed in one call of
+`parser.parse_text`, either the whole text (most lines new: positions come out right) or
+the new lines alone joined into one text, their spans moved after. Text with a carriage
+return that does not end a line is parsed whole and kept out of the cache (a lone `\\r` is a
+syntax error whose line only the whole text has).
+
+The language server keeps one `StatementCache` for the documents it analyses and passes it
+to `mplang.lang.sources.load_sources(..., lines=cache)`; the front cache on disk
+(`mplang.lang.frontcache`) keeps each file's lines the same way, so `mpc build` after an
+edit parses the edited lines.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Callable
+from dataclasses import replace
+from typing import Any
+
+from mplang.lang import ast
+from mplang.lang.diagnostics import Diagnostic, DiagnosticSink, Span, make_span
+
+Parse = Callable[[str, str, DiagnosticSink], list[ast.Statement]]
+"""`parser.parse_text`'s shape: text, file name, sink -> statements."""
+
+Line = tuple[str, list[ast.Statement], list[Diagnostic]]
+"""One source line: its text, its statements and its syntax diagnostics, at its place."""
+
+_LONE_CR = re.compile(r"\r(?!\n)")
+_SLACK = 4096
+"""Line texts kept beyond those of the files held, before the table is swept."""
+
+
+def _parse_text(text: str, file: str, sink: DiagnosticSink) -> list[ast.Statement]:
+    """`parser.parse_text`, its module (and lark with it) imported when a line misses."""
+    from mplang.lang import parser
+
+    return parser.parse_text(text, file, sink)
+
+
+def moved(value: Any, file: str, line: int) -> Any:
+    """`value` (a statement, an expression, a list of them) with every span moved to
+    `file`:`line`, columns kept; shared parts that hold no span are not copied."""
+    kind = type(value)
+    if kind is Span:
+        return make_span(file, line, value.col, value.end_col)
+    if kind is list:
+        return [moved(item, file, line) for item in value]
+    names: tuple[str, ...] | None = getattr(kind, "_fields", None)
+    if names is None:  # a string, a number, None: nothing to move
+        return value
+    copy = object.__new__(kind)
+    for name in names:
+        setattr(copy, name, moved(getattr(value, name), file, line))
+    return copy
+
+
+def _moved_diagnostic(item: Diagnostic, file: str, line: int) -> Diagnostic:
+    return replace(item, span=Span(file, line, item.span.col, item.span.end_col),
+                   related=tuple((Span(file, line, s.col, s.end_col), note)
+                                 for s, note in item.related))
+
+
+def _placed(found: Line, file: str, line: int, where: tuple[str, int]) -> Line:
+    """`found` (parsed at `where`) as it reads at `file`:`line`."""
+    if where == (file, line):
+        return found
+    text, statements, reported = found
+    return (text, [moved(s, file, line) for s in statements],
+            [_moved_diagnostic(d, file, line) for d in reported])
+
+
+class StatementCache:
+    """Statements by line text, and the lines of each file as last parsed (see the module
+    docstring). Not thread-safe: one per server or process."""
+
+    def __init__(self, parse: Parse | None = None) -> None:
+        self._given = parse
+        self._texts: dict[str, tuple[Line, tuple[str, int]]] = {}
+        self._files: dict[str, list[Line]] = {}
+
+    def lines_of(self, file: str) -> list[Line]:
+        """`file`'s lines as last parsed (empty if never): what the front cache stores."""
+        return self._files.get(file, [])
+
+    def seed(self, file: str, lines: list[Line]) -> None:
+        """Take `file`'s lines from an earlier run (the front cache's entry)."""
+        self._files[file] = lines
+        for number, found in enumerate(lines, start=1):
+            self._texts.setdefault(found[0], (found, (file, number)))
+
+    def forget(self, file: str) -> None:
+        """Drop `file`'s lines (a document closed); their texts go at the next sweep."""
+        self._files.pop(file, None)
+
+    def parse(self, text: str, file: str, sink: DiagnosticSink) -> list[ast.Statement]:
+        """What `parser.parse_text(text, file, sink)` gives, parsing only lines this cache
+        has not seen; the diagnostics reach `sink` in the same order."""
+        if "\r" in text and _LONE_CR.search(text):
+            return self._parse_with(text, file, sink)
+        segments = text.split("\n")
+        known = self._files.get(file, [])
+        lines: list[Line | None] = []
+        missing: dict[str, list[int]] = {}
+        for index, segment in enumerate(segments):
+            if index < len(known) and known[index][0] == segment:
+                lines.append(known[index])
+                continue
+            found = self._texts.get(segment)
+            if found is None:
+                missing.setdefault(segment, []).append(index)
+                lines.append(None)
+            else:
+                lines.append(_placed(found[0], file, index + 1, found[1]))
+        if missing:
+            self._fill(segments, lines, missing, file)
+        placed: list[Line] = [line for line in lines if line is not None]
+        self._files[file] = placed
+        statements: list[ast.Statement] = []
+        for _, found_statements, reported in placed:
+            statements.extend(found_statements)
+            for item in reported:
+                sink.add(item.code, item.span, item.message, item.hint, item.related)
+        if len(self._texts) > _SLACK + sum(len(f) for f in self._files.values()):
+            self._sweep()
+        return statements
+
+    def _fill(self, segments: list[str], lines: list[Line | None],
+              missing: dict[str, list[int]], file: str) -> None:
+        """Parse the missing lines in one call: the whole text when most lines are new
+        (every span already in place), else the new texts alone, joined."""
+        count = sum(len(places) for places in missing.values())
+        whole = 2 * count > len(segments)
+        batch = segments if whole else list(missing)
+        scratch = DiagnosticSink()
+        found = self._parse_with("\n".join(batch), file, scratch)
+        per_line: list[tuple[list[ast.Statement], list[Diagnostic]]] = [
+            ([], []) for _ in batch]
+        for statement in found:
+            per_line[statement.span.line - 1][0].append(statement)
+        for item in scratch.items:
+            per_line[item.span.line - 1][1].append(item)
+        for number, (segment, (statements, reported)) in enumerate(
+                zip(batch, per_line, strict=True), start=1):
+            line: Line = (segment, statements, reported)
+            if whole:
+                if lines[number - 1] is None:
+                    lines[number - 1] = line
+                self._texts.setdefault(segment, (line, (file, number)))
+                continue
+            self._texts[segment] = (line, (file, number))
+            for index in missing[segment]:
+                lines[index] = _placed(line, file, index + 1, (file, number))
+
+    def _parse_with(self, text: str, file: str, sink: DiagnosticSink) -> list[ast.Statement]:
+        """The parse given to the cache, else `parser.parse_text`."""
+        return (self._given or _parse_text)(text, file, sink)
+
+    def _sweep(self) -> None:
+        """Keep only the texts of the lines the files hold now."""
+        live = {found[0] for lines in self._files.values() for found in lines}
+        self._texts = {text: entry for text, entry in self._texts.items() if text in live}

@@ -1,0 +1,214 @@
+"""The statement cache by line text (mplang.lang.linecache): after any sequence of edits
+an incremental parse gives what a full parse gives (statements with their spans,
+diagnostics, and the image built from them), and an edit parses the edited lines only.
+Parses are counted through the cache's own parse function, never timed."""
+
+from __future__ import annotations
+
+import dataclasses
+import pickle
+from pathlib import Path
+from typing import ClassVar
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from mplang.lang import caches, frontcache, linecache
+from mplang.lang.diagnostics import DiagnosticSink, Span, make_span
+from mplang.lang.linecache import StatementCache
+from mplang.lang.parser import parse_text
+from mplang.m8194h.compiler import compile_paths
+
+ROOT = Path(__file__).resolve().parents[2]
+SAMPLES = sorted((ROOT / "samples").glob("*.mp"))
+CHECKS = sorted((ROOT / "tests" / "data" / "checks").glob("*.mp"))
+SOURCES = {path.name: path.read_text(encoding="utf-8") for path in [*SAMPLES, *CHECKS]}
+SPARE_LINES = sorted({line for text in SOURCES.values() for line in text.split("\n")})
+BROKEN = ["  X = = 1", "  FOO 999999999999999999999", "IF X >", "  SET_V X, (1", "\r",
+          "  SET_V X, 2000 # a comment", "END MP", "MP 3", "  é = 1"]
+
+
+def _full(text: str) -> tuple[object, ...]:
+    sink = DiagnosticSink()
+    return parse_text(text, "edited.mp", sink), sink.items
+
+
+def _incremental(cache: StatementCache, text: str) -> tuple[object, ...]:
+    sink = DiagnosticSink()
+    return cache.parse(text, "edited.mp", sink), sink.items
+
+
+def _edit(lines: list[str], action: tuple[int, int, int]) -> list[str]:
+    """One edit a person makes: insert, delete or replace a line, change a number in one,
+    break one. `action` holds the kind and two choices."""
+    kind, where, what = action
+    lines = list(lines)
+    index = where % (len(lines) + 1)
+    if kind == 0:
+        lines.insert(index, SPARE_LINES[what % len(SPARE_LINES)])
+    elif kind == 1 and lines:
+        del lines[min(index, len(lines) - 1)]
+    elif kind == 2 and lines:
+        lines[min(index, len(lines) - 1)] = BROKEN[what % len(BROKEN)]
+    elif kind == 3 and lines:
+        target = min(index, len(lines) - 1)
+        digits = [i for i, c in enumerate(lines[target]) if c.isdigit()]
+        if digits:
+            at = digits[what % len(digits)]
+            text = lines[target]
+            lines[target] = text[:at] + str((int(text[at]) + 1) % 10) + text[at + 1:]
+    elif kind == 4 and lines:  # a block of lines moves down
+        lines[index:index] = lines[:what % 5]
+    return lines
+
+
+EDITS = st.lists(st.tuples(st.integers(0, 4), st.integers(0, 10_000), st.integers(0, 10_000)),
+                 min_size=1, max_size=8)
+
+
+@settings(max_examples=60, deadline=None)
+@given(name=st.sampled_from(sorted(SOURCES)), edits=EDITS)
+def test_random_edits_parse_as_a_full_parse_does(name: str,
+                                                 edits: list[tuple[int, int, int]]) -> None:
+    cache = StatementCache()
+    lines = SOURCES[name].split("\n")
+    assert _incremental(cache, "\n".join(lines)) == _full("\n".join(lines))
+    for action in edits:
+        lines = _edit(lines, action)
+        text = "\n".join(lines)
+        assert _incremental(cache, text) == _full(text)
+
+
+def _image(path: Path, text: str, cache: StatementCache | None) -> tuple[object, ...]:
+    result = compile_paths([path], texts={path: text, path.resolve(): text}, lines=cache)
+    return (result.ok, [d.render() for d in result.diagnostics],
+            result.to_json() if result.ok else None)
+
+
+@settings(max_examples=15, deadline=None)
+@given(name=st.sampled_from([p.name for p in SAMPLES]), edits=EDITS)
+def test_random_edits_build_the_image_a_full_build_does(name: str,
+                                                       edits: list[tuple[int, int, int]]
+                                                       ) -> None:
+    caches.turn_off(True)
+    try:
+        cache = StatementCache()
+        path = ROOT / "samples" / name
+        lines = SOURCES[name].split("\n")
+        for action in [(1, 0, 0), *edits]:  # the first, a no-op edit of an empty file aside
+            text = "\n".join(lines)
+            assert _image(path, text, cache) == _image(path, text, None)
+            lines = _edit(lines, action)
+    finally:
+        caches.turn_off(False)
+
+
+class _Counted:
+    """Parses through `parse_text`, keeping the texts it was given."""
+
+    def __init__(self) -> None:
+        self.texts: list[str] = []
+
+    def __call__(self, text: str, file: str, sink: DiagnosticSink) -> list[object]:
+        self.texts.append(text)
+        return parse_text(text, file, sink)  # type: ignore[return-value]
+
+
+def test_an_edit_parses_the_edited_line_only() -> None:
+    counted = _Counted()
+    cache = StatementCache(counted)  # type: ignore[arg-type]
+    text = (ROOT / "samples" / "full_mp156.mp").read_text(encoding="utf-8")
+    lines = text.split("\n")
+    cache.parse(text, "full.mp", DiagnosticSink())
+    assert counted.texts == [text]  # all new: the whole text, once
+    number = next(i for i, line in enumerate(lines) if "0" in line and "MP" not in line
+                  and not line.lstrip().startswith(("#", "//")))
+    lines[number] = lines[number].replace("0", "7", 1)
+    lines.insert(1, "# a new comment line above, so every later line moves")
+    edited = "\n".join(lines)
+    counted.texts.clear()
+    sink = DiagnosticSink()
+    statements = cache.parse(edited, "full.mp", sink)
+    assert counted.texts == ["\n".join([lines[1], lines[number + 1]])]
+    assert (statements, sink.items) == _full_named(edited, "full.mp")
+    counted.texts.clear()
+    cache.parse(edited, "other.mp", DiagnosticSink())  # another file of the same lines
+    assert counted.texts == []
+
+
+def _full_named(text: str, name: str) -> tuple[object, ...]:
+    sink = DiagnosticSink()
+    return parse_text(text, name, sink), sink.items
+
+
+def test_a_line_in_place_is_the_same_object() -> None:
+    """Unchanged lines at their place are shared, not copied: a caller can tell by identity
+    which statements an edit left alone."""
+    cache = StatementCache()
+    text = "MP 1\n  SET_V X, 2000\n  FIXED_MOVE X, 10\nEND MP\n"
+    first = cache.parse(text, "a.mp", DiagnosticSink())
+    again = cache.parse(text.replace("10", "11"), "a.mp", DiagnosticSink())
+    assert first[1] is again[1] and first[2] is not again[2]
+    assert again[2].span.line == 3
+
+
+def test_a_lone_carriage_return_parses_whole() -> None:
+    cache = StatementCache()
+    for text in ("MP 1\r\n  X = 1\r\nEND MP\r\n", "MP 1\n  X = 1\rEND MP\n", "MP 1\nEND MP\r"):
+        assert _incremental(cache, text) == _full(text)
+
+
+class _Loud:
+    """Records every time it is unpickled."""
+
+    loads: ClassVar[list[int]] = []
+
+    def __reduce__(self) -> tuple[object, ...]:
+        return (_Loud._loaded, ())
+
+    @staticmethod
+    def _loaded() -> _Loud:
+        _Loud.loads.append(1)
+        return _Loud()
+
+
+def test_an_entry_of_another_key_is_never_unpickled(tmp_path: Path) -> None:
+    entry = tmp_path / "entry.pickle"
+    caches.store(entry, "key-one", [_Loud()], "key-two")
+    _Loud.loads.clear()
+    assert caches.load(entry, "key-three") is None
+    assert _Loud.loads == []
+    found = caches.load_keyed(entry, ("key-three", "key-two"))
+    assert found is not None and found[0] == 1 and _Loud.loads == [1]
+
+
+def test_the_front_cache_keeps_lines_of_an_earlier_text(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """On disk: an edited file is parsed from its earlier entry's lines plus the new ones,
+    and gives what a full parse gives."""
+    monkeypatch.setenv("MPLANG_CACHE", str(tmp_path / "cache"))
+    text = (ROOT / "samples" / "full_mp156.mp").read_text(encoding="utf-8")
+    frontcache.parse(text, "full.mp", DiagnosticSink(), where="/p/full.mp")
+    edited = text.replace("2000", "2500", 1) + "  BAD = = 1\n"
+    counted = _Counted()
+    monkeypatch.setattr(linecache, "_parse_text", counted)
+    sink = DiagnosticSink()
+    statements = frontcache.parse(edited, "full.mp", sink, where="/p/full.mp")
+    assert (statements, sink.items) == _full_named(edited, "full.mp")
+    assert len(counted.texts) == 1 and counted.texts[0].count("\n") <= 2
+    counted.texts.clear()
+    sink = DiagnosticSink()
+    assert frontcache.parse(edited, "full.mp", sink, where="/p/full.mp") == statements
+    assert counted.texts == [] and [d.code for d in sink.items] == ["E101"]
+
+
+def test_a_made_span_is_a_span() -> None:
+    """make_span (the parser's and the cache's) gives what Span(...) gives: equal, same
+    hash and order, frozen, pickled alike."""
+    made, built = make_span("a.mp", 3, 5, 9), Span("a.mp", 3, 5, 9)
+    assert made == built and hash(made) == hash(built) and repr(made) == repr(built)
+    assert make_span("a.mp", 3) == Span("a.mp", 3) and made < make_span("a.mp", 4)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        made.line = 4  # type: ignore[misc]
+    assert pickle.loads(pickle.dumps(made)) == built
