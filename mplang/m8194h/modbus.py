@@ -369,7 +369,10 @@ async def serve_tcp(face: DeviceFace, host: str, port: int,
     OpenFailure says why it cannot listen (port in use, no such host, ...)."""
     from pymodbus.server import ModbusTcpServer
 
+    from mplang.m8194h.ordered import serve_in_order
+
     server = ModbusTcpServer(face.device(0), address=(host, port), trace_packet=trace_packet)
+    serve_in_order(server)
     server.decoder = DeviceDecoder(face)  # before any connection: each framer takes it
     face.registers.connections = lambda: len(server.active_connections)
     await _listen(server, recording(server), serial=False)
@@ -384,6 +387,8 @@ async def serve_rtu(face: DeviceFace, port: str, unit: int = 1, baudrate: int = 
     """Answer Modbus RTU as slave `unit` on a serial port (or one end of a pty link)."""
     from pymodbus.server import ModbusSerialServer
 
+    from mplang.m8194h.ordered import serve_in_order
+
     silence = RtuSilence(unit)
     hook: PacketHook = silence
     if trace_packet is not None:
@@ -397,6 +402,7 @@ async def serve_rtu(face: DeviceFace, port: str, unit: int = 1, baudrate: int = 
     server = ModbusSerialServer(face.device(unit), framer=FramerType.RTU, port=port,
                                 baudrate=baudrate, parity=parity, stopbits=stopbits,
                                 bytesize=8, broadcast_enable=True, trace_packet=hook)
+    serve_in_order(server)
     server.decoder = DeviceDecoder(face, unit)
     await _listen(server, recording(server), serial=True)
     return server
