@@ -37,15 +37,8 @@ from mplang.family.ptylink import PtyLink, Wire
 from mplang.ir import catalogue
 from mplang.m8194h.compiler import compile_paths, compile_source
 from mplang.m8194h.flash import FlashImage, FlashReport, flash, image_from_build
-from mplang.m8194h.modbus import (
-    DeviceFace,
-    DeviceLink,
-    Endpoint,
-    SimClock,
-    serve_rtu,
-    serve_tcp,
-    stop,
-)
+from mplang.m8194h.modbus import DeviceLink, Endpoint
+from mplang.m8194h.modbus_server import DeviceFace, SimClock, serve_rtu, serve_tcp, stop
 from mplang.m8194h.sim.controller import VirtualController
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -45,7 +45,8 @@ from mplang.m8194h.compiler import compile_source
 from mplang.m8194h.flash import Flasher, FlashImage, FlashOptions, FlashReport, image_from_build
 from mplang.m8194h.flash import flasher as flasher_module
 from mplang.m8194h.flash.registers import state_name
-from mplang.m8194h.modbus import DeviceFace, DeviceLink, Endpoint, serve_rtu, serve_tcp, stop
+from mplang.m8194h.modbus import DeviceLink, Endpoint
+from mplang.m8194h.modbus_server import DeviceFace, serve_rtu, serve_tcp, stop
 
 TIMEOUT = 0.1  # the client's answer timeout; a round trip takes about 1 ms here
 MAX_DELAY = 1.5 * TIMEOUT  # the ratio: 0.75 s late at a 0.5 s timeout

@@ -23,7 +23,7 @@ from simproc import start_sim
 from test_modbus import mbpoll, needs_mbpoll
 
 from mplang.family.ptylink import PtyLink
-from mplang.m8194h.modbus import DeviceFace, SimClock, serve_rtu, serve_tcp, stop
+from mplang.m8194h.modbus_server import DeviceFace, SimClock, serve_rtu, serve_tcp, stop
 from mplang.m8194h.sim.controller import VirtualController
 
 # The manual's RSM_WRITE_MD frames (RS 2622-2650): MD100 = 0x12345678, MD1500 = 321.65
@@ -445,3 +445,23 @@ def test_two_rtu_frames_in_one_read_are_both_served_in_order() -> None:
     face, answers = over_rtu(lambda client, _face: ask_both(client))
     assert answers == [PAIR_ANSWERS[0][:5], PAIR_ANSWERS[1]]
     assert face.requests == 2
+
+
+def test_an_rtu_frame_with_a_bad_crc_is_skipped_and_the_next_one_in_the_read_served() -> None:
+    """A corrupted frame is ignored, as a real slave ignores it, and does not take the
+    good frame behind it in the same read with it."""
+    def corrupted_then_good(client: RawRtu) -> bytes:
+        bad = bytes([1]) + fc16(300, [0, 5])
+        good = bytes([1]) + fc3(300, 2)
+        crc = crc16(bad)
+        os.write(client.fd, bad + bytes([crc[0] ^ 0xFF, crc[1]]) + good + crc16(good))
+        data = b""
+        while len(data) < 9:  # the read's answer: unit, FC3, byte count, 2 registers, CRC
+            ready, _, _ = select.select([client.fd], [], [], 5)
+            assert ready, f"no answer (got {data.hex()})"
+            data += os.read(client.fd, 256)
+        return data
+
+    face, answer = over_rtu(lambda client, _face: corrupted_then_good(client))
+    assert answer[1:-2] == bytes([3, 4, 0, 0, 0, 0]), answer.hex()  # VAR0 was not written
+    assert face.requests == 1
