@@ -22,6 +22,11 @@ from pymodbus.client import AsyncModbusSerialClient, AsyncModbusTcpClient
 from pymodbus.exceptions import ConnectionException, ModbusException, ModbusIOException
 from pymodbus.framer import FramerRTU, FramerType
 from pymodbus.pdu import ModbusPDU
+from pymodbus.pdu.register_message import (
+    ReadHoldingRegistersRequest,
+    ReadInputRegistersRequest,
+    WriteMultipleRegistersRequest,
+)
 
 from mplang.family.linkfail import connect_reason, serial_reason
 from mplang.m8194h.endpoint import MODBUS_EXCEPTIONS as MODBUS_EXCEPTIONS
@@ -39,6 +44,12 @@ WRITE_COIL, WRITE_REGISTER, WRITE_COILS, WRITE_REGISTERS = 5, 6, 15, 16
 SUBFUNCTION_FIRST = 8000  # holding: the sub-function window (appendix table 20; sim.registers too)
 
 
+def _expire(future: asyncio.Future[ModbusPDU]) -> None:
+    """The answer's time is up: the request fails as pymodbus fails one it gave up on."""
+    if not future.done():
+        future.set_exception(ModbusIOException("no answer in time"))
+
+
 def crc16(data: bytes) -> bytes:
     """The Modbus RTU CRC of `data` as on the line (low byte first): pymodbus's own, so the
     frames we check and the frames pymodbus writes can never disagree."""
@@ -52,7 +63,6 @@ def crc16(data: bytes) -> bytes:
 # the caller (mplang.m8194h.flash) decides what an unanswered frame means.
 
 MAX_WRITE_REGISTERS = 123  # the Modbus limit for FC16, which pymodbus does not check
-ANSWER_GRACE_S = 1.0  # beyond pymodbus's own timeout, before a request is abandoned here
 DEVICE_BUSY = 0x06  # the exception that says "not carried out, send it again later"
 FENCE_REGISTER = 100  # input: a fence reads 2-9 registers from here (ready state onwards)
 FENCE_SETTLE_S = 0.002  # after a fence's barrier: events that came with its answer are seen
@@ -350,21 +360,13 @@ class DeviceLink:
         lost = self._lost
         describe = self.endpoint.describe()
         self._waiting = True  # a lost connection now fails the request at once (`_lost_now`)
-        guard = asyncio.timeout(self.endpoint.timeout + ANSWER_GRACE_S)
         task = asyncio.current_task()
         cancelling = task.cancelling() if task is not None else 0
         try:
-            async with guard:
-                reply = await request(client)
+            reply = await request(client)
             if task is not None and task.cancelling() > cancelling:
-                # pymodbus's wait_for (Python 3.11) drops a cancel that meets the answer:
-                # the caller asked to stop, so stop here as it would have
+                # a cancel that meets the answer: the caller asked to stop, so stop here
                 raise asyncio.CancelledError
-        except TimeoutError as exc:
-            if not guard.expired():  # a socket timeout inside pymodbus: the link failed
-                self._unsettle(lost=True)
-                raise LinkLost(f"{describe}: {exc}") from None
-            raise self._no_answer(describe, lost) from None
         except ConnectionException as exc:
             self._unsettle(lost=True)
             raise LinkLost(f"{describe}: connection lost ({exc})") from None
@@ -384,6 +386,39 @@ class DeviceLink:
             raise LinkTimeout(f"{describe}: the answer belongs to another request")
         if reply.isError():
             raise DeviceException(reply.exception_code, function_code, address)
+        return reply
+
+    async def _round_trip(self, client: Client, request: ModbusPDU) -> ModbusPDU:
+        """One request and its answer through pymodbus's framer and PDUs, without its
+        transaction manager (its lock, `wait_for` and repeat loop cost more CPU than the
+        request itself): one future, its timeout by `call_at`. A timeout counts toward
+        pymodbus's own rule, kept as it was: after `retries` + 4 unanswered requests in a
+        row a TCP connection is closed. ModbusIOException: no answer in time."""
+        ctx = client.ctx
+        if not ctx.transport:
+            raise ConnectionException("not connected")
+        loop = asyncio.get_running_loop()
+        future: asyncio.Future[ModbusPDU] = loop.create_future()
+        request.transaction_id = ctx.getNextTID()
+        ctx.recv_buffer = b""
+        ctx.response_future = future
+        ctx.pdu_send(request)
+        timer = loop.call_at(loop.time() + self.endpoint.timeout, _expire, future)
+        try:
+            reply = await future
+        except ModbusIOException:
+            if ctx.count_until_disconnect < 0:
+                if self.endpoint.host is not None:
+                    ctx.connection_lost(TimeoutError("Server not responding"))
+            else:
+                ctx.count_until_disconnect -= 1
+            raise
+        finally:
+            timer.cancel()
+        if (request.dev_id and reply.dev_id != request.dev_id) or \
+                (reply.transaction_id and reply.transaction_id != request.transaction_id):
+            raise ModbusIOException("the answer names another device or transaction")
+        ctx.count_until_disconnect = ctx.max_until_disconnect
         return reply
 
     async def _repeating(self, request: Callable[[Client], Awaitable[ModbusPDU]],
@@ -420,7 +455,8 @@ class DeviceLink:
         values = self._registers(frame)
         unit = self.endpoint.unit
         await self._exchange(
-            lambda c: c.write_registers(SUBFUNCTION_FIRST, values, device_id=unit),
+            lambda c: self._round_trip(c, WriteMultipleRegistersRequest(
+                address=SUBFUNCTION_FIRST, registers=values, dev_id=unit)),
             WRITE_REGISTERS, SUBFUNCTION_FIRST,
             lambda r: r.address == SUBFUNCTION_FIRST and r.count == len(values))
 
@@ -437,9 +473,9 @@ class DeviceLink:
         unit = self.endpoint.unit
 
         def request(c: Client) -> Awaitable[ModbusPDU]:
-            read = c.read_input_registers if function_code == READ_INPUT else \
-                c.read_holding_registers
-            return read(address, count=count, device_id=unit)
+            kind = ReadInputRegistersRequest if function_code == READ_INPUT else \
+                ReadHoldingRegistersRequest
+            return self._round_trip(c, kind(address=address, count=count, dev_id=unit))
 
         return request
 
@@ -455,7 +491,8 @@ class DeviceLink:
         registers = self._registers(values)
         unit = self.endpoint.unit
         await self._repeating(
-            lambda c: c.write_registers(address, registers, device_id=unit),
+            lambda c: self._round_trip(c, WriteMultipleRegistersRequest(
+                address=address, registers=registers, dev_id=unit)),
             WRITE_REGISTERS, address,
             lambda r: r.address == address and r.count == len(registers))
 
@@ -465,6 +502,7 @@ class DeviceLink:
         registers = self._registers(values)
         unit = self.endpoint.unit
         await self._exchange(
-            lambda c: c.write_registers(address, registers, device_id=unit),
+            lambda c: self._round_trip(c, WriteMultipleRegistersRequest(
+                address=address, registers=registers, dev_id=unit)),
             WRITE_REGISTERS, address,
             lambda r: r.address == address and r.count == len(registers))
