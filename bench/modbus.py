@@ -18,7 +18,7 @@ from pymodbus.client import AsyncModbusTcpClient
 from pymodbus.server import ModbusTcpServer
 from pymodbus.simulator import DataType, SimData, SimDevice
 
-from mplang.m8194h.modbus import DeviceFace, serve_tcp, stop
+from mplang.m8194h.modbus_server import DeviceFace, serve_tcp, stop
 from mplang.m8194h.sim.controller import VirtualController
 
 ROUNDS = 10

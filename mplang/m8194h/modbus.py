@@ -1,42 +1,34 @@
-"""Every pymodbus call of mplang lives here (pymodbus changes its API in minor releases).
+"""The downloader's Modbus client: every pymodbus name of the client side lives here.
 
-The server side puts a `RegisterMap` behind pymodbus's `SimDevice`: four separate blocks
-(coils, discrete inputs, holding and input registers) whose `action` hook runs the virtual
-controller up to the present moment, then answers from the register map or refuses with the
-device's Modbus exception. The controller's simulated clock follows the wall clock (times a
-speed factor), so a client sees programs run and axes move in real time. The server decodes
-only the function codes the manual documents (`DeviceDecoder`): any other is refused as the
-device refuses it, never answered by pymodbus itself (diagnostics, server identification).
+`DeviceLink` is the transport of `mplang.m8194h.flash` (and of status, call, var and the
+monitor) to one real or virtual device over Modbus TCP or RTU. It raises mplang's own
+exceptions (`LinkError` and its kinds, `DeviceException`, defined with `Endpoint` in
+`mplang.m8194h.endpoint` and re-exported here) so that the downloader never sees a pymodbus
+type.
 
-The client side (`DeviceLink`, below the server) is the downloader's transport to one real
-or virtual device over Modbus TCP or RTU. It raises mplang's own exceptions (`LinkError`
-and its kinds, `DeviceException`, defined with `Endpoint` in `mplang.m8194h.endpoint` and
-re-exported here) so that `mplang.m8194h.flash` never sees a pymodbus type.
-
-Client and server stay in one file because it is the one adapter of a library that renames
-its API in minor releases: every pymodbus name mplang uses is here, so an upgrade is checked
-in one place. The server's pymodbus modules are imported only when a server starts, so the
-commands that only talk to a device (flash, status, call, var) never load them.
+The virtual device's side is `mplang.m8194h.modbus_server` (and `mplang.m8194h.ordered`):
+with this module they are the one adapter of a library that renames its API in minor
+releases, so an upgrade is checked in these files. The split keeps the server, the virtual
+controller and aiohttp out of the commands that only talk to a device.
 """
 
 from __future__ import annotations
 
 import asyncio
-import logging
 import time
-from collections import deque
 from collections.abc import Awaitable, Callable
-from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, TypeAlias
 
 from pymodbus.client import AsyncModbusSerialClient, AsyncModbusTcpClient
-from pymodbus.constants import ExcCodes
 from pymodbus.exceptions import ConnectionException, ModbusException, ModbusIOException
 from pymodbus.framer import FramerRTU, FramerType
-from pymodbus.pdu import DecodePDU, ExceptionResponse, ModbusPDU
-from pymodbus.simulator import DataType, SimData, SimDevice
+from pymodbus.pdu import ModbusPDU
+from pymodbus.pdu.register_message import (
+    ReadHoldingRegistersRequest,
+    ReadInputRegistersRequest,
+    WriteMultipleRegistersRequest,
+)
 
-from mplang.family.linkfail import connect_reason, listen_reason, serial_reason
+from mplang.family.linkfail import connect_reason, serial_reason
 from mplang.m8194h.endpoint import MODBUS_EXCEPTIONS as MODBUS_EXCEPTIONS
 from mplang.m8194h.endpoint import DeviceException as DeviceException
 from mplang.m8194h.endpoint import Endpoint as Endpoint
@@ -45,179 +37,17 @@ from mplang.m8194h.endpoint import LinkLost as LinkLost
 from mplang.m8194h.endpoint import LinkTimeout as LinkTimeout
 from mplang.m8194h.endpoint import LinkUnavailable as LinkUnavailable
 from mplang.m8194h.endpoint import backoff as backoff
-from mplang.m8194h.openfail import OpenFailure, recording
-from mplang.m8194h.sim.controller import VirtualController
-from mplang.m8194h.sim.registers import (
-    COIL_SPAN,
-    DISCRETE_SPAN,
-    HOLDING_SPAN,
-    INPUT_SPAN,
-    SIM_DI_FIRST,
-    SIM_DI_LAST,
-    SUBFUNCTION_FIRST,
-    SUBFUNCTION_LAST,
-    Refusal,
-    RegisterMap,
-)
+from mplang.m8194h.openfail import recording
 
-if TYPE_CHECKING:  # the servers are imported where one is started, not by every client
-    # (pymodbus.server brings its HTTP simulator and aiohttp: most of `mpc flash`'s start-up)
-    from pymodbus.server import ModbusSerialServer, ModbusTcpServer
-
-Server: TypeAlias = "ModbusTcpServer | ModbusSerialServer"
-"""A running pymodbus server, as `serve_tcp` / `serve_rtu` return it."""
-PacketHook = Callable[[bool, bytes], bytes]
-"""Sees every Modbus frame a server receives (False) or sends (True) and returns what goes
-on: the frame, another one, or b"" to drop it. Tests inject link faults with it."""
-Interpose = Callable[[int, int, list[int] | None], int | None]
-"""Called with (function code, address, written values or None) before the device serves a
-request; a non-zero return refuses it with that Modbus exception code without carrying it
-out. Tests make a device busy with it."""
-
-MAX_LINES_PER_CATCH_UP = 200_000
-DEVICE_FAILURE = 0x04  # SLAVE DEVICE FAILURE: what a fault inside one request answers
-LOG = logging.getLogger("mplang.sim")
-# Refusals kept for tests and diagnosis, newest last: a server that keeps every refused request
-# (and the frames its traceback holds, about 2 KB each) grows without end under random frames.
-REFUSALS_KEPT = 1000
 READ_COILS, READ_DISCRETE, READ_HOLDING, READ_INPUT = 1, 2, 3, 4
 WRITE_COIL, WRITE_REGISTER, WRITE_COILS, WRITE_REGISTERS = 5, 6, 15, 16
+SUBFUNCTION_FIRST = 8000  # holding: the sub-function window (appendix table 20; sim.registers too)
 
 
-@dataclass
-class SimClock:
-    """Simulated seconds as a function of wall time: `speed` simulated seconds pass per wall
-    second (1.0 = real time; below 1 the device runs in slow motion)."""
-
-    speed: float = 1.0
-    origin_wall: float = field(default_factory=time.monotonic)
-    origin_sim: float = 0.0
-
-    def now(self) -> float:
-        return self.origin_sim + (time.monotonic() - self.origin_wall) * self.speed
-
-
-def _words(bits: list[bool]) -> list[int]:
-    """Bits packed 16 to a register, bit 0 first (the layout of pymodbus's bit blocks)."""
-    padded = bits + [False] * (-len(bits) % 16)
-    return [sum(1 << k for k in range(16) if padded[16 * w + k]) for w in range(len(padded) // 16)]
-
-
-class DeviceFace:
-    """The Modbus answers of one virtual controller, clocked by a `SimClock`."""
-
-    def __init__(self, controller: VirtualController, clock: SimClock | None = None,
-                 interpose: Interpose | None = None) -> None:
-        self.controller = controller
-        # the FIFO drains at the served pace (profile `execution.served_rtc_command_time_us`)
-        execution = controller.profile.raw["execution"]
-        controller.rtc_time = int(execution["served_rtc_command_time_us"]) / 1e6
-        self.registers = RegisterMap(controller)
-        self.clock = clock or SimClock(origin_sim=controller.clock)
-        self.interpose = interpose
-        self.requests = 0
-        self.refused = 0  # every refusal since the start; `refusals` holds the latest only
-        self.refusals: deque[Refusal] = deque(maxlen=REFUSALS_KEPT)
-        self.persist: Callable[[], bool] | None = None
-        """Stores the controller's non-volatile memory (`mpc sim --memory`): called after a
-        request that changed it and before that request is answered, as the device's FRAM
-        holds a closed download before its status registers say so. False: not stored, and
-        the request is answered SLAVE DEVICE FAILURE."""
-
-    def refuse(self, refusal: Refusal) -> ExcCodes:
-        """Keep `refusal` without the frames its traceback holds; the exception to answer."""
-        self.refused += 1
-        self.refusals.append(refusal.with_traceback(None))
-        return ExcCodes(refusal.code)
-
-    def catch_up(self) -> None:
-        """Run the controller up to the present moment. A program that needs more lines than
-        `MAX_LINES_PER_CATCH_UP` to get there makes the device lag instead of blocking every
-        client: its simulated clock falls behind and catches up on later calls."""
-        now = self.clock.now()
-        if now > self.controller.clock:
-            try:
-                self.controller.advance(now, MAX_LINES_PER_CATCH_UP)
-            except Exception as err:  # the device never falls over: see `fault`
-                self.controller.fault(err)
-                self.controller.clock = max(self.controller.clock, now)
-
-    async def action(self, function_code: int, start_address: int, address: int, count: int,
-                     current: list[int], values: list[int] | list[bool] | None) -> ExcCodes | None:
-        """pymodbus's hook, called before it answers a request from `current`."""
-        self.requests += 1
-        version = self.controller.memory_version  # a program's MD writes count too
-        self.catch_up()
-        if self.interpose is not None:
-            written = None if values is None else [int(v) for v in values]
-            injected = self.interpose(function_code, address, written)
-            if injected:
-                return self.refuse(Refusal(injected, reason="injected by interpose"))
-        answer: ExcCodes | None = None
-        try:
-            self._serve(function_code, start_address, address, count, current, values)
-        except Refusal as refusal:
-            answer = self.refuse(refusal)
-        except Exception as err:  # a fault inside one request: SLAVE DEVICE FAILURE
-            LOG.warning("internal fault serving FC%d at %d: %r", function_code, address, err,
-                        exc_info=err)
-            self.controller.log.append(f"{self.controller.clock:.4f} s: internal fault "
-                                       f"serving FC{function_code} at {address}: {err!r}")
-            answer = self.refuse(Refusal(DEVICE_FAILURE, reason=f"internal fault: {err!r}"))
-        if self.persist is not None and self.controller.memory_version != version and \
-                not self.persist():  # no await since the change: no reader saw it unsaved
-            answer = self.refuse(Refusal(DEVICE_FAILURE, reason="memory file not written"))
-        return answer
-
-    def refuse_function(self, function_code: int) -> None:
-        """A request whose function code the device does not serve (exception 1 follows)."""
-        self.requests += 1
-        self.refuse(self.registers.unsupported(function_code))
-
-    def _serve(self, fc: int, start: int, address: int, count: int, current: list[int],
-               values: list[int] | list[bool] | None) -> None:
-        regs = self.registers
-        if fc == READ_INPUT:
-            current[address - start:address - start + count] = regs.read_input(address, count)
-        elif fc in (WRITE_REGISTER, WRITE_REGISTERS) and values is not None:
-            regs.write_holding(address, [int(v) for v in values])
-        elif fc in (READ_HOLDING, WRITE_REGISTER, WRITE_REGISTERS):
-            # a read, or the read-back pymodbus makes to echo a register write
-            current[address - start:address - start + count] = regs.read_holding(address, count)
-        elif fc in (WRITE_COIL, WRITE_COILS) and values is not None:
-            regs.write_coils(address, [bool(v) for v in values])
-        elif fc in (READ_COILS, READ_DISCRETE, WRITE_COIL, WRITE_COILS):
-            # a read, or the read-back pymodbus makes to echo a coil write
-            # pymodbus passes the bit address and the number of 16-bit words it will read
-            coil = fc != READ_DISCRETE
-            bits = regs.coils() if coil else regs.discrete_inputs()
-            span = COIL_SPAN if coil else DISCRETE_SPAN
-            first_word = address // 16
-            last_bit = min(span, (first_word + count) * 16)
-            if address >= span:
-                raise Refusal(2, reason=f"bit {address} is outside the table")
-            words = _words(bits[first_word * 16:last_bit])
-            current[first_word - start:first_word - start + len(words)] = words
-        else:
-            raise regs.unsupported(fc)
-
-    def device(self, unit: int) -> SimDevice:
-        """The pymodbus device: separate coil, discrete input, holding and input blocks."""
-        coils = [SimData(0, values=[False] * COIL_SPAN, datatype=DataType.BITS)]
-        discrete = [SimData(0, values=[False] * DISCRETE_SPAN, datatype=DataType.BITS)]
-        holding = [
-            SimData(0, count=HOLDING_SPAN, datatype=DataType.REGISTERS),
-            SimData(self.registers.md_first,
-                    count=self.registers.md_end - self.registers.md_first,
-                    datatype=DataType.REGISTERS),
-            SimData(SUBFUNCTION_FIRST, count=SUBFUNCTION_LAST - SUBFUNCTION_FIRST + 1,
-                    datatype=DataType.REGISTERS),
-            SimData(SIM_DI_FIRST, count=SIM_DI_LAST - SIM_DI_FIRST + 1,
-                    datatype=DataType.REGISTERS),
-        ]
-        inputs = [SimData(0, count=INPUT_SPAN, datatype=DataType.REGISTERS)]
-        return SimDevice(id=unit, simdata=(coils, discrete, holding, inputs),
-                         action=self.action)
+def _expire(future: asyncio.Future[ModbusPDU]) -> None:
+    """The answer's time is up: the request fails as pymodbus fails one it gave up on."""
+    if not future.done():
+        future.set_exception(ModbusIOException("no answer in time"))
 
 
 def crc16(data: bytes) -> bytes:
@@ -226,204 +56,13 @@ def crc16(data: bytes) -> bytes:
     return FramerRTU.compute_CRC(data).to_bytes(2, "big")
 
 
-def rtu_frame_size(data: bytes) -> int:
-    """The length of the RTU frame at the start of `data` (unit, function, data, CRC) when
-    its end can only be found by its CRC: the shortest prefix whose last two bytes are the
-    CRC of the rest, or 0 when `data` holds none (yet)."""
-    crc = 0xFFFF
-    limit = min(len(data), FramerRTU.MAX_SIZE) - 2
-    for end, byte in enumerate(data[:limit], start=1):
-        crc = ((crc >> 8) & 0xFF) ^ FramerRTU.crc16_table[(crc ^ byte) & 0xFF]
-        if end >= 2 and (data[end] | data[end + 1] << 8) == crc:
-            return end + 2
-    return 0
-
-
-class RefusedRequest(ModbusPDU):
-    """A request the device refuses whatever it holds: its body is not read, the answer is
-    the request's function code + 0x80 with `refusal_code`."""
-
-    face: DeviceFace | None = None
-    unit: int | None = None  # the RTU slave address; None over TCP, which answers every unit
-    refusal_code: int = int(ExcCodes.ILLEGAL_VALUE)
-    reason: str = ""
-
-    def decode(self, data: bytes) -> None:
-        """Nothing to decode: the function code is all the answer needs."""
-
-    @classmethod
-    def calculateRtuFrameSize(cls, data: bytes) -> int:
-        return rtu_frame_size(data)
-
-    def note(self, face: DeviceFace) -> None:
-        """What the device records of the refusal."""
-        face.requests += 1
-        face.refuse(Refusal(self.refusal_code, reason=self.reason))
-
-    async def datastore_update(self, context: object, device_id: int) -> ModbusPDU:
-        if self.face is not None and self.unit in (None, device_id):  # another slave's
-            self.note(self.face)  # request leaves the device's records alone
-        return ExceptionResponse(self.function_code, ExcCodes(self.refusal_code))
-
-
-class UnsupportedRequest(RefusedRequest):
-    """A request with a function code the device does not serve: ILLEGAL FUNCTION, and
-    register 102 says why."""
-
-    refusal_code = int(ExcCodes.ILLEGAL_FUNCTION)
-
-    def note(self, face: DeviceFace) -> None:
-        face.refuse_function(self.function_code)
-
-
-def malformed(frame: bytes, limits: dict[int, int], coil_values: frozenset[int]) -> str:
-    """Why a request PDU of a served function code breaks the Modbus rules the device checks
-    (a quantity outside `limits`, a byte count that does not match it, an FC5 value that is
-    neither OFF nor ON), or "" for a well-formed one."""
-    fc = frame[0]
-    if len(frame) < 5:
-        return f"FC{fc}: the request is {len(frame)} bytes, too short"
-    quantity = int.from_bytes(frame[3:5], "big")
-    if fc == WRITE_COIL:
-        if quantity in coil_values:
-            return ""
-        return f"FC5 value 0x{quantity:04X} is neither 0x0000 nor 0xFF00"
-    limit = limits.get(fc)
-    if limit is not None and not 1 <= quantity <= limit:
-        return f"FC{fc}: quantity {quantity} is outside 1..{limit}"
-    if fc in (WRITE_COILS, WRITE_REGISTERS):
-        expected = (quantity + 7) // 8 if fc == WRITE_COILS else 2 * quantity
-        if len(frame) < 6 or frame[5] != expected or len(frame) - 6 != expected:
-            return f"FC{fc}: the byte count does not match quantity {quantity}"
-    return ""
-
-
-class DeviceDecoder(DecodePDU):
-    """pymodbus's request decoder limited to the function codes of the device profile
-    (`[modbus] function_codes`: 1-6, 15, 16). Any other decodes to an `UnsupportedRequest`,
-    so FC 7, 8, 11, 17, 43 ... are answered with exception 1 and register 102 = 1 (RS 11366)
-    rather than by pymodbus's own diagnostics and identification. A served request that breaks
-    the Modbus rules (`malformed`) decodes to a `RefusedRequest`: the request's function code
-    + 0x80 and exception 3 (Table 3, RS 939), over TCP and RTU alike."""
-
-    def __init__(self, face: DeviceFace, unit: int | None = None) -> None:
-        super().__init__(True)
-        self.face = face
-        self.unit = unit
-        modbus = face.controller.profile.raw["modbus"]
-        self.served = frozenset(int(fc) for fc in modbus["function_codes"])
-        self.limits = {int(fc): int(n) for fc, n in modbus["quantity_limits"].items()}
-        self.coil_values = frozenset(int(v) for v in modbus["coil_values"])
-        self.pdu_table = {fc: DecodePDU.pdu_table[fc] for fc in self.served}
-
-    def lookupPduClass(self, data: bytes) -> type[ModbusPDU] | None:
-        """RTU framing: an unsupported function code starts a frame only where a complete
-        one (valid CRC) is there; otherwise the byte is skipped, as for any garbage."""
-        if len(data) > 1 and data[1] not in self.served:
-            return UnsupportedRequest if rtu_frame_size(data) else None
-        return super().lookupPduClass(data)
-
-    def _refused(self, kind: type[RefusedRequest], function_code: int,
-                 reason: str) -> RefusedRequest:
-        request = kind()
-        request.function_code = function_code
-        request.face, request.unit, request.reason = self.face, self.unit, reason
-        return request
-
-    def decode(self, frame: bytes) -> ModbusPDU | None:
-        if not frame:
-            return None
-        if frame[0] not in self.served:
-            return self._refused(UnsupportedRequest, frame[0], "")
-        reason = malformed(frame, self.limits, self.coil_values)
-        if reason:
-            return self._refused(RefusedRequest, frame[0], reason)
-        return super().decode(frame)
-
-
-class RtuSilence:
-    """A real RTU slave does not answer frames addressed to another unit: drop them."""
-
-    def __init__(self, unit: int) -> None:
-        self.unit = unit
-
-    def __call__(self, sending: bool, data: bytes) -> bytes:
-        if sending and data and data[0] != self.unit:
-            return b""
-        return data
-
-
-async def _listen(server: Server, failures: list[BaseException], serial: bool) -> None:
-    """Start a server; OpenFailure with the reason if it cannot listen."""
-    try:
-        await server.serve_forever(background=True)
-    except (OSError, RuntimeError) as exc:
-        cause = failures[-1] if failures else exc
-        raise OpenFailure(serial_reason(cause) if serial else listen_reason(cause)) from None
-
-
-async def serve_tcp(face: DeviceFace, host: str, port: int,
-                    trace_packet: PacketHook | None = None) -> tuple[ModbusTcpServer, int]:
-    """Listen for Modbus TCP on host:port (port 0: any free port); return the server and the
-    port it listens on. Every unit id is answered: the ET-M8194H is the only device there.
-    OpenFailure says why it cannot listen (port in use, no such host, ...)."""
-    from pymodbus.server import ModbusTcpServer
-
-    server = ModbusTcpServer(face.device(0), address=(host, port), trace_packet=trace_packet)
-    server.decoder = DeviceDecoder(face)  # before any connection: each framer takes it
-    face.registers.connections = lambda: len(server.active_connections)
-    await _listen(server, recording(server), serial=False)
-    sockets = getattr(server.transport, "sockets", None) or []
-    bound = sockets[0].getsockname()[1] if sockets else port
-    return server, int(bound)
-
-
-async def serve_rtu(face: DeviceFace, port: str, unit: int = 1, baudrate: int = 115200,
-                    parity: str = "N", stopbits: int = 1,
-                    trace_packet: PacketHook | None = None) -> ModbusSerialServer:
-    """Answer Modbus RTU as slave `unit` on a serial port (or one end of a pty link)."""
-    from pymodbus.server import ModbusSerialServer
-
-    silence = RtuSilence(unit)
-    hook: PacketHook = silence
-    if trace_packet is not None:
-        extra = trace_packet
-
-        def chained(sending: bool, data: bytes) -> bytes:
-            data = silence(sending, data)
-            return extra(sending, data) if data else data
-
-        hook = chained
-    server = ModbusSerialServer(face.device(unit), framer=FramerType.RTU, port=port,
-                                baudrate=baudrate, parity=parity, stopbits=stopbits,
-                                bytesize=8, broadcast_enable=True, trace_packet=hook)
-    server.decoder = DeviceDecoder(face, unit)
-    await _listen(server, recording(server), serial=True)
-    return server
-
-
-async def stop(server: Server) -> None:
-    await server.shutdown()  # type: ignore[no-untyped-call]
-    await asyncio.sleep(0)
-
-
-def drop_connections(server: Server) -> int:
-    """Close every client connection of a running server, as a network reset or a device
-    reboot does (the server keeps listening). Returns how many were closed."""
-    connections = list(server.active_connections.values())
-    for connection in connections:
-        connection.close()
-    return len(connections)
-
-
-# ================================================================================ client side
+# ------------------------------------------------------------------------------ the link
 # The downloader's transport to one device. pymodbus's own repeats are switched off: it would
 # send an unanswered FC16 again, and a sub-function frame carried out twice stores a macro line
 # twice. So only reads and idempotent holding writes are repeated here; a frame never is, and
 # the caller (mplang.m8194h.flash) decides what an unanswered frame means.
 
 MAX_WRITE_REGISTERS = 123  # the Modbus limit for FC16, which pymodbus does not check
-ANSWER_GRACE_S = 1.0  # beyond pymodbus's own timeout, before a request is abandoned here
 DEVICE_BUSY = 0x06  # the exception that says "not carried out, send it again later"
 FENCE_REGISTER = 100  # input: a fence reads 2-9 registers from here (ready state onwards)
 FENCE_SETTLE_S = 0.002  # after a fence's barrier: events that came with its answer are seen
@@ -721,21 +360,13 @@ class DeviceLink:
         lost = self._lost
         describe = self.endpoint.describe()
         self._waiting = True  # a lost connection now fails the request at once (`_lost_now`)
-        guard = asyncio.timeout(self.endpoint.timeout + ANSWER_GRACE_S)
         task = asyncio.current_task()
         cancelling = task.cancelling() if task is not None else 0
         try:
-            async with guard:
-                reply = await request(client)
+            reply = await request(client)
             if task is not None and task.cancelling() > cancelling:
-                # pymodbus's wait_for (Python 3.11) drops a cancel that meets the answer:
-                # the caller asked to stop, so stop here as it would have
+                # a cancel that meets the answer: the caller asked to stop, so stop here
                 raise asyncio.CancelledError
-        except TimeoutError as exc:
-            if not guard.expired():  # a socket timeout inside pymodbus: the link failed
-                self._unsettle(lost=True)
-                raise LinkLost(f"{describe}: {exc}") from None
-            raise self._no_answer(describe, lost) from None
         except ConnectionException as exc:
             self._unsettle(lost=True)
             raise LinkLost(f"{describe}: connection lost ({exc})") from None
@@ -755,6 +386,39 @@ class DeviceLink:
             raise LinkTimeout(f"{describe}: the answer belongs to another request")
         if reply.isError():
             raise DeviceException(reply.exception_code, function_code, address)
+        return reply
+
+    async def _round_trip(self, client: Client, request: ModbusPDU) -> ModbusPDU:
+        """One request and its answer through pymodbus's framer and PDUs, without its
+        transaction manager (its lock, `wait_for` and repeat loop cost more CPU than the
+        request itself): one future, its timeout by `call_at`. A timeout counts toward
+        pymodbus's own rule, kept as it was: after `retries` + 4 unanswered requests in a
+        row a TCP connection is closed. ModbusIOException: no answer in time."""
+        ctx = client.ctx
+        if not ctx.transport:
+            raise ConnectionException("not connected")
+        loop = asyncio.get_running_loop()
+        future: asyncio.Future[ModbusPDU] = loop.create_future()
+        request.transaction_id = ctx.getNextTID()
+        ctx.recv_buffer = b""
+        ctx.response_future = future
+        ctx.pdu_send(request)
+        timer = loop.call_at(loop.time() + self.endpoint.timeout, _expire, future)
+        try:
+            reply = await future
+        except ModbusIOException:
+            if ctx.count_until_disconnect < 0:
+                if self.endpoint.host is not None:
+                    ctx.connection_lost(TimeoutError("Server not responding"))
+            else:
+                ctx.count_until_disconnect -= 1
+            raise
+        finally:
+            timer.cancel()
+        if (request.dev_id and reply.dev_id != request.dev_id) or \
+                (reply.transaction_id and reply.transaction_id != request.transaction_id):
+            raise ModbusIOException("the answer names another device or transaction")
+        ctx.count_until_disconnect = ctx.max_until_disconnect
         return reply
 
     async def _repeating(self, request: Callable[[Client], Awaitable[ModbusPDU]],
@@ -791,7 +455,8 @@ class DeviceLink:
         values = self._registers(frame)
         unit = self.endpoint.unit
         await self._exchange(
-            lambda c: c.write_registers(SUBFUNCTION_FIRST, values, device_id=unit),
+            lambda c: self._round_trip(c, WriteMultipleRegistersRequest(
+                address=SUBFUNCTION_FIRST, registers=values, dev_id=unit)),
             WRITE_REGISTERS, SUBFUNCTION_FIRST,
             lambda r: r.address == SUBFUNCTION_FIRST and r.count == len(values))
 
@@ -808,9 +473,9 @@ class DeviceLink:
         unit = self.endpoint.unit
 
         def request(c: Client) -> Awaitable[ModbusPDU]:
-            read = c.read_input_registers if function_code == READ_INPUT else \
-                c.read_holding_registers
-            return read(address, count=count, device_id=unit)
+            kind = ReadInputRegistersRequest if function_code == READ_INPUT else \
+                ReadHoldingRegistersRequest
+            return self._round_trip(c, kind(address=address, count=count, dev_id=unit))
 
         return request
 
@@ -826,7 +491,8 @@ class DeviceLink:
         registers = self._registers(values)
         unit = self.endpoint.unit
         await self._repeating(
-            lambda c: c.write_registers(address, registers, device_id=unit),
+            lambda c: self._round_trip(c, WriteMultipleRegistersRequest(
+                address=address, registers=registers, dev_id=unit)),
             WRITE_REGISTERS, address,
             lambda r: r.address == address and r.count == len(registers))
 
@@ -836,6 +502,7 @@ class DeviceLink:
         registers = self._registers(values)
         unit = self.endpoint.unit
         await self._exchange(
-            lambda c: c.write_registers(address, registers, device_id=unit),
+            lambda c: self._round_trip(c, WriteMultipleRegistersRequest(
+                address=address, registers=registers, dev_id=unit)),
             WRITE_REGISTERS, address,
             lambda r: r.address == address and r.count == len(registers))

@@ -23,7 +23,7 @@ from pymodbus.client import ModbusSerialClient, ModbusTcpClient
 
 from mplang.family.ptylink import PtyLink
 from mplang.ir import catalogue
-from mplang.m8194h.modbus import DeviceFace, Server, SimClock, serve_rtu, serve_tcp, stop
+from mplang.m8194h.modbus_server import DeviceFace, Server, SimClock, serve_rtu, serve_tcp, stop
 from mplang.m8194h.sim import frame_check
 from mplang.m8194h.sim.controller import VirtualController
 from mplang.m8194h.sim.tables import MacroTable, validate

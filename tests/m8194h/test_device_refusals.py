@@ -20,7 +20,7 @@ from mplang.family.ptylink import PtyLink
 from mplang.ir import catalogue
 from mplang.ir.macro import VarRef
 from mplang.m8194h.encode import Encoder
-from mplang.m8194h.modbus import DeviceFace, SimClock, serve_rtu, serve_tcp, stop
+from mplang.m8194h.modbus_server import DeviceFace, SimClock, serve_rtu, serve_tcp, stop
 from mplang.m8194h.sim.controller import VirtualController
 
 CAT = catalogue.load()

@@ -19,7 +19,7 @@ from test_modbus import frames, until
 
 from mplang.family.ptylink import PtyLink
 from mplang.ir.macro import VarRef
-from mplang.m8194h.modbus import DeviceFace, SimClock, serve_rtu, serve_tcp, stop
+from mplang.m8194h.modbus_server import DeviceFace, SimClock, serve_rtu, serve_tcp, stop
 from mplang.m8194h.sim.controller import VirtualController
 
 ILLEGAL_ADDRESS, ILLEGAL_VALUE, BUSY = 0x02, 0x03, 0x06

@@ -41,9 +41,9 @@ from mplang.m8194h.flash import (
     load_image,
 )
 from mplang.m8194h.image import render_json
-from mplang.m8194h.modbus import (
+from mplang.m8194h.modbus import Endpoint
+from mplang.m8194h.modbus_server import (
     DeviceFace,
-    Endpoint,
     Interpose,
     PacketHook,
     Server,

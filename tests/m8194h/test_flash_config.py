@@ -25,7 +25,8 @@ from mplang.m8194h.flash import (
     render_plan,
 )
 from mplang.m8194h.image import render_json
-from mplang.m8194h.modbus import DeviceFace, Endpoint, Server, SimClock, serve_tcp, stop
+from mplang.m8194h.modbus import Endpoint
+from mplang.m8194h.modbus_server import DeviceFace, Server, SimClock, serve_tcp, stop
 from mplang.m8194h.sim.controller import VirtualController
 
 ROOT = Path(__file__).resolve().parents[2]

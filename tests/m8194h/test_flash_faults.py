@@ -37,17 +37,8 @@ from mplang.cli.common import (
 from mplang.family.ptylink import PtyLink
 from mplang.m8194h.compiler import compile_source
 from mplang.m8194h.flash import Flasher, FlashImage, FlashOptions, FlashReport, image_from_build
-from mplang.m8194h.modbus import (
-    DeviceFace,
-    DeviceLink,
-    Endpoint,
-    Interpose,
-    LinkTimeout,
-    SimClock,
-    serve_rtu,
-    serve_tcp,
-    stop,
-)
+from mplang.m8194h.modbus import DeviceLink, Endpoint, LinkTimeout
+from mplang.m8194h.modbus_server import DeviceFace, Interpose, SimClock, serve_rtu, serve_tcp, stop
 from mplang.m8194h.sim.controller import VirtualController
 
 READ_HOLDING, READ_INPUT, WRITE_REGISTERS = 3, 4, 16

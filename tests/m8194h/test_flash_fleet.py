@@ -16,7 +16,8 @@ from test_flash import ARCS, ISR_JOB, assert_all_stored, build_of, device, endpo
 from mplang.cli import EXIT_FLEET_MIXED, EXIT_NO_DEVICE, EXIT_OK
 from mplang.family.ptylink import PtyLink
 from mplang.m8194h.flash import FlashReport, FleetDevice, flash_fleet, image_from_build
-from mplang.m8194h.modbus import DeviceFace, Endpoint, serve_rtu, serve_tcp, stop
+from mplang.m8194h.modbus import Endpoint
+from mplang.m8194h.modbus_server import DeviceFace, serve_rtu, serve_tcp, stop
 
 
 def free_port() -> int:

@@ -26,7 +26,7 @@ from mplang.m8194h.flash import (
     image_from_build,
     render_plan,
 )
-from mplang.m8194h.modbus import DeviceFace
+from mplang.m8194h.modbus_server import DeviceFace
 
 JOB = """MP 3 first
     SET_V X, 1000

@@ -23,7 +23,8 @@ from mplang.ir import catalogue
 from mplang.m8194h.compiler import compile_source
 from mplang.m8194h.flash import FlashOptions, flash, image_from_build
 from mplang.m8194h.flash import lease as leases
-from mplang.m8194h.modbus import DeviceFace, Endpoint, SimClock, serve_tcp, stop
+from mplang.m8194h.modbus import Endpoint
+from mplang.m8194h.modbus_server import DeviceFace, SimClock, serve_tcp, stop
 from mplang.m8194h.sim.controller import VirtualController
 
 SETTINGS = leases.LeaseSettings.of(catalogue.load().profile)

@@ -18,7 +18,7 @@ from test_flash_incremental import JOB, Counter, image_of
 
 from mplang.m8194h.flash import FlashOptions, FlashRecord, FlashReport, flash
 from mplang.m8194h.flash import manifest as mf
-from mplang.m8194h.modbus import DeviceFace
+from mplang.m8194h.modbus_server import DeviceFace
 
 EXAMPLE = mf.Manifest("0123456789abcdef", "0.1.0", 1_790_000_000, 1, (4, 0, 0x1234, 7, 0),
                       (mf.ManifestProgram("mp", 3, "00112233aabbccdd", "first"),

@@ -18,10 +18,10 @@ from simproc import start_sim
 
 from mplang.family.ptylink import PtyLink
 from mplang.m8194h.compiler import compile_source
-from mplang.m8194h.modbus import (
+from mplang.m8194h.modbus import crc16
+from mplang.m8194h.modbus_server import (
     DeviceFace,
     SimClock,
-    crc16,
     rtu_frame_size,
     serve_rtu,
     serve_tcp,

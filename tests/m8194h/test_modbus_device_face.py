@@ -16,19 +16,20 @@ import sys
 import time
 from collections.abc import Callable, Coroutine
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import pytest
 from simproc import start_sim
 from test_modbus import mbpoll, needs_mbpoll
 
 from mplang.family.ptylink import PtyLink
-from mplang.m8194h.modbus import DeviceFace, SimClock, serve_rtu, serve_tcp, stop
+from mplang.m8194h.modbus_server import DeviceFace, SimClock, serve_rtu, serve_tcp, stop
 from mplang.m8194h.sim.controller import VirtualController
 
 # The manual's RSM_WRITE_MD frames (RS 2622-2650): MD100 = 0x12345678, MD1500 = 321.65
 WRITE_MD100 = [0x0A27, 0x0000, 0x0064, 0x1234, 0x5678, 0x0000, 0x0000]
 WRITE_MD1500 = [0x0A27, 0x0000, 0x05DC, 0x0000, 0x0000, 0x43A0, 0xD333]
+T = TypeVar("T")
 UNSUPPORTED = (7, 8, 11, 12, 17, 20, 21, 22, 23, 24, 43, 0x41, 0x64, 0x7F)
 
 
@@ -157,19 +158,25 @@ def test_3_19_machine_data_manual_frames_over_tcp() -> None:
     over_tcp(test)
 
 
-def test_3_19_machine_data_manual_frames_over_rtu() -> None:
-    async def scenario() -> None:
+def over_rtu(talk: Callable[[RawRtu, DeviceFace], T]) -> tuple[DeviceFace, T]:
+    """Run the blocking `talk(client, face)` against a virtual controller served as RTU
+    slave 1 on a pty pair; the face and what `talk` returned."""
+    async def scenario() -> tuple[DeviceFace, T]:
         face = served()
         with PtyLink() as link:
             server = await serve_rtu(face, link.device_end, unit=1)
             client = RawRtu(link.client_end, 1)
             try:
-                await asyncio.to_thread(check_md_manual_examples, client.ask, face.controller)
+                return face, await asyncio.to_thread(talk, client, face)
             finally:
                 client.close()
                 await stop(server)
 
-    asyncio.run(scenario())
+    return asyncio.run(scenario())
+
+
+def test_3_19_machine_data_manual_frames_over_rtu() -> None:
+    over_rtu(lambda client, face: check_md_manual_examples(client.ask, face.controller))
 
 
 def test_12_2_2_word_order_holds_for_machine_data() -> None:
@@ -392,3 +399,69 @@ def test_et_12_1_9_input_86_counts_the_connected_tcp_clients() -> None:
 
     over_tcp(test)
 
+
+
+# ------------------------------------------------- requests that arrive in one read
+PAIR_ANSWERS = [fc16(300, [0, 77]), bytes([3, 4, 0, 0, 0, 77])]
+"""A VAR0 write and its read-back sent in one write: the answers the device owes, in order
+(FC16 echoes address and count)."""
+
+
+def test_two_requests_in_one_tcp_segment_are_both_served_in_order() -> None:
+    """pymodbus's server took one request per read and dropped the rest when it answered;
+    a real device serves every request of its connection, in order."""
+    async def test(face: DeviceFace, port: int) -> None:
+        reader, writer = await asyncio.open_connection("127.0.0.1", port)
+        pdus = [fc16(300, [0, 77]), fc3(300, 2)]
+        writer.write(b"".join(struct.pack(">HHHB", tid, 0, len(pdu) + 1, 1) + pdu
+                              for tid, pdu in enumerate(pdus, start=1)))
+        answers = []
+        for tid in (1, 2):
+            header = await asyncio.wait_for(reader.readexactly(7), 5)
+            assert struct.unpack(">HHHB", header)[0] == tid
+            answers.append(await reader.readexactly(header[5] - 1))
+        writer.close()
+        assert answers[0] == fc16(300, [0, 77])[:5]
+        assert answers[1] == PAIR_ANSWERS[1]
+        assert face.requests == 2
+
+    over_tcp(test)
+
+
+def test_two_rtu_frames_in_one_read_are_both_served_in_order() -> None:
+    """The RTU framer used up the whole read for its first frame: a frame repeated by a
+    relay right before the next one stored a line twice and lost the next, under an answer
+    count that came out even (docs/flash-faults.md)."""
+    def ask_both(client: RawRtu) -> list[bytes]:
+        frames = [bytes([1]) + pdu for pdu in (fc16(300, [0, 77]), fc3(300, 2))]
+        os.write(client.fd, b"".join(frame + crc16(frame) for frame in frames))
+        data = b""
+        while len(data) < 8 + 9:  # the FC16 echo (8 bytes) and 2 registers (9 bytes)
+            ready, _, _ = select.select([client.fd], [], [], 5)
+            assert ready, f"answers missing (got {data.hex()})"
+            data += os.read(client.fd, 256)
+        return [data[1:6], data[9:15]]
+
+    face, answers = over_rtu(lambda client, _face: ask_both(client))
+    assert answers == [PAIR_ANSWERS[0][:5], PAIR_ANSWERS[1]]
+    assert face.requests == 2
+
+
+def test_an_rtu_frame_with_a_bad_crc_is_skipped_and_the_next_one_in_the_read_served() -> None:
+    """A corrupted frame is ignored, as a real slave ignores it, and does not take the
+    good frame behind it in the same read with it."""
+    def corrupted_then_good(client: RawRtu) -> bytes:
+        bad = bytes([1]) + fc16(300, [0, 5])
+        good = bytes([1]) + fc3(300, 2)
+        crc = crc16(bad)
+        os.write(client.fd, bad + bytes([crc[0] ^ 0xFF, crc[1]]) + good + crc16(good))
+        data = b""
+        while len(data) < 9:  # the read's answer: unit, FC3, byte count, 2 registers, CRC
+            ready, _, _ = select.select([client.fd], [], [], 5)
+            assert ready, f"no answer (got {data.hex()})"
+            data += os.read(client.fd, 256)
+        return data
+
+    face, answer = over_rtu(lambda client, _face: corrupted_then_good(client))
+    assert answer[1:-2] == bytes([3, 4, 0, 0, 0, 0]), answer.hex()  # VAR0 was not written
+    assert face.requests == 1

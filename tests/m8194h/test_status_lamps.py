@@ -12,7 +12,8 @@ import asyncio
 from pymodbus.client import AsyncModbusTcpClient
 
 from mplang.ir import catalogue
-from mplang.m8194h.modbus import DeviceFace, Endpoint, SimClock, serve_tcp, stop
+from mplang.m8194h.modbus import Endpoint
+from mplang.m8194h.modbus_server import DeviceFace, SimClock, serve_tcp, stop
 from mplang.m8194h.sim.axis_io import AxisSensors
 from mplang.m8194h.sim.controller import VirtualController
 from mplang.m8194h.status import lamp_bits, probe, render

@@ -16,7 +16,8 @@ from hypothesis import strategies as st
 
 from mplang.m8194h.compiler import BuildResult, Options, compile_source
 from mplang.m8194h.image import render_variables_c, render_variables_json, render_variables_python
-from mplang.m8194h.modbus import DeviceFace, DeviceLink, Endpoint, SimClock, serve_tcp, stop
+from mplang.m8194h.modbus import DeviceLink, Endpoint
+from mplang.m8194h.modbus_server import DeviceFace, SimClock, serve_tcp, stop
 from mplang.m8194h.sim.controller import VirtualController
 from mplang.m8194h.sim.service import preload
 

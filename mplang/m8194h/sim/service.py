@@ -22,7 +22,7 @@ from pathlib import Path
 from mplang.family.face import Companion
 from mplang.family.ptylink import PtyLink
 from mplang.lang.limits import read_json_file
-from mplang.m8194h.modbus import DeviceFace, Server, SimClock, serve_rtu, serve_tcp, stop
+from mplang.m8194h.modbus_server import DeviceFace, Server, SimClock, serve_rtu, serve_tcp, stop
 from mplang.m8194h.sim.controller import VirtualController
 from mplang.m8194h.sim.preload import ServiceError as ServiceError
 from mplang.m8194h.sim.preload import preload as preload  # re-exported: the service API

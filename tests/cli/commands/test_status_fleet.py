@@ -19,7 +19,7 @@ from simproc import start_sim
 from mplang.cli.common import EXIT_NO_DEVICE, EXIT_OK, EXIT_OUT_OF_SYNC
 from mplang.family.face import FamilyBuild, StatusJob
 from mplang.ir.unit import Options
-from mplang.m8194h.modbus import DeviceFace, Interpose, SimClock, serve_tcp, stop
+from mplang.m8194h.modbus_server import DeviceFace, Interpose, SimClock, serve_tcp, stop
 from mplang.m8194h.sim.controller import VirtualController
 from mplang.m8194h.status import Builds
 from mplang.m8194h.status_fleet import read_all, verdict

@@ -13,7 +13,7 @@ from pymodbus.client import AsyncModbusTcpClient
 
 from mplang.ir import catalogue
 from mplang.m8194h.compiler import compile_source
-from mplang.m8194h.modbus import DeviceFace, SimClock, serve_tcp, stop
+from mplang.m8194h.modbus_server import DeviceFace, SimClock, serve_tcp, stop
 from mplang.m8194h.sim.controller import DeviceBusy, VirtualController
 from mplang.m8194h.sim.preload import preload
 

@@ -21,7 +21,7 @@ from simproc import start_sim
 
 from mplang.ir import catalogue
 from mplang.m8194h.compiler import compile_source
-from mplang.m8194h.modbus import DeviceFace, SimClock, serve_tcp, stop
+from mplang.m8194h.modbus_server import DeviceFace, SimClock, serve_tcp, stop
 from mplang.m8194h.run import run_build
 from mplang.m8194h.sim import unmodelled
 from mplang.m8194h.sim.controller import VirtualController

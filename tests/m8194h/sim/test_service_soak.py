@@ -17,7 +17,7 @@ from pathlib import Path
 from simload import mixed_load, rss_kib
 from simproc import start_sim
 
-from mplang.m8194h.modbus import REFUSALS_KEPT, DeviceFace
+from mplang.m8194h.modbus_server import REFUSALS_KEPT, DeviceFace
 from mplang.m8194h.sim.controller import VirtualController
 
 SAMPLES = sorted(str(p) for p in (Path(__file__).resolve().parents[3] / "samples").glob("*.mp"))
