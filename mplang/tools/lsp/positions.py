@@ -85,13 +85,23 @@ def _units(char: str, encoding: str) -> int:
 
 
 def to_client_character(line_text: str, character: int, encoding: str) -> int:
-    """Code points -> the client's code units on one line."""
-    return sum(_units(char, encoding) for char in line_text[:max(character, 0)])
+    """Code points -> the client's code units on one line (clamped to the line).
+
+    An ASCII line (nearly every line of a program) or UTF-32 counts one unit per code point:
+    no per-character walk; only a line with other characters is counted character by
+    character."""
+    character = min(max(character, 0), len(line_text))
+    if encoding == "utf-32" or line_text.isascii():
+        return character
+    return sum(_units(char, encoding) for char in line_text[:character])
 
 
 def from_client_character(line_text: str, units: int, encoding: str) -> int:
     """The client's code units -> code points on one line (clamped to the line; a position
-    that falls inside a character's code units moves past that character)."""
+    that falls inside a character's code units moves past that character). ASCII and UTF-32
+    take the fast path of `to_client_character`."""
+    if encoding == "utf-32" or line_text.isascii():
+        return min(max(units, 0), len(line_text))
     counted = 0
     for index, char in enumerate(line_text):
         if counted >= units:
