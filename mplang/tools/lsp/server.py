@@ -354,7 +354,7 @@ class MpLanguageServer(LanguageServer):
         related = [lsp.DiagnosticRelatedInformation(
             location=self.location(uri, analysis, where), message=note)
                    for where, note in found.related]
-        docs = lsp.CodeDescription(href=found.docs.as_uri()) if found.docs else None
+        docs = lsp.CodeDescription(href=_page_uri(found.docs)) if found.docs else None
         return lsp.Diagnostic(range=self.to_client(analysis.lines, found.range),
                               message=message, severity=severity, code=found.code or None,
                               code_description=docs, source="mpc",
@@ -422,6 +422,12 @@ class MpLanguageServer(LanguageServer):
         completion = capabilities.completion if capabilities else None
         item = completion.completion_item if completion else None
         return bool(item and item.snippet_support)
+
+
+@functools.lru_cache(maxsize=256)
+def _page_uri(page: Path) -> str:
+    """A check page's address (a few pages, linked by hundreds of diagnostics)."""
+    return page.as_uri()
 
 
 def _guarded(server: MpLanguageServer

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from mplang.tools.lsp import outline
@@ -127,3 +127,24 @@ def test_a_line_of_thousands_of_words_is_read_in_one_pass(tmp_path: Path) -> Non
                  if data[i + 4] & (1 << outline.TOKEN_MODIFIERS.index("readonly"))]
     assert len(constants) == 5001  # the definition and every use
     assert len(editing.references(analysis, Pos(0, 6))) == 5001
+
+
+EDITED_LINES = ["CONST SPEED = 5", "ALIAS speed = VAR7", "VAR pace", "MP 3 speed", "MP 4",
+                "END MP", "    SET_V X, SPEED", "    pace = speed + 1", "    CALL speed",
+                "    GOTO top", "LABEL top", "    MP 5 (", "    IF SPEED > 1", "    END IF",
+                "    NOPE X", "# speed 😀", "    SET_V Y, 'é' + pace"]
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.lists(st.sampled_from(EDITED_LINES), max_size=10), min_size=2, max_size=4))
+@example([["    MP 5 ("], ["MP 4", "    MP 5 ("]])  # a bad header, alone, then after one
+def test_tokens_kept_by_line_equal_tokens_classified_afresh(texts: list[list[str]]) -> None:
+    """A sequence of edits that define and drop names (a CONST, an ALIAS, a VAR, a program
+    named like them) and move program headers: the tokens computed with the lines kept from
+    the texts before equal those of the same text with nothing kept."""
+    path = Path("edited.mp")
+    for lines in texts:
+        analysis = analyse(path, "\n".join(lines) + "\n")
+        kept = outline.semantic_tokens(analysis)
+        outline._classified_lines.clear()
+        assert kept == outline.semantic_tokens(analysis)
