@@ -32,7 +32,7 @@ import os
 import sys
 import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Hashable, Iterator
 from pathlib import Path
 from typing import Any, BinaryIO, TypeVar
 from urllib.parse import unquote
@@ -127,6 +127,9 @@ class MpLanguageServer(LanguageServer):
         self.check_seconds: dict[str, float] = {}
         self.pending: dict[str, asyncio.TimerHandle] = {}
         self.converted: dict[str, tuple[Analysis, str, list[lsp.Diagnostic]]] = {}
+        # By URI: the diagnostics last published, as JSON-ready values, by what they were
+        # converted from (`_published_key`), for the next publish to take again.
+        self.published: dict[str, dict[Hashable, dict[str, Any]]] = {}
         # The text of each open document (by unquoted URI), kept here with the protocol's
         # line breaks (`positions.apply_change`) rather than by pygls' incremental sync.
         self.texts: dict[str, str] = {}
@@ -280,8 +283,36 @@ class MpLanguageServer(LanguageServer):
         version = self.version_of(uri)
         if self.versions.get(uri, version) != version:
             return
-        self.text_document_publish_diagnostics(lsp.PublishDiagnosticsParams(
-            uri=uri, version=version, diagnostics=self.client_diagnostics(uri, analysis)))
+        params: dict[str, Any] = {"uri": uri, "diagnostics": self.json_diagnostics(uri,
+                                                                                   analysis)}
+        if version is not None:
+            params["version"] = version
+        # JSON-ready values: the C encoder writes them without a call back per object
+        self.protocol._send_data({"jsonrpc": "2.0", "params": params,
+                                  "method": lsp.TEXT_DOCUMENT_PUBLISH_DIAGNOSTICS})
+
+    def json_diagnostics(self, uri: str, analysis: Analysis) -> list[dict[str, Any]]:
+        """The diagnostics to publish, as JSON values. One that was published last time
+        (the same diagnostic on the same line text, in the same encoding) is taken from then:
+        after an edit, only the diagnostics it changed are converted; the thousands of a
+        whole device's warnings are not."""
+        before = self.published.get(uri, {})
+        now: dict[Hashable, dict[str, Any]] = {}
+        found = []
+        for diagnostic in analysis.diagnostics:
+            key = _published_key(diagnostic, analysis.lines, self.encoding)
+            value = now.get(key) if key is not None else None
+            if value is None and key is not None:
+                value = before.get(key)
+            if value is None:
+                value = self.protocol._converter.unstructure(
+                    self.diagnostic(uri, analysis, diagnostic))
+            if key is not None:
+                now[key] = value
+            found.append(value)
+        if self.is_open(uri):
+            self.published[uri] = now
+        return found
 
     def client_diagnostics(self, uri: str, analysis: Analysis) -> list[lsp.Diagnostic]:
         """An analysis's diagnostics in the client's positions, converted once per analysis
@@ -297,7 +328,7 @@ class MpLanguageServer(LanguageServer):
     def forget(self, uri: str) -> None:
         self.texts.pop(unquote(uri), None)
         self.cancel_pending(uri)
-        for kept in (self.versions, self.check_seconds, self.converted):
+        for kept in (self.versions, self.check_seconds, self.converted, self.published):
             kept.pop(uri, None)
         closed = self.analyses.pop(uri, None)
         self.text_document_publish_diagnostics(lsp.PublishDiagnosticsParams(uri=uri,
@@ -422,6 +453,18 @@ class MpLanguageServer(LanguageServer):
         completion = capabilities.completion if capabilities else None
         item = completion.completion_item if completion else None
         return bool(item and item.snippet_support)
+
+
+def _published_key(diagnostic: EditorDiagnostic, lines: list[str], encoding: str
+                   ) -> Hashable | None:
+    """What a published diagnostic's JSON depends on: itself, the text of the lines its
+    range is on (positions in the client's units), the encoding. None for one that points
+    into other files (related information), which is converted each time."""
+    if diagnostic.related:
+        return None
+    start, end = diagnostic.range.start.line, diagnostic.range.end.line
+    return (diagnostic, encoding, lines[start] if 0 <= start < len(lines) else "",
+            lines[end] if 0 <= end < len(lines) and end != start else "")
 
 
 @functools.lru_cache(maxsize=256)

@@ -205,3 +205,21 @@ def test_warm_up_freezes_the_start_up_heap() -> None:
         assert gc.get_freeze_count() > frozen
     finally:
         gc.unfreeze()
+
+
+@ASYNC
+async def test_a_diagnostic_kept_from_the_last_publish_follows_its_lines_text(
+        client: LanguageClient, project: Path) -> None:
+    """A character before a syntax error becomes an emoji: the same error at the same code
+    point, but one UTF-16 unit further right, and published so."""
+    uri = (project / "swap.mp").as_uri()
+    line = "    SET_V X, 'a' + ("
+    await open_document(client, uri, f"MP 35 swap\n{line}\nEND MP\n")
+    before = [(c, n, character) for c, n, character, _ in shown(await published(uri, 1))
+              if c == "E101"]
+    assert before == [("E101", 1, len(line))]
+    quote = line.index("a")
+    client.text_document_did_change(change(uri, 2, ((1, quote), (1, quote + 1), "😀")))
+    after = [(c, n, character) for c, n, character, _ in shown(await published(uri, 2))
+             if c == "E101"]
+    assert after == [("E101", 1, len(line) + 1)]
