@@ -223,3 +223,25 @@ async def test_a_diagnostic_kept_from_the_last_publish_follows_its_lines_text(
     after = [(c, n, character) for c, n, character, _ in shown(await published(uri, 2))
              if c == "E101"]
     assert after == [("E101", 1, len(line) + 1)]
+
+
+def test_the_cycle_collector_waits_while_a_check_runs(tmp_path: Path) -> None:
+    """A check of a 300-line program allocates far more than a collection's threshold; no
+    collection runs until it is done, and the collector is on again after it."""
+    path = tmp_path / "long.mp"
+    path.write_text("MP 1 long\n" + "    VAR1 = VAR1 + 1\n" * 300 + "END MP\n")
+    server = create_server()
+    initialize = server.protocol.lsp_initialize(lsp.InitializeParams(
+        capabilities=lsp.ClientCapabilities(), root_uri=tmp_path.as_uri()))
+    list(initialize)  # the protocol's own initialize, as a client's request runs it
+    phases: list[str] = []
+
+    def seen(phase: str, info: dict[str, int]) -> None:
+        phases.append(phase)
+
+    gc.callbacks.append(seen)
+    try:
+        server.check(path.as_uri())
+    finally:
+        gc.callbacks.remove(seen)
+    assert phases == [] and gc.isenabled()
