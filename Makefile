@@ -76,6 +76,7 @@ docs: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python bench/compile.py
+	$(BIN)/python bench/lsp.py
 	$(BIN)/python bench/interp.py
 	$(BIN)/python bench/modbus.py
 	$(BIN)/python bench/flash.py
