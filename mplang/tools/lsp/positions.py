@@ -120,19 +120,33 @@ def apply_change(text: str, start: tuple[int, int], end: tuple[int, int], new_te
     breaks at form feeds, U+2028 and the like, and so misplaces edits in such a text).
     `start`/`end` are (line, character) in the client's code units; a character past its
     line's end means the line's end, a line past the last the end of the text."""
-    starts = [0] + [m.end() for m in _LINE_BREAK.finditer(text)]
-
-    def offset(position: tuple[int, int]) -> int:
-        line, units = position
-        if line < 0:
-            return 0
-        if line >= len(starts):
-            return len(text)
-        first = starts[line]
-        ending = _LINE_BREAK.search(text, first)
-        line_text = text[first:ending.start() if ending else len(text)]
-        return first + from_client_character(line_text, max(units, 0), encoding)
-
-    begin, finish = offset(start), offset(end)
+    begin, finish = _offset(text, start, encoding), _offset(text, end, encoding)
     finish = max(begin, finish)
     return text[:begin] + new_text + text[finish:]
+
+
+def _offset(text: str, position: tuple[int, int], encoding: str) -> int:
+    line, units = position
+    if line < 0:
+        return 0
+    first = _line_start(text, line)
+    if first is None:
+        return len(text)
+    ending = _LINE_BREAK.search(text, first)
+    line_text = text[first:ending.start() if ending else len(text)]
+    return first + from_client_character(line_text, max(units, 0), encoding)
+
+
+def _line_start(text: str, line: int) -> int | None:
+    """Where a line (0-based) starts in `text`, None past its last line. A text without CR
+    (the common case) is cut by `str.split` at C speed; only one with CRs is scanned for
+    its breaks, up to that line."""
+    if line == 0:
+        return 0
+    if "\r" not in text:
+        parts = text.split("\n", line)
+        return len(text) - len(parts[line]) if len(parts) > line else None
+    for count, found in enumerate(_LINE_BREAK.finditer(text), start=1):
+        if count == line:
+            return found.end()
+    return None

@@ -25,7 +25,6 @@ never a device, FIFO or socket, which could block the server or feed it without 
 from __future__ import annotations
 
 import asyncio
-import copy
 import functools
 import gc
 import logging
@@ -93,21 +92,30 @@ out of the cycle collector's walks) before the first keystroke."""
 
 
 class _Protocol(LanguageServerProtocol):
-    """pygls' protocol, with the server's own incremental sync run first: pygls applies a
-    change on lines split by `str.splitlines` (form feeds, U+2028 ... end a line there, not
-    in the protocol) and, worse, clamps the change's positions in place to those lines, so
-    the server reads a copy of the change taken before pygls touches it."""
+    """pygls' protocol, with the server's own incremental sync instead of pygls': pygls
+    applies a change on lines split by `str.splitlines` (form feeds, U+2028 ... end a line
+    there, not in the protocol), clamps the change's positions in place to those lines, and
+    rebuilds the whole text line by line for every change. Its document gets the server's
+    text whole instead (and the version); only a document the server holds no text of is
+    left to pygls."""
 
     @lsp_method(lsp.TEXT_DOCUMENT_DID_CHANGE)
     def lsp_text_document__did_change(self, params: lsp.DidChangeTextDocumentParams
                                       ) -> Iterator[Any]:
         server = self._server
+        text = None
         if isinstance(server, MpLanguageServer):
             try:
-                server.changed(copy.deepcopy(params))
+                text = server.changed(params)
             except Exception:  # the guard of every handler: logged, never fatal
                 logger.exception("applying a change failed")
-        yield from super().lsp_text_document__did_change(params)
+        if text is None:
+            yield from super().lsp_text_document__did_change(params)
+            return
+        self.workspace.update_text_document(
+            params.text_document, lsp.TextDocumentContentChangeWholeDocument(text=text))
+        if (handler := self.fm.features.get(lsp.TEXT_DOCUMENT_DID_CHANGE)) is not None:
+            yield handler, (params,), None
 
 
 class MpLanguageServer(LanguageServer):
@@ -194,12 +202,13 @@ class MpLanguageServer(LanguageServer):
     def opened(self, params: lsp.DidOpenTextDocumentParams) -> None:
         self.texts[unquote(params.text_document.uri)] = params.text_document.text
 
-    def changed(self, params: lsp.DidChangeTextDocumentParams) -> None:
-        """Apply the client's changes, in order, to the kept text."""
+    def changed(self, params: lsp.DidChangeTextDocumentParams) -> str | None:
+        """Apply the client's changes, in order, to the kept text; the new text, or None for
+        a document the server holds no text of."""
         key = unquote(params.text_document.uri)
         text = self.open_text(params.text_document.uri) if key in self.texts else None
         if text is None:
-            return  # not opened through didOpen: pygls' copy is all there is
+            return None  # not opened through didOpen: pygls' copy is all there is
         for change in params.content_changes:
             if isinstance(change, lsp.TextDocumentContentChangePartial):
                 start, end = change.range.start, change.range.end
@@ -208,6 +217,7 @@ class MpLanguageServer(LanguageServer):
             else:
                 text = change.text
         self.texts[key] = text
+        return text
 
     def analyse_uri(self, uri: str) -> Analysis:
         """Check a document; an open one's analysis is kept for the requests that follow,
