@@ -479,14 +479,18 @@ class MpLanguageServer(LanguageServer):
 
 def _published_key(diagnostic: EditorDiagnostic, lines: list[str], encoding: str
                    ) -> Hashable | None:
-    """What a published diagnostic's JSON depends on: itself, the text of the lines its
-    range is on (positions in the client's units), the encoding. None for one that points
-    into other files (related information), which is converted each time."""
+    """What a published diagnostic's JSON depends on: its place, kind and words, the text
+    of the lines its range is on (positions in the client's units) and the encoding; its
+    documentation page follows from its code. A flat tuple of numbers and strings, hashed
+    in C (hundreds of diagnostics are looked up per publish). None for one that points into
+    other files (related information), which is converted each time."""
     if diagnostic.related:
         return None
-    start, end = diagnostic.range.start.line, diagnostic.range.end.line
-    return (diagnostic, encoding, lines[start] if 0 <= start < len(lines) else "",
-            lines[end] if 0 <= end < len(lines) and end != start else "")
+    start, end = diagnostic.range.start, diagnostic.range.end
+    return (start.line, start.character, end.line, end.character, diagnostic.severity,
+            diagnostic.code, diagnostic.message, diagnostic.hint, diagnostic.elsewhere,
+            encoding, lines[start.line] if 0 <= start.line < len(lines) else "",
+            lines[end.line] if 0 <= end.line < len(lines) and end.line != start.line else "")
 
 
 @functools.lru_cache(maxsize=256)
