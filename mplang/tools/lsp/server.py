@@ -321,8 +321,9 @@ class MpLanguageServer(LanguageServer):
         before = self.published.get(uri, {})
         now: dict[Hashable, dict[str, Any]] = {}
         found = []
+        encoding = self.encoding
         for diagnostic in analysis.diagnostics:
-            key = _published_key(diagnostic, analysis.lines, self.encoding)
+            key = _published_key(diagnostic, analysis.lines, encoding)
             value = now.get(key) if key is not None else None
             if value is None and key is not None:
                 value = before.get(key)
