@@ -312,7 +312,11 @@ def _analyse(path: Path, text: str, context: BuildContext, open_texts: Mapping[P
     _measure_programs(analysis, sources.files, by_display, catalogue, options, lowering)
     graph = _include_graph(sources.files, analysis, by_display)
     pages: dict[str, Path | None] = {}  # a check's page, looked up once per code
-    placed = (_place_diagnostic(analysis, d, by_display, graph, pages) for d in diagnostics)
+    # the loaded files that are the open document, told apart without comparing paths for
+    # each of the thousands of diagnostics a whole device can have
+    own = {id(entry) for entry in by_display.values() if entry.path == analysis.path}
+    placed = (_place_diagnostic(analysis, d, by_display, graph, pages, own)
+              for d in diagnostics)
     analysis.diagnostics = [d for d in placed if d is not None]
     if context.problem:
         analysis.diagnostics.insert(0, EditorDiagnostic(line_range(0, 0, 0), "error", "",
@@ -525,8 +529,8 @@ def _reachable(start: Path, graph: dict[Path, list[Path]]) -> set[Path]:
 
 def _place_diagnostic(analysis: Analysis, diagnostic: Diagnostic,
                       by_display: dict[str, SourceText],
-                      graph: dict[Path, list[Path]], pages: dict[str, Path | None]
-                      ) -> EditorDiagnostic | None:
+                      graph: dict[Path, list[Path]], pages: dict[str, Path | None],
+                      own: set[int]) -> EditorDiagnostic | None:
     """Put a diagnostic where the editor shows it: at its own place in the open document,
     on the INCLUDE line through which the file it is in joined the build, or (a file that is
     no source, such as mpc.toml) on the first line. One that belongs to another source of the
@@ -538,7 +542,8 @@ def _place_diagnostic(analysis: Analysis, diagnostic: Diagnostic,
     docs = pages[diagnostic.code]
     entry = by_display.get(diagnostic.span.file)
     message = diagnostic.message
-    if entry is not None and entry.path == analysis.path:
+    here = id(entry) in own  # never the id of None: `own` holds loaded files only
+    if here:
         where = span_range(diagnostic.span, analysis.lines)
     else:
         message = f"{diagnostic.span}: {message}"
@@ -551,5 +556,4 @@ def _place_diagnostic(analysis: Analysis, diagnostic: Diagnostic,
                 return None
             where = through.range
     return EditorDiagnostic(where, diagnostic.severity.value, diagnostic.code, message,
-                            diagnostic.hint, related, docs,
-                            elsewhere=entry is None or entry.path != analysis.path)
+                            diagnostic.hint, related, docs, elsewhere=not here)
