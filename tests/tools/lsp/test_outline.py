@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import random
 from pathlib import Path
 
 from hypothesis import example, given, settings
@@ -98,6 +99,23 @@ def test_token_delta_turns_the_old_data_into_the_new(old: list[int], new: list[i
     start, deleted, inserted = outline.token_delta(old, new)
     assert start % 5 == 0 and deleted % 5 == 0 and len(inserted) % 5 == 0
     assert old[:start] + inserted + old[start + deleted:] == new
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(0, 800), st.integers(0, 12), st.integers(0, 12))
+def test_token_delta_of_a_long_document_edited_in_one_place(seed: int, tokens: int, cut: int,
+                                                            added: int) -> None:
+    """Thousands of tokens, a few replaced somewhere (also at either end, or none): the
+    delta still gives the new data, and covers no more than the tokens that differ."""
+    rng = random.Random(seed)
+    old = [rng.randrange(4) for _ in range(tokens * 5)]
+    at = rng.randrange(tokens + 1) * 5
+    new = old[:at] + [rng.randrange(4) for _ in range(added * 5)] + old[at + cut * 5:]
+    start, deleted, inserted = outline.token_delta(old, new)
+    assert start % 5 == 0 and deleted % 5 == 0 and len(inserted) % 5 == 0
+    assert old[:start] + inserted + old[start + deleted:] == new
+    assert start >= at
+    assert len(inserted) <= 5 * added
 
 
 def test_signature_help_inside_a_call_and_its_arguments(tmp_path: Path) -> None:
