@@ -9,6 +9,7 @@ end of its program or of the file. Words are classified the way hover resolves t
 
 from __future__ import annotations
 
+import itertools
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -208,7 +209,10 @@ _KEPT_NAME_SETS = 4
 """How many sets of names (about one per open document) keep their lines."""
 Names = tuple[frozenset[str], ...]
 Classified = list[tuple[int, int, int, int]]  # start, end, type, modifiers (no declaration)
-_classified_lines: dict[Names, dict[str, Classified]] = {}
+Line = tuple[Classified, list[int]]
+"""A line's tokens, and the encoded data of all but its first (relative to the token before,
+on the same line: the same wherever the line is)."""
+_classified_lines: dict[Names, dict[str, Line]] = {}
 
 
 def _names(analysis: Analysis) -> Names:
@@ -220,7 +224,7 @@ def _names(analysis: Analysis) -> Names:
             frozenset(p.name.upper() for p in analysis.programs if p.name))
 
 
-def _lines_for(names: Names) -> dict[str, Classified]:
+def _lines_for(names: Names) -> dict[str, Line]:
     """The classified lines kept for a set of names (the least recently used set dropped)."""
     kept = _classified_lines.pop(names, None)
     if kept is None:
@@ -262,6 +266,14 @@ _HEADER = re.compile(r"\s*(MP|ISR)\b", re.IGNORECASE)
 """A program header line: its words' class depends on the block the line is in."""
 
 
+def _rest_of_line(classified: Classified) -> list[int]:
+    """The encoded data of a line's tokens after its first."""
+    data: list[int] = []
+    for (before, _, _, _), (start, end, kind, modifiers) in itertools.pairwise(classified):
+        data += [0, start - before, end - start, kind, modifiers]
+    return data
+
+
 def semantic_tokens(analysis: Analysis) -> list[int]:
     """The document's words as LSP semantic tokens, relative-encoded (line delta, start
     delta, length, type, modifiers), lengths and starts in code points.
@@ -283,17 +295,27 @@ def semantic_tokens(analysis: Analysis) -> list[int]:
     declaring = {line for line, _, _ in declared}
     kept = _lines_for(_names(analysis))
     for number, text in enumerate(analysis.lines):
-        classified = kept.get(text)
-        if classified is None:
+        line = kept.get(text)
+        if line is None:
             classified = _classify(analysis, number, text)
+            line = (classified, _rest_of_line(classified))
             if _HEADER.match(text) is None:
-                kept[text] = classified
-        for start, end, kind, modifiers in classified:
-            if number in declaring and (number, start, end) in declared:
-                modifiers |= _DECLARATION
-            delta = start - previous_start if number == previous_line else start
-            data += [number - previous_line, delta, end - start, kind, modifiers]
-            previous_line, previous_start = number, start
+                kept[text] = line
+        classified, rest = line
+        if not classified:
+            continue
+        if number in declaring:  # a declaration's modifier depends on where it is
+            for start, end, kind, modifiers in classified:
+                if (number, start, end) in declared:
+                    modifiers |= _DECLARATION
+                delta = start - previous_start if number == previous_line else start
+                data += [number - previous_line, delta, end - start, kind, modifiers]
+                previous_line, previous_start = number, start
+            continue
+        start, end, kind, modifiers = classified[0]
+        data += [number - previous_line, start, end - start, kind, modifiers]
+        data += rest
+        previous_line, previous_start = number, classified[-1][0]
     return data
 
 
