@@ -10,6 +10,7 @@ answers hover, completion and definition from the result.
 
 from __future__ import annotations
 
+import bisect
 import logging
 import re
 from collections.abc import Mapping
@@ -187,15 +188,36 @@ class Analysis:
     diagnostics: list[EditorDiagnostic] = field(default_factory=list)
     includes: list[IncludeLine] = field(default_factory=list)
     variables_used: set[int] = field(default_factory=set)
+    # Built on the first lookup, with the count of programs each was built from: upper-case
+    # program name -> its first block, and this document's blocks with their first lines
+    # (semantic tokens look up every word and header of the document).
+    _named: tuple[int, dict[str, ProgramBlock]] = field(default=(-1, {}), repr=False,
+                                                         compare=False)
+    _here: tuple[int, list[int], list[ProgramBlock]] = field(default=(-1, [], []),
+                                                             repr=False, compare=False)
 
     def program_at(self, line: int) -> ProgramBlock | None:
         """The program of the open document that line (0-based) belongs to."""
-        return next((p for p in self.programs if p.path == self.path and p.contains_line(line)),
-                    None)
+        count, firsts, blocks = self._here
+        if count != len(self.programs):
+            blocks = [p for p in self.programs if p.path == self.path]
+            order = sorted(range(len(blocks)), key=lambda i: (blocks[i].first_line, i))
+            blocks = [blocks[i] for i in order]
+            firsts = [p.first_line for p in blocks]
+            self._here = (len(self.programs), firsts, blocks)
+        # blocks of one file do not overlap: the last one starting at or before the line
+        index = bisect.bisect_right(firsts, line) - 1
+        return blocks[index] if index >= 0 and blocks[index].contains_line(line) else None
 
     def program_named(self, name: str) -> ProgramBlock | None:
-        upper = name.upper()
-        return next((p for p in self.programs if p.name and p.name.upper() == upper), None)
+        count, named = self._named
+        if count != len(self.programs):
+            named = {}
+            for program in self.programs:
+                if program.name:
+                    named.setdefault(program.name.upper(), program)
+            self._named = (len(self.programs), named)
+        return named.get(name.upper())
 
     def program_in_slot(self, kind: str, slot: int) -> ProgramBlock | None:
         """The program written with that number, or placed there by the linker."""
@@ -289,7 +311,12 @@ def _analyse(path: Path, text: str, context: BuildContext, open_texts: Mapping[P
                          for i in analysis.includes]
     _measure_programs(analysis, sources.files, by_display, catalogue, options, lowering)
     graph = _include_graph(sources.files, analysis, by_display)
-    placed = (_place_diagnostic(analysis, d, by_display, graph) for d in diagnostics)
+    pages: dict[str, Path | None] = {}  # a check's page, looked up once per code
+    # the loaded files that are the open document, told apart without comparing paths for
+    # each of the thousands of diagnostics a whole device can have
+    own = {id(entry) for entry in by_display.values() if entry.path == analysis.path}
+    placed = (_place_diagnostic(analysis, d, by_display, graph, pages, own)
+              for d in diagnostics)
     analysis.diagnostics = [d for d in placed if d is not None]
     if context.problem:
         analysis.diagnostics.insert(0, EditorDiagnostic(line_range(0, 0, 0), "error", "",
@@ -502,17 +529,21 @@ def _reachable(start: Path, graph: dict[Path, list[Path]]) -> set[Path]:
 
 def _place_diagnostic(analysis: Analysis, diagnostic: Diagnostic,
                       by_display: dict[str, SourceText],
-                      graph: dict[Path, list[Path]]) -> EditorDiagnostic | None:
+                      graph: dict[Path, list[Path]], pages: dict[str, Path | None],
+                      own: set[int]) -> EditorDiagnostic | None:
     """Put a diagnostic where the editor shows it: at its own place in the open document,
     on the INCLUDE line through which the file it is in joined the build, or (a file that is
     no source, such as mpc.toml) on the first line. One that belongs to another source of the
     project is left to that document."""
     related = tuple((_span_location(span, by_display[span.file]), note)
                     for span, note in diagnostic.related if span.file in by_display)
-    docs = check_page(diagnostic.code)  # shipped in the package, or the checkout's docs/
+    if diagnostic.code not in pages:  # shipped in the package, or the checkout's docs/
+        pages[diagnostic.code] = check_page(diagnostic.code)
+    docs = pages[diagnostic.code]
     entry = by_display.get(diagnostic.span.file)
     message = diagnostic.message
-    if entry is not None and entry.path == analysis.path:
+    here = id(entry) in own  # never the id of None: `own` holds loaded files only
+    if here:
         where = span_range(diagnostic.span, analysis.lines)
     else:
         message = f"{diagnostic.span}: {message}"
@@ -525,5 +556,4 @@ def _place_diagnostic(analysis: Analysis, diagnostic: Diagnostic,
                 return None
             where = through.range
     return EditorDiagnostic(where, diagnostic.severity.value, diagnostic.code, message,
-                            diagnostic.hint, related, docs,
-                            elsewhere=entry is None or entry.path != analysis.path)
+                            diagnostic.hint, related, docs, elsewhere=not here)

@@ -18,7 +18,13 @@ from pygls.exceptions import JsonRpcInvalidParams
 
 from mplang.tools.lsp import editing, outline
 from mplang.tools.lsp.analysis import Analysis
-from mplang.tools.lsp.positions import Location, Pos, Range, split_lines
+from mplang.tools.lsp.positions import (
+    Location,
+    Pos,
+    Range,
+    split_lines,
+    to_client_character,
+)
 from mplang.tools.lsp.workspace import context_for, format_options_for
 
 if TYPE_CHECKING:
@@ -39,6 +45,8 @@ SEMANTIC_LEGEND = lsp.SemanticTokensLegend(token_types=outline.TOKEN_TYPES,
 def register_editing(server: MpLanguageServer, guarded: Callable[[Any], Any]) -> None:
     """Register the editing and navigation features on `server`."""
     tokens_sent: dict[str, tuple[str, list[int]]] = {}  # uri -> (result id, data)
+    # uri -> the analysis and encoding the tokens were computed for, and the tokens
+    tokens_kept: dict[str, tuple[Analysis, str, list[int]]] = {}
     counter = iter(range(1, 1 << 62))
 
     def client_range(analysis: Analysis, range_: lsp.Range) -> Range:
@@ -147,20 +155,21 @@ def register_editing(server: MpLanguageServer, guarded: Callable[[Any], Any]) ->
                                  else lsp.FoldingRangeKind.Region)
                 for f in outline.folding_ranges(analysis)]
 
-    def encoded(analysis: Analysis) -> list[int]:
-        """Semantic tokens with starts and lengths in the client's position encoding."""
+    def encoded(uri: str, analysis: Analysis) -> list[int]:
+        """Semantic tokens with starts and lengths in the client's position encoding,
+        computed once per analysis of an open document: a delta request after a full one
+        (or a second client's) costs no second pass over the document."""
+        encoding = server.encoding
+        kept = tokens_kept.get(uri)
+        if kept is not None and kept[0] is analysis and kept[1] == encoding:
+            return kept[2]
         data = outline.semantic_tokens(analysis)
-        line = start = 0
-        previous = (0, 0)  # the last token's line and client start
-        for index in range(0, len(data), 5):
-            line += data[index]
-            start = data[index + 1] + (start if data[index] == 0 else 0)
-            client = server.to_client(analysis.lines, Range(
-                Pos(line, start), Pos(line, start + data[index + 2])))
-            first, end = client.start.character, client.end.character
-            data[index + 1] = first - previous[1] if line == previous[0] else first
-            data[index + 2] = end - first
-            previous = (line, first)
+        if encoding != "utf-32":
+            in_client_units(data, analysis.lines, encoding)
+        for other in [u for u in tokens_kept if not server.is_open(u)]:
+            del tokens_kept[other]
+        if server.is_open(uri):
+            tokens_kept[uri] = (analysis, encoding, data)
         return data
 
     def remember(uri: str, data: list[int]) -> str:
@@ -177,7 +186,7 @@ def register_editing(server: MpLanguageServer, guarded: Callable[[Any], Any]) ->
     @guarded
     def semantic_tokens_full(params: lsp.SemanticTokensParams) -> lsp.SemanticTokens | None:
         uri = params.text_document.uri
-        data = encoded(server.analysis(uri))
+        data = encoded(uri, server.analysis(uri))
         return lsp.SemanticTokens(data=data, result_id=remember(uri, data))
 
     @server.feature(lsp.TEXT_DOCUMENT_SEMANTIC_TOKENS_FULL_DELTA, SEMANTIC_LEGEND)
@@ -185,7 +194,7 @@ def register_editing(server: MpLanguageServer, guarded: Callable[[Any], Any]) ->
     def semantic_tokens_delta(params: lsp.SemanticTokensDeltaParams
                               ) -> lsp.SemanticTokens | lsp.SemanticTokensDelta | None:
         uri = params.text_document.uri
-        data = encoded(server.analysis(uri))
+        data = encoded(uri, server.analysis(uri))
         sent = tokens_sent.get(uri)
         if sent is None or sent[0] != params.previous_result_id:
             return lsp.SemanticTokens(data=data, result_id=remember(uri, data))
@@ -243,3 +252,21 @@ def register_editing(server: MpLanguageServer, guarded: Callable[[Any], Any]) ->
             parameters=parameters, active_parameter=found.active)],
             active_signature=0, active_parameter=found.active)
 
+
+def in_client_units(data: list[int], lines: list[str], encoding: str) -> None:
+    """Turn relative-encoded semantic tokens counted in code points into the client's code
+    units, in place. Only tokens on lines with a non-ASCII character change (on an ASCII
+    line both counts agree), so a document without any is not walked token by token."""
+    if all(text.isascii() for text in lines):
+        return
+    line = start = 0
+    previous = (0, 0)  # the last token's line and client start
+    for index in range(0, len(data), 5):
+        line += data[index]
+        start = data[index + 1] + (start if data[index] == 0 else 0)
+        text = lines[line] if 0 <= line < len(lines) else ""
+        first = to_client_character(text, start, encoding)
+        end = to_client_character(text, start + data[index + 2], encoding)
+        data[index + 1] = first - previous[1] if line == previous[0] else first
+        data[index + 2] = end - first
+        previous = (line, first)

@@ -137,4 +137,4 @@ def register_navigation(server: MpLanguageServer, guarded: Callable[[Any], Any])
         uri = params.text_document.uri
         analysis = server.analyse_uri(uri)
         return lsp.RelatedFullDocumentDiagnosticReport(
-            items=[server.diagnostic(uri, analysis, d) for d in analysis.diagnostics])
+            items=server.client_diagnostics(uri, analysis))

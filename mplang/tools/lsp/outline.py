@@ -9,6 +9,8 @@ end of its program or of the file. Words are classified the way hover resolves t
 
 from __future__ import annotations
 
+import itertools
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -198,59 +200,145 @@ _TARGET_TYPES = {"command": "function", "keyword": "keyword", "const": "variable
 _LEXED_TYPES = {"int": "number", "string": "string", "comment": "comment", "op": "operator"}
 
 
+_TYPE_NUMBERS = {name: number for number, name in enumerate(TOKEN_TYPES)}
+_DECLARATION, _READONLY, _DEFAULT_LIBRARY = (1 << TOKEN_MODIFIERS.index(name) for name in (
+    "declaration", "readonly", "defaultLibrary"))
+_KEPT_LINES = 32_768
+"""How many line texts one set of names keeps classified (a full device has ~6,000 lines)."""
+_KEPT_NAME_SETS = 4
+"""How many sets of names (about one per open document) keep their lines."""
+Names = tuple[frozenset[str], ...]
+Classified = list[tuple[int, int, int, int]]  # start, end, type, modifiers (no declaration)
+Line = tuple[Classified, list[int]]
+"""A line's tokens, and the encoded data of all but its first (relative to the token before,
+on the same line: the same wherever the line is)."""
+_classified_lines: dict[Names, dict[str, Line]] = {}
+
+
+def _names(analysis: Analysis) -> Names:
+    """What a word's class depends on besides its line: the names the build defines (a
+    program's labels and slots do not matter: a label is a label and a program or slot is a
+    namespace, found or not)."""
+    return (frozenset(analysis.consts), frozenset(analysis.aliases),
+            frozenset(analysis.declared),
+            frozenset(p.name.upper() for p in analysis.programs if p.name))
+
+
+def _lines_for(names: Names) -> dict[str, Line]:
+    """The classified lines kept for a set of names (the least recently used set dropped)."""
+    kept = _classified_lines.pop(names, None)
+    if kept is None:
+        kept = {}
+        while len(_classified_lines) >= _KEPT_NAME_SETS:
+            del _classified_lines[next(iter(_classified_lines))]
+    elif len(kept) >= _KEPT_LINES:
+        kept.clear()
+    _classified_lines[names] = kept
+    return kept
+
+
+def _classify(analysis: Analysis, number: int, text: str) -> Classified:
+    """The semantic tokens of one line: start, end, type and modifiers of each."""
+    cursors = {token.start: cursor for token, cursor in line_words(text)}
+    found: Classified = []
+    for token in lex_line(text):
+        kind = _LEXED_TYPES.get(token.kind)
+        modifiers = 0
+        if token.kind in ("name", "int"):
+            cursor = cursors.get(token.start)
+            target = resolve(analysis, number, cursor, token) if cursor else None
+            if target is not None:
+                kind = _TARGET_TYPES.get(target.kind)
+                if target.kind == "const":
+                    modifiers |= _READONLY
+                if target.kind in ("command", "axis", "symbol"):
+                    modifiers |= _DEFAULT_LIBRARY
+            elif token.kind == "name" and token.upper in KEYWORDS:
+                kind = "keyword"
+            elif token.kind == "name":
+                kind = None
+        if kind is not None:
+            found.append((token.start, token.end, _TYPE_NUMBERS[kind], modifiers))
+    return found
+
+
+_HEADER = re.compile(r"\s*(MP|ISR)\b", re.IGNORECASE)
+"""A program header line: its words' class depends on the block the line is in."""
+
+
+def _rest_of_line(classified: Classified) -> list[int]:
+    """The encoded data of a line's tokens after its first."""
+    data: list[int] = []
+    for (before, _, _, _), (start, end, kind, modifiers) in itertools.pairwise(classified):
+        data += [0, start - before, end - start, kind, modifiers]
+    return data
+
+
 def semantic_tokens(analysis: Analysis) -> list[int]:
     """The document's words as LSP semantic tokens, relative-encoded (line delta, start
-    delta, length, type, modifiers), lengths and starts in code points."""
+    delta, length, type, modifiers), lengths and starts in code points.
+
+    A line's tokens depend on its text and on the names the build defines, so they are kept
+    by line text for each set of names: after an edit that defines no new name, only the
+    edited lines (and program headers) are classified again."""
     data: list[int] = []
-    previous = Pos(0, 0)
-    definitions = {d.location for table in (analysis.consts, analysis.aliases,
-                                            analysis.declared) for d in table.values()}
-    definitions |= {label.location for program in analysis.programs
-                    for label in program.labels.values()}
-    definitions |= {Location(p.path, p.name_range) for p in analysis.programs}
+    previous_line = previous_start = 0
+    definitions = [d.location for table in (analysis.consts, analysis.aliases,
+                                            analysis.declared) for d in table.values()]
+    definitions += [label.location for program in analysis.programs
+                    for label in program.labels.values()]
+    definitions += [Location(p.path, p.name_range) for p in analysis.programs]
+    declared = {(where.range.start.line, where.range.start.character,
+                 where.range.end.character) for where in definitions
+                if where.path == analysis.path and where.range.start.line ==
+                where.range.end.line}
+    declaring = {line for line, _, _ in declared}
+    kept = _lines_for(_names(analysis))
     for number, text in enumerate(analysis.lines):
-        cursors = {token.start: cursor for token, cursor in line_words(text)}
-        for token in lex_line(text):
-            kind = _LEXED_TYPES.get(token.kind)
-            modifiers = 0
-            if token.kind in ("name", "int"):
-                cursor = cursors.get(token.start)
-                target = resolve(analysis, number, cursor, token) if cursor else None
-                if target is not None:
-                    kind = _TARGET_TYPES.get(target.kind)
-                    if target.kind == "const":
-                        modifiers |= 1 << TOKEN_MODIFIERS.index("readonly")
-                    if target.kind in ("command", "axis", "symbol"):
-                        modifiers |= 1 << TOKEN_MODIFIERS.index("defaultLibrary")
-                elif token.kind == "name" and token.upper in KEYWORDS:
-                    kind = "keyword"
-                elif token.kind == "name":
-                    kind = None
-                where = Location(analysis.path, line_range(number, token.start, token.end))
-                if where in definitions:
-                    modifiers |= 1 << TOKEN_MODIFIERS.index("declaration")
-            if kind is None:
-                continue
-            delta = token.start - previous.character if number == previous.line \
-                else token.start
-            data += [number - previous.line, delta, token.end - token.start,
-                     TOKEN_TYPES.index(kind), modifiers]
-            previous = Pos(number, token.start)
+        line = kept.get(text)
+        if line is None:
+            classified = _classify(analysis, number, text)
+            line = (classified, _rest_of_line(classified))
+            if _HEADER.match(text) is None:
+                kept[text] = line
+        classified, rest = line
+        if not classified:
+            continue
+        if number in declaring:  # a declaration's modifier depends on where it is
+            for start, end, kind, modifiers in classified:
+                if (number, start, end) in declared:
+                    modifiers |= _DECLARATION
+                delta = start - previous_start if number == previous_line else start
+                data += [number - previous_line, delta, end - start, kind, modifiers]
+                previous_line, previous_start = number, start
+            continue
+        start, end, kind, modifiers = classified[0]
+        data += [number - previous_line, start, end - start, kind, modifiers]
+        data += rest
+        previous_line, previous_start = number, classified[-1][0]
     return data
+
+
+_STRIDE = 5 * 256
+"""Tokens compared at once while looking for the first and last difference (a slice
+comparison runs in C; one token at a time, a whole device's 20,000 tokens took as long as
+computing them)."""
 
 
 def token_delta(old: list[int], new: list[int]) -> tuple[int, int, list[int]]:
     """One edit that turns `old` into `new`: start, number deleted, data inserted (over
     whole tokens of five numbers, as the protocol's delta reply expects)."""
-    prefix = 0
     limit = min(len(old), len(new))
-    while prefix + 5 <= limit and old[prefix:prefix + 5] == new[prefix:prefix + 5]:
-        prefix += 5
+    prefix = 0
+    for step in (_STRIDE, 5):
+        while prefix + step <= limit and old[prefix:prefix + step] == new[prefix:prefix + step]:
+            prefix += step
     suffix = 0
-    while suffix + 5 <= limit - prefix and \
-            old[len(old) - suffix - 5:len(old) - suffix] == \
-            new[len(new) - suffix - 5:len(new) - suffix]:
-        suffix += 5
+    for step in (_STRIDE, 5):
+        while suffix + step <= limit - prefix and \
+                old[len(old) - suffix - step:len(old) - suffix] == \
+                new[len(new) - suffix - step:len(new) - suffix]:
+            suffix += step
     return prefix, len(old) - prefix - suffix, new[prefix:len(new) - suffix]
 
 

@@ -85,13 +85,23 @@ def _units(char: str, encoding: str) -> int:
 
 
 def to_client_character(line_text: str, character: int, encoding: str) -> int:
-    """Code points -> the client's code units on one line."""
-    return sum(_units(char, encoding) for char in line_text[:max(character, 0)])
+    """Code points -> the client's code units on one line (clamped to the line).
+
+    An ASCII line (nearly every line of a program) or UTF-32 counts one unit per code point:
+    no per-character walk; only a line with other characters is counted character by
+    character."""
+    character = min(max(character, 0), len(line_text))
+    if encoding == "utf-32" or line_text.isascii():
+        return character
+    return sum(_units(char, encoding) for char in line_text[:character])
 
 
 def from_client_character(line_text: str, units: int, encoding: str) -> int:
     """The client's code units -> code points on one line (clamped to the line; a position
-    that falls inside a character's code units moves past that character)."""
+    that falls inside a character's code units moves past that character). ASCII and UTF-32
+    take the fast path of `to_client_character`."""
+    if encoding == "utf-32" or line_text.isascii():
+        return min(max(units, 0), len(line_text))
     counted = 0
     for index, char in enumerate(line_text):
         if counted >= units:
@@ -110,19 +120,33 @@ def apply_change(text: str, start: tuple[int, int], end: tuple[int, int], new_te
     breaks at form feeds, U+2028 and the like, and so misplaces edits in such a text).
     `start`/`end` are (line, character) in the client's code units; a character past its
     line's end means the line's end, a line past the last the end of the text."""
-    starts = [0] + [m.end() for m in _LINE_BREAK.finditer(text)]
-
-    def offset(position: tuple[int, int]) -> int:
-        line, units = position
-        if line < 0:
-            return 0
-        if line >= len(starts):
-            return len(text)
-        first = starts[line]
-        ending = _LINE_BREAK.search(text, first)
-        line_text = text[first:ending.start() if ending else len(text)]
-        return first + from_client_character(line_text, max(units, 0), encoding)
-
-    begin, finish = offset(start), offset(end)
+    begin, finish = _offset(text, start, encoding), _offset(text, end, encoding)
     finish = max(begin, finish)
     return text[:begin] + new_text + text[finish:]
+
+
+def _offset(text: str, position: tuple[int, int], encoding: str) -> int:
+    line, units = position
+    if line < 0:
+        return 0
+    first = _line_start(text, line)
+    if first is None:
+        return len(text)
+    ending = _LINE_BREAK.search(text, first)
+    line_text = text[first:ending.start() if ending else len(text)]
+    return first + from_client_character(line_text, max(units, 0), encoding)
+
+
+def _line_start(text: str, line: int) -> int | None:
+    """Where a line (0-based) starts in `text`, None past its last line. A text without CR
+    (the common case) is cut by `str.split` at C speed; only one with CRs is scanned for
+    its breaks, up to that line."""
+    if line == 0:
+        return 0
+    if "\r" not in text:
+        parts = text.split("\n", line)
+        return len(text) - len(parts[line]) if len(parts) > line else None
+    for count, found in enumerate(_LINE_BREAK.finditer(text), start=1):
+        if count == line:
+            return found.end()
+    return None

@@ -7,6 +7,15 @@ hints are answered from the latest analysis. Positions cross the boundary here, 
 between code points and the client's negotiated encoding. A handler that fails logs the
 error and answers nothing: one bad input never takes the server down.
 
+Speed: a check's diagnostics are converted to the client's positions once (ASCII lines
+without counting), semantic tokens are kept per analysis (`handlers`), and a document whose
+last check took longer than `DEBOUNCE_ABOVE_S` is checked `DEBOUNCE_S` after the last change
+of a burst instead of after every keystroke; requests on it check it first, and diagnostics
+are published only for the document's current version, so none shown is ever stale. After
+start-up the heap built so far (catalogue, grammar, the code) is frozen out of the cycle
+collector, which would otherwise walk it on every collection, and the collector waits while
+a check runs.
+
 Hostile input: messages are read by `transport` (bounded, resynchronising after a framing
 error) instead of pygls' own loop, and a request on a document the client did not open reads
 it only if it is a regular file of at most `workspace.MAX_FILE_BYTES` inside the workspace:
@@ -16,13 +25,14 @@ never a device, FIFO or socket, which could block the server or feed it without 
 from __future__ import annotations
 
 import asyncio
-import copy
 import functools
+import gc
 import logging
 import os
 import sys
 import threading
-from collections.abc import Callable, Iterator
+import time
+from collections.abc import Callable, Hashable, Iterator
 from pathlib import Path
 from typing import Any, BinaryIO, TypeVar
 from urllib.parse import unquote
@@ -71,34 +81,64 @@ COMPLETION_KINDS = {
 # Completion pops up by itself after these: a space (GOTO ., CALL ., FIXED_MOVE .), an
 # argument separator, an opening bracket and the quote of an INCLUDE.
 TRIGGER_CHARACTERS = [" ", ",", "(", '"']
+DEBOUNCE_ABOVE_S = 0.05
+"""A document whose last check took longer than this (the budget of one keystroke) is
+checked after a pause in its changes rather than after each of them."""
+DEBOUNCE_S = 0.03
+"""The pause: changes closer together than this are checked once, for the last of them."""
+WARM_UP_TEXT = "MP 1\n    SET_V X, 100\nEND MP\n"
+"""Checked once at start-up, so that the catalogue and the grammar are loaded (and frozen
+out of the cycle collector's walks) before the first keystroke."""
 
 
 class _Protocol(LanguageServerProtocol):
-    """pygls' protocol, with the server's own incremental sync run first: pygls applies a
-    change on lines split by `str.splitlines` (form feeds, U+2028 ... end a line there, not
-    in the protocol) and, worse, clamps the change's positions in place to those lines, so
-    the server reads a copy of the change taken before pygls touches it."""
+    """pygls' protocol, with the server's own incremental sync instead of pygls': pygls
+    applies a change on lines split by `str.splitlines` (form feeds, U+2028 ... end a line
+    there, not in the protocol), clamps the change's positions in place to those lines, and
+    rebuilds the whole text line by line for every change. Its document gets the server's
+    text whole instead (and the version); only a document the server holds no text of is
+    left to pygls."""
 
     @lsp_method(lsp.TEXT_DOCUMENT_DID_CHANGE)
     def lsp_text_document__did_change(self, params: lsp.DidChangeTextDocumentParams
                                       ) -> Iterator[Any]:
         server = self._server
+        text = None
         if isinstance(server, MpLanguageServer):
             try:
-                server.changed(copy.deepcopy(params))
+                text = server.changed(params)
             except Exception:  # the guard of every handler: logged, never fatal
                 logger.exception("applying a change failed")
-        yield from super().lsp_text_document__did_change(params)
+        if text is None:
+            yield from super().lsp_text_document__did_change(params)
+            return
+        self.workspace.update_text_document(
+            params.text_document, lsp.TextDocumentContentChangeWholeDocument(text=text))
+        if (handler := self.fm.features.get(lsp.TEXT_DOCUMENT_DID_CHANGE)) is not None:
+            yield handler, (params,), None
 
 
 class MpLanguageServer(LanguageServer):
     """Holds the command line's options and the latest analysis of every open document."""
 
-    def __init__(self, overrides: Overrides) -> None:
+    def __init__(self, overrides: Overrides, debounce_above_s: float = DEBOUNCE_ABOVE_S,
+                 debounce_s: float = DEBOUNCE_S) -> None:
         super().__init__("mpc-lsp", __version__, protocol_cls=_Protocol,
                          text_document_sync_kind=lsp.TextDocumentSyncKind.Incremental)
         self.overrides = overrides
+        self.debounce_above_s = debounce_above_s
+        self.debounce_s = debounce_s
         self.analyses: dict[str, Analysis] = {}  # by document URI
+        # By URI: the document version each kept analysis checked, how long its check took,
+        # the check waiting for a pause in the changes, and the diagnostics as last
+        # converted for the client (with the analysis and encoding they were converted for).
+        self.versions: dict[str, int | None] = {}
+        self.check_seconds: dict[str, float] = {}
+        self.pending: dict[str, asyncio.TimerHandle] = {}
+        self.converted: dict[str, tuple[Analysis, str, list[lsp.Diagnostic]]] = {}
+        # By URI: the diagnostics last published, as JSON-ready values, by what they were
+        # converted from (`_published_key`), for the next publish to take again.
+        self.published: dict[str, dict[Hashable, dict[str, Any]]] = {}
         # The text of each open document (by unquoted URI), kept here with the protocol's
         # line breaks (`positions.apply_change`) rather than by pygls' incremental sync.
         self.texts: dict[str, str] = {}
@@ -162,12 +202,13 @@ class MpLanguageServer(LanguageServer):
     def opened(self, params: lsp.DidOpenTextDocumentParams) -> None:
         self.texts[unquote(params.text_document.uri)] = params.text_document.text
 
-    def changed(self, params: lsp.DidChangeTextDocumentParams) -> None:
-        """Apply the client's changes, in order, to the kept text."""
+    def changed(self, params: lsp.DidChangeTextDocumentParams) -> str | None:
+        """Apply the client's changes, in order, to the kept text; the new text, or None for
+        a document the server holds no text of."""
         key = unquote(params.text_document.uri)
         text = self.open_text(params.text_document.uri) if key in self.texts else None
         if text is None:
-            return  # not opened through didOpen: pygls' copy is all there is
+            return None  # not opened through didOpen: pygls' copy is all there is
         for change in params.content_changes:
             if isinstance(change, lsp.TextDocumentContentChangePartial):
                 start, end = change.range.start, change.range.end
@@ -176,9 +217,12 @@ class MpLanguageServer(LanguageServer):
             else:
                 text = change.text
         self.texts[key] = text
+        return text
 
     def analyse_uri(self, uri: str) -> Analysis:
-        """Check a document; an open one's analysis is kept for the requests that follow."""
+        """Check a document; an open one's analysis is kept for the requests that follow,
+        with the version it checked and how long that took."""
+        started = time.perf_counter()
         text = self.document_text(uri)
         others = {self.document_path(u).resolve(): self.open_text(u)
                   for u in self.analyses if u != uri and self.is_open(u)}
@@ -186,28 +230,129 @@ class MpLanguageServer(LanguageServer):
         analysis = analyse(path, text, context_for(path, self.overrides), others)
         if self.is_open(uri):
             self.analyses[uri] = analysis
+            self.versions[uri] = self.version_of(uri)
+            self.check_seconds[uri] = time.perf_counter() - started
         return analysis
 
     def analysis(self, uri: str) -> Analysis:
+        """The latest analysis of a document: a check waiting for a pause in the changes is
+        run (and published) first, so that a request never answers from an older text."""
+        if uri in self.pending:
+            self.refresh(uri)
         return self.analyses.get(uri) or self.analyse_uri(uri)
+
+    def version_of(self, uri: str) -> int | None:
+        return self.workspace.get_text_document(uri).version
+
+    def after_change(self, uri: str) -> None:
+        """Check a changed document now, or, when its last check took longer than
+        `debounce_above_s`, once its changes pause for `debounce_s`."""
+        self.cancel_pending(uri)
+        try:
+            loop = asyncio.get_running_loop()
+        except RuntimeError:  # driven without an event loop: nothing could wait
+            loop = None
+        if loop is None or self.check_seconds.get(uri, 0.0) <= self.debounce_above_s:
+            self.refresh(uri)
+            return
+        self.pending[uri] = loop.call_later(self.debounce_s, self._paused, uri)
+
+    def _paused(self, uri: str) -> None:
+        """The changes of a document paused: check it (a loop callback, so guarded as
+        every handler is)."""
+        self.pending.pop(uri, None)
+        try:
+            if self.is_open(uri):
+                self.refresh(uri)
+        except Exception:
+            logger.exception("checking %s failed", uri)
+
+    def cancel_pending(self, uri: str) -> None:
+        waiting = self.pending.pop(uri, None)
+        if waiting is not None:
+            waiting.cancel()
 
     def refresh(self, uri: str) -> None:
         """Re-check a document, then every open document whose build reads it (it INCLUDEs
         it, or both are sources of one project)."""
-        changed = self.analyse_uri(uri)
-        self.publish(uri, changed)
+        changed = self.check(uri)
         for other, previous in list(self.analyses.items()):
             if other != uri and changed.path in previous.files:
-                self.publish(other, self.analyse_uri(other))
+                self.check(other)
+
+    def check(self, uri: str) -> Analysis:
+        """Check a document now and publish its diagnostics (a check waiting for a pause in
+        its changes is then no longer needed).
+
+        The cycle collector waits until the diagnostics are out: a check allocates hundreds
+        of thousands of objects, and collecting while it runs walks them (and the analysis
+        kept from before) again and again, a quarter of a whole device's check. They are
+        collected once, by the first collection after it."""
+        self.cancel_pending(uri)
+        collecting = gc.isenabled()
+        gc.disable()
+        try:
+            analysis = self.analyse_uri(uri)
+            self.publish(uri, analysis)
+        finally:
+            if collecting:
+                gc.enable()
+        return analysis
 
     def publish(self, uri: str, analysis: Analysis) -> None:
-        version = self.workspace.get_text_document(uri).version
-        self.text_document_publish_diagnostics(lsp.PublishDiagnosticsParams(
-            uri=uri, version=version,
-            diagnostics=[self.diagnostic(uri, analysis, d) for d in analysis.diagnostics]))
+        """Publish a document's diagnostics, only if its analysis checked the version the
+        editor holds now: diagnostics of an older text are never shown."""
+        version = self.version_of(uri)
+        if self.versions.get(uri, version) != version:
+            return
+        params: dict[str, Any] = {"uri": uri, "diagnostics": self.json_diagnostics(uri,
+                                                                                   analysis)}
+        if version is not None:
+            params["version"] = version
+        # JSON-ready values: the C encoder writes them without a call back per object
+        self.protocol._send_data({"jsonrpc": "2.0", "params": params,
+                                  "method": lsp.TEXT_DOCUMENT_PUBLISH_DIAGNOSTICS})
+
+    def json_diagnostics(self, uri: str, analysis: Analysis) -> list[dict[str, Any]]:
+        """The diagnostics to publish, as JSON values. One that was published last time
+        (the same diagnostic on the same line text, in the same encoding) is taken from then:
+        after an edit, only the diagnostics it changed are converted; the thousands of a
+        whole device's warnings are not."""
+        before = self.published.get(uri, {})
+        now: dict[Hashable, dict[str, Any]] = {}
+        found = []
+        encoding = self.encoding
+        for diagnostic in analysis.diagnostics:
+            key = _published_key(diagnostic, analysis.lines, encoding)
+            value = now.get(key) if key is not None else None
+            if value is None and key is not None:
+                value = before.get(key)
+            if value is None:
+                value = self.protocol._converter.unstructure(
+                    self.diagnostic(uri, analysis, diagnostic))
+            if key is not None:
+                now[key] = value
+            found.append(value)
+        if self.is_open(uri):
+            self.published[uri] = now
+        return found
+
+    def client_diagnostics(self, uri: str, analysis: Analysis) -> list[lsp.Diagnostic]:
+        """An analysis's diagnostics in the client's positions, converted once per analysis
+        (and encoding) of an open document, however often they are asked for."""
+        kept = self.converted.get(uri)
+        if kept is not None and kept[0] is analysis and kept[1] == self.encoding:
+            return kept[2]
+        converted = [self.diagnostic(uri, analysis, d) for d in analysis.diagnostics]
+        if self.is_open(uri):
+            self.converted[uri] = (analysis, self.encoding, converted)
+        return converted
 
     def forget(self, uri: str) -> None:
         self.texts.pop(unquote(uri), None)
+        self.cancel_pending(uri)
+        for kept in (self.versions, self.check_seconds, self.converted, self.published):
+            kept.pop(uri, None)
         closed = self.analyses.pop(uri, None)
         self.text_document_publish_diagnostics(lsp.PublishDiagnosticsParams(uri=uri,
                                                                             diagnostics=[]))
@@ -215,7 +360,7 @@ class MpLanguageServer(LanguageServer):
             return
         for other, previous in list(self.analyses.items()):
             if closed.path in previous.files:
-                self.publish(other, self.analyse_uri(other))
+                self.check(other)
 
     # ------------------------------------------------------------------ conversion
     def uri_for(self, uri: str, analysis: Analysis, path: Path) -> str:
@@ -263,15 +408,24 @@ class MpLanguageServer(LanguageServer):
         related = [lsp.DiagnosticRelatedInformation(
             location=self.location(uri, analysis, where), message=note)
                    for where, note in found.related]
-        docs = lsp.CodeDescription(href=found.docs.as_uri()) if found.docs else None
+        docs = lsp.CodeDescription(href=_page_uri(found.docs)) if found.docs else None
         return lsp.Diagnostic(range=self.to_client(analysis.lines, found.range),
                               message=message, severity=severity, code=found.code or None,
                               code_description=docs, source="mpc",
                               related_information=related or None)
 
     # ------------------------------------------------------------------ transport
+    def warm_up(self) -> None:
+        """Load what every check needs (catalogue, grammar) with one check of a small text,
+        then freeze the heap built so far out of the cycle collector: the long-lived objects
+        of the server are then never walked again when a check allocates."""
+        analyse(Path.cwd() / "warm-up.mp", WARM_UP_TEXT)
+        gc.collect()
+        gc.freeze()
+
     def start_io(self, stdin: BinaryIO | None = None, stdout: BinaryIO | None = None) -> None:
         """Serve over stdio as pygls does, but read with the bounded `transport`."""
+        self.warm_up()
         self._stop_event = stop = threading.Event()
         self.protocol.set_writer(StdoutWriter(stdout or sys.stdout.buffer))
         framer = Framer(stream_reader(stdin or sys.stdin.buffer))
@@ -287,6 +441,7 @@ class MpLanguageServer(LanguageServer):
 
     def start_tcp(self, host: str, port: int) -> None:
         """Serve one client over TCP as pygls does, but read with the bounded `transport`."""
+        self.warm_up()
         self._stop_event = stop = threading.Event()
 
         async def connection(reader: asyncio.StreamReader, writer: asyncio.StreamWriter
@@ -321,6 +476,28 @@ class MpLanguageServer(LanguageServer):
         completion = capabilities.completion if capabilities else None
         item = completion.completion_item if completion else None
         return bool(item and item.snippet_support)
+
+
+def _published_key(diagnostic: EditorDiagnostic, lines: list[str], encoding: str
+                   ) -> Hashable | None:
+    """What a published diagnostic's JSON depends on: its place, kind and words, the text
+    of the lines its range is on (positions in the client's units) and the encoding; its
+    documentation page follows from its code. A flat tuple of numbers and strings, hashed
+    in C (hundreds of diagnostics are looked up per publish). None for one that points into
+    other files (related information), which is converted each time."""
+    if diagnostic.related:
+        return None
+    start, end = diagnostic.range.start, diagnostic.range.end
+    return (start.line, start.character, end.line, end.character, diagnostic.severity,
+            diagnostic.code, diagnostic.message, diagnostic.hint, diagnostic.elsewhere,
+            encoding, lines[start.line] if 0 <= start.line < len(lines) else "",
+            lines[end.line] if 0 <= end.line < len(lines) and end.line != start.line else "")
+
+
+@functools.lru_cache(maxsize=256)
+def _page_uri(page: Path) -> str:
+    """A check page's address (a few pages, linked by hundreds of diagnostics)."""
+    return page.as_uri()
 
 
 def _guarded(server: MpLanguageServer
@@ -358,20 +535,21 @@ def _guarded(server: MpLanguageServer
     return decorate
 
 
-def create_server(overrides: Overrides | None = None) -> MpLanguageServer:
+def create_server(overrides: Overrides | None = None, debounce_above_s: float = DEBOUNCE_ABOVE_S,
+                  debounce_s: float = DEBOUNCE_S) -> MpLanguageServer:
     """A server with every feature registered (started by `mpc lsp`)."""
-    server = MpLanguageServer(overrides or Overrides())
+    server = MpLanguageServer(overrides or Overrides(), debounce_above_s, debounce_s)
 
     @server.feature(lsp.TEXT_DOCUMENT_DID_OPEN)
     @_guarded(server)
     def did_open(params: lsp.DidOpenTextDocumentParams) -> None:
         server.opened(params)
-        server.refresh(params.text_document.uri)
+        server.refresh(params.text_document.uri)  # also cancels a check still waiting
 
     @server.feature(lsp.TEXT_DOCUMENT_DID_CHANGE)
     @_guarded(server)
     def did_change(params: lsp.DidChangeTextDocumentParams) -> None:
-        server.refresh(params.text_document.uri)  # the text: `_Protocol` kept it
+        server.after_change(params.text_document.uri)  # the text: `_Protocol` kept it
 
     @server.feature(lsp.TEXT_DOCUMENT_DID_SAVE)
     @_guarded(server)

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
+from functools import cached_property
 
 # The grammar's terminals, in the order its lexer tries them (grammar/mplang.lark). An
 # unterminated string runs to the end of the line, as it does while being typed.
@@ -73,9 +74,10 @@ class Cursor:
     in_comment: bool
     string: Token | None  # the string the cursor is inside, if any
 
-    @property
+    @cached_property
     def head(self) -> str:
-        """The statement's first word, upper case ('' if none)."""
+        """The statement's first word, upper case ('' if none); kept, as semantic tokens ask
+        it of every word of a line."""
         code = [t for t in self.tokens if t.kind != "comment"]
         return code[0].upper if code and code[0].kind == "name" else ""
 

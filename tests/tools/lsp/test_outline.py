@@ -3,9 +3,10 @@
 
 from __future__ import annotations
 
+import random
 from pathlib import Path
 
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from mplang.tools.lsp import outline
@@ -100,6 +101,23 @@ def test_token_delta_turns_the_old_data_into_the_new(old: list[int], new: list[i
     assert old[:start] + inserted + old[start + deleted:] == new
 
 
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(0, 800), st.integers(0, 12), st.integers(0, 12))
+def test_token_delta_of_a_long_document_edited_in_one_place(seed: int, tokens: int, cut: int,
+                                                            added: int) -> None:
+    """Thousands of tokens, a few replaced somewhere (also at either end, or none): the
+    delta still gives the new data, and covers no more than the tokens that differ."""
+    rng = random.Random(seed)
+    old = [rng.randrange(4) for _ in range(tokens * 5)]
+    at = rng.randrange(tokens + 1) * 5
+    new = old[:at] + [rng.randrange(4) for _ in range(added * 5)] + old[at + cut * 5:]
+    start, deleted, inserted = outline.token_delta(old, new)
+    assert start % 5 == 0 and deleted % 5 == 0 and len(inserted) % 5 == 0
+    assert old[:start] + inserted + old[start + deleted:] == new
+    assert start >= at
+    assert len(inserted) <= 5 * added
+
+
 def test_signature_help_inside_a_call_and_its_arguments(tmp_path: Path) -> None:
     analysis = check(tmp_path, "MP 1\n    VAR1 = GET_LP(X)\n    SET_V X, 1\nEND MP\n")
     query = outline.signature_help(analysis, Pos(1, 18))
@@ -127,3 +145,24 @@ def test_a_line_of_thousands_of_words_is_read_in_one_pass(tmp_path: Path) -> Non
                  if data[i + 4] & (1 << outline.TOKEN_MODIFIERS.index("readonly"))]
     assert len(constants) == 5001  # the definition and every use
     assert len(editing.references(analysis, Pos(0, 6))) == 5001
+
+
+EDITED_LINES = ["CONST SPEED = 5", "ALIAS speed = VAR7", "VAR pace", "MP 3 speed", "MP 4",
+                "END MP", "    SET_V X, SPEED", "    pace = speed + 1", "    CALL speed",
+                "    GOTO top", "LABEL top", "    MP 5 (", "    IF SPEED > 1", "    END IF",
+                "    NOPE X", "# speed 😀", "    SET_V Y, 'é' + pace"]
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.lists(st.sampled_from(EDITED_LINES), max_size=10), min_size=2, max_size=4))
+@example([["    MP 5 ("], ["MP 4", "    MP 5 ("]])  # a bad header, alone, then after one
+def test_tokens_kept_by_line_equal_tokens_classified_afresh(texts: list[list[str]]) -> None:
+    """A sequence of edits that define and drop names (a CONST, an ALIAS, a VAR, a program
+    named like them) and move program headers: the tokens computed with the lines kept from
+    the texts before equal those of the same text with nothing kept."""
+    path = Path("edited.mp")
+    for lines in texts:
+        analysis = analyse(path, "\n".join(lines) + "\n")
+        kept = outline.semantic_tokens(analysis)
+        outline._classified_lines.clear()
+        assert kept == outline.semantic_tokens(analysis)

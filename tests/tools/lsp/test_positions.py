@@ -97,3 +97,24 @@ def test_a_position_past_a_line_or_the_text_is_clamped() -> None:
     assert apply_change("ab\ncd", (7, 0), (9, 9), "!", "utf-16") == "ab\ncd!"
     assert apply_change("a😀b", (0, 1), (0, 3), "", "utf-16") == "ab"  # two UTF-16 units
     assert apply_change("a😀b", (0, 1), (0, 5), "", "utf-8") == "ab"  # four UTF-8 bytes
+
+
+_UNIT_BYTES = {"utf-8": ("utf-8", 1), "utf-16": ("utf-16-le", 2), "utf-32": ("utf-32-le", 4)}
+
+
+@given(st.text(alphabet=st.sampled_from(["a", " ", "~", "\t", "é", "😀", "\x7f", "\x80"]),
+               max_size=20), st.integers(-3, 25), st.integers(-3, 45))
+def test_the_ascii_fast_path_counts_as_the_encodings_do(line: str, character: int,
+                                                         units: int) -> None:
+    """ASCII lines and UTF-32 skip the per-character walk; every line, ASCII or not, any
+    position (also before the line or past its end) converts as the encoded text counts."""
+    for encoding in ENCODINGS:
+        codec, size = _UNIT_BYTES[encoding]
+        clamped = min(max(character, 0), len(line))
+        assert to_client_character(line, character, encoding) == \
+            len(line[:clamped].encode(codec)) // size
+        # the first code point boundary at or after `units` code units, else the line's end
+        boundaries = [i for i in range(len(line) + 1)
+                      if len(line[:i].encode(codec)) // size >= units]
+        assert from_client_character(line, units, encoding) == \
+            (boundaries[0] if boundaries else len(line))
