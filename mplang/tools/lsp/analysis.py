@@ -30,6 +30,7 @@ from mplang.lang.diagnostics import (
     Span,
     without_ignored,
 )
+from mplang.lang.linecache import StatementCache
 from mplang.lang.sources import SourceFile, SourceSet, load_sources
 from mplang.lang.structure import build_unit
 from mplang.m8194h.compiler import Lowering, compile_sources
@@ -241,7 +242,8 @@ class Analysis:
 
 
 def analyse(path: Path, text: str, context: BuildContext | None = None,
-            open_texts: Mapping[Path, str] | None = None) -> Analysis:
+            open_texts: Mapping[Path, str] | None = None,
+            lines: StatementCache | None = None) -> Analysis:
     """Compile `text` as the contents of `path` and index what the editor features need.
 
     `context` says which sources are compiled with it and how (`workspace.context_for`);
@@ -249,12 +251,13 @@ def analyse(path: Path, text: str, context: BuildContext | None = None,
     other documents open in the editor (by resolved path): the build reads their editor
     text, not the disk. A failure inside the compiler does not escape: the analysis then
     holds one diagnostic that says so, and the features that need only the text and the
-    catalogue (hover on commands, completion of commands) keep working.
+    catalogue (hover on commands, completion of commands) keep working. `lines`, kept by
+    the caller between analyses (the server's), makes an edit parse the edited lines only.
     """
     context = context or BuildContext((path,), Options())
     catalogue = catalogue_module.load()
     try:
-        return _analyse(path, text, context, open_texts or {}, catalogue)
+        return _analyse(path, text, context, open_texts or {}, catalogue, lines)
     except Exception as exc:  # a compiler bug must not take the editor's features down
         logger.exception("checking %s failed", path)
         analysis = Analysis(path.resolve(), split_lines(text), catalogue, context.options)
@@ -266,7 +269,7 @@ def analyse(path: Path, text: str, context: BuildContext | None = None,
 
 
 def _analyse(path: Path, text: str, context: BuildContext, open_texts: Mapping[Path, str],
-             catalogue: Catalogue) -> Analysis:
+             catalogue: Catalogue, statements: StatementCache | None = None) -> Analysis:
     family = _family_of(context.options.target)
     # a FATEK or CSIM project: its .mp files are M8194H language, checked by that family
     options = context.options if family is None else replace(context.options, target="et")
@@ -281,7 +284,8 @@ def _analyse(path: Path, text: str, context: BuildContext, open_texts: Mapping[P
     if family is None:  # one pass: the sources read once, lowered once, for all of it
         sink = DiagnosticSink()
         sources = load_sources(paths, sink, allow_outside=options.allow_outside_includes,
-                               texts=texts, store=lambda p: p.resolve() in texts.disk)
+                               texts=texts, store=lambda p: p.resolve() in texts.disk,
+                               lines=statements)
         # the parses of files read from disk are kept for the next change; editor buffers,
         # text being typed, are not
         lowering = Lowering()
@@ -291,7 +295,7 @@ def _analyse(path: Path, text: str, context: BuildContext, open_texts: Mapping[P
                                         texts=texts).diagnostics
         scratch = DiagnosticSink()  # the family's run above reports; this one is discarded
         sources = load_sources(paths, scratch, allow_outside=options.allow_outside_includes,
-                               texts=texts)
+                               texts=texts, lines=statements)
     diagnostics = [*without_ignored(diagnostics, context.ignore),
                    *_refusals(sources.files, paths, texts.refused)]
     by_display: dict[str, SourceText] = {}

@@ -45,6 +45,7 @@ from pygls.lsp.server import LanguageServer
 from pygls.protocol import LanguageServerProtocol, lsp_method
 
 from mplang import __version__
+from mplang.lang.linecache import StatementCache
 from mplang.tools.lsp import features
 from mplang.tools.lsp.analysis import Analysis, EditorDiagnostic, analyse
 from mplang.tools.lsp.handlers import register_editing
@@ -129,6 +130,8 @@ class MpLanguageServer(LanguageServer):
         self.debounce_above_s = debounce_above_s
         self.debounce_s = debounce_s
         self.analyses: dict[str, Analysis] = {}  # by document URI
+        # parsed statements by line text, so that an edit parses the edited lines only
+        self.statements = StatementCache()
         # By URI: the document version each kept analysis checked, how long its check took,
         # the check waiting for a pause in the changes, and the diagnostics as last
         # converted for the client (with the analysis and encoding they were converted for).
@@ -227,7 +230,8 @@ class MpLanguageServer(LanguageServer):
         others = {self.document_path(u).resolve(): self.open_text(u)
                   for u in self.analyses if u != uri and self.is_open(u)}
         path = self.document_path(uri)
-        analysis = analyse(path, text, context_for(path, self.overrides), others)
+        analysis = analyse(path, text, context_for(path, self.overrides), others,
+                           self.statements)
         if self.is_open(uri):
             self.analyses[uri] = analysis
             self.versions[uri] = self.version_of(uri)
@@ -358,6 +362,9 @@ class MpLanguageServer(LanguageServer):
                                                                             diagnostics=[]))
         if closed is None:
             return
+        entry = closed.files.get(closed.path)
+        if entry is not None:
+            self.statements.forget(entry.display)
         for other, previous in list(self.analyses.items()):
             if closed.path in previous.files:
                 self.check(other)

@@ -7,6 +7,9 @@ from pathlib import Path
 
 import pytest
 
+from mplang.lang.diagnostics import DiagnosticSink
+from mplang.lang.linecache import StatementCache
+from mplang.lang.parser import parse_text
 from mplang.m8194h.compiler import compile_paths
 from mplang.tools.lsp.analysis import analyse
 from mplang.tools.lsp.positions import Pos, line_range
@@ -240,3 +243,33 @@ def test_one_change_is_one_analysis(tmp_path: Path, monkeypatch: pytest.MonkeyPa
     assert set(changed.consts) == {"SPEED"} and changed.const_values["SPEED"] == 4000
     # the include read from disk is kept for the next change, the editor's buffer is not
     assert len(list((tmp_path / "cache" / "front").iterdir())) == 1
+
+
+class _CountedParse:
+    """The statement cache's parse function, recording each text it is given."""
+
+    def __init__(self) -> None:
+        self.texts: list[str] = []
+
+    def __call__(self, text: str, file: str, sink: DiagnosticSink) -> list[object]:
+        self.texts.append(text)
+        return parse_text(text, file, sink)  # type: ignore[return-value]
+
+
+def test_an_edit_is_analysed_parsing_the_edited_line_only(project: Path) -> None:
+    """The server keeps one statement cache: an edit then parses its own line, and the
+    analysis equals that of the same text checked afresh (diagnostics and their places)."""
+    path = project / "main.mp"
+    path.write_text(MAIN)
+    counted = _CountedParse()
+    cache = StatementCache(counted)  # type: ignore[arg-type]
+    analyse(path, MAIN, lines=cache)
+    assert "".join(counted.texts).count("FIXD_MOVE X, 1000") == 1
+    counted.texts.clear()
+    edited = MAIN.replace("FIXD_MOVE X, 1000", "FIXD_MOVE X, 1700").replace(
+        "GOTO top", "GOTO nowhere")
+    incremental = analyse(path, edited, lines=cache)
+    assert counted.texts == ["    FIXD_MOVE X, 1700\n    GOTO nowhere"]
+    fresh = analyse(path, edited)
+    assert incremental.diagnostics == fresh.diagnostics
+    assert any("nowhere" in d.message for d in incremental.diagnostics)
