@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 
 from mplang.ir import catalogue
 from mplang.ir.catalogue import Command, Param
-from mplang.ir.macro import BVarRef, MacroLine, Operand, VarRef
+from mplang.ir.macro import BVarRef, MacroLine, Operand, ProgramRef, VarRef
 from mplang.lang.diagnostics import Span
 from mplang.m8194h.encode import EncodeError, Encoder, join32, split32
 
@@ -162,3 +162,18 @@ def test_the_one_float_parameter_round_trips() -> None:
         _, (md, ldata, fdata) = encoder.decode(frame)
         assert (md, ldata) == (1500, 0) and fdata == struct.unpack(">f", struct.pack(
             ">f", -123.456))[0]
+
+
+def test_a_program_reference_is_sent_as_its_slot_or_refused_unresolved() -> None:
+    """MP_CALL's operand is the called program's number (RS 9817-9842: one register after
+    the code 0x0CCB). A name the linker placed is sent as the slot it was given; a name
+    with no slot cannot be encoded, and the refusal names it."""
+    call = CAT.macro("MP_CALL")
+    encoder = Encoder(CAT)
+    assert call.code == 0x0CCB
+    assert encoder.frame(MacroLine(call, (ProgramRef(slot=12),), SPAN)) == [0x0CCB, 12]
+    placed = MacroLine(call, (ProgramRef(name="sub"),), SPAN)
+    assert encoder.frame(placed, lambda ref: 31 if ref.name == "sub" else None) == [0x0CCB, 31]
+    with pytest.raises(EncodeError, match=r"^unresolved program .*'sub'"):
+        encoder.frame(placed)
+    assert encoder.decode([0x0CCB, 31]) == (call, (31,))

@@ -12,10 +12,10 @@ import asyncio
 from collections.abc import Callable
 
 import pytest
-from test_flash import ARCS, WRITE_REGISTERS, build_of, device, endpoint, tcp_device
+from test_flash import ARCS, ISR_JOB, WRITE_REGISTERS, build_of, device, endpoint, tcp_device
 
 from mplang.m8194h.flash import FlashImage, FlashReport, flash, image_from_build
-from mplang.m8194h.modbus import DeviceFace
+from mplang.m8194h.modbus import DeviceFace, PacketHook
 from mplang.m8194h.sim.controller import VirtualController
 
 READ_INPUT = 4
@@ -27,10 +27,11 @@ DOWNLOAD_STATES = {"mp": "MP download", "isr": "ISR download"}
 Forge = Callable[[VirtualController, int], None]
 
 
-def flash_forging(image: FlashImage, forge: Forge) -> tuple[FlashReport, DeviceFace]:
+def flash_forging(image: FlashImage, forge: Forge, packets: PacketHook | None = None,
+                  ) -> tuple[FlashReport, DeviceFace]:
     """Flash `image` (one program); `forge(controller, n)` runs before the device answers
     the n-th read of input registers from 100 after that program's close frame: n = 1 is
-    its verification, n = 2 the final check."""
+    its verification, n = 2 the final check. `packets` sees the Modbus TCP frames."""
     close = image.programs[-1].frames[-1]
     reads = [0]
     armed = [False]
@@ -47,7 +48,7 @@ def flash_forging(image: FlashImage, forge: Forge) -> tuple[FlashReport, DeviceF
     face = device(interpose=hook)
 
     async def scenario() -> FlashReport:
-        async with tcp_device(face) as (_server, port):
+        async with tcp_device(face, packets) as (_server, port):
             return await flash(image, endpoint(port))
 
     return asyncio.run(scenario()), face
@@ -67,6 +68,52 @@ def test_an_untouched_flash_reads_the_status_twice_and_succeeds() -> None:
     assert report.ok and report.outcome == "verified", report.error
     assert seen == [1, 2]
     assert report.programs[0].download_status == [41, 0, 0, 0, 0]
+    assert face.controller.state == "ready"
+
+
+def test_an_isr_verifies_by_the_isr_number_in_register_111() -> None:
+    """After an ISR download register 110 (MP number) reads 0 and 111 the ISR's number."""
+    isr_only = image_from_build(build_of(ISR_JOB.split("MP 22")[0]))
+    assert [p.label for p in isr_only.programs] == ["ISR7 on_edge"]
+    report, _face = flash_forging(isr_only, lambda _controller, _n: None)
+    assert report.ok, report.error
+    assert report.programs[0].download_status == [0, 7, 0, 0, 0]
+
+
+def test_a_status_for_another_program_is_refused_in_full_words() -> None:
+    def forge(controller: VirtualController, n: int) -> None:
+        if n == 1:
+            controller.download_status = (40, 0, 0, 0, 0)
+
+    report, _face = flash_forging(arcs(), forge)
+    assert report.outcome == "unverified"
+    assert report.error == ("MP41 arcs: the download status (input registers 110-114) is for "
+                            "MP40/ISR0, not for this program")
+
+
+def test_an_answer_no_request_waited_for_downloads_the_program_again() -> None:
+    """The device's answer to the close frame arrives twice (same transaction id): the
+    second is one no request waited for, so the device may have carried out a request twice
+    and the verification does not vouch for the program; it is downloaded again."""
+    close = b"\x00\x01\x02" + bytes([0x0C, 0xCA])  # FC16: one register, 2 bytes, 0x0CCA
+    seen = {"close": 0, "doubled": 0}
+
+    def double_the_close_answer(sending: bool, data: bytes) -> bytes:
+        # a Modbus TCP frame: MBAP (7 bytes), then the function code
+        if not sending and data[7:8] == b"\x10" and data.endswith(close):
+            seen["close"] += 1
+        elif sending and data[7:8] == b"\x10" and seen["close"] == 1 and not seen["doubled"]:
+            seen["doubled"] = 1
+            return data + data
+        return data
+
+    report, face = flash_forging(arcs(), lambda _controller, _n: None, double_the_close_answer)
+    assert seen == {"close": 2, "doubled": 1}
+    assert report.ok, report.error
+    assert report.programs[0].downloads == 2
+    assert ("MP41 arcs: an answer arrived that no request was waiting for (a delayed or "
+            "duplicated request): the device may hold a line twice: downloading it again "
+            "from its create frame") in report.notes
     assert face.controller.state == "ready"
 
 
