@@ -115,6 +115,9 @@ def test_frnet_out_sends_a_var_as_its_holding_address_and_reads_it_back() -> Non
         assert frame == [out.code, 0x0080, *data_words]
         assert encoder.decode(frame) == (out, (BVarRef(0), VarRef(1)))
     encoder = Encoder(CAT)
+    for n, address in ((0, 300), (5, 310), (511, 1322)):  # 300 + 2n
+        assert encoder.frame(MacroLine(out, (BVarRef(0), VarRef(n)), SPAN))[2:] == \
+            [0, address]
     frame = encoder.frame(MacroLine(out, (BVarRef(5), 7), SPAN))
     assert frame == [out.code, 0x0085, 0, 7]  # bVAR5 is 0x80 + 5
     assert encoder.decode(frame)[1] == (BVarRef(5), 7)
@@ -124,6 +127,9 @@ def test_frnet_out_sends_a_var_as_its_holding_address_and_reads_it_back() -> Non
     last = 300 + 2 * 511
     assert encoder.decode([out.code, 3, 0, last])[1] == (3, VarRef(511))
     assert encoder.decode([out.code, 3, 0, 300])[1] == (3, VarRef(0))
+    # a variable number, as the disassembler prints it: VAR511, never VAR511.0
+    (_, (_, var)) = encoder.decode([out.code, 3, 0, last])
+    assert isinstance(var, VarRef) and repr(var.index) == "511"
     for raw in (299, 301, last + 2, 0x7FFF0001):
         assert encoder.decode([out.code, 3, *split32(raw, 0)])[1] == (3, raw)
 
