@@ -183,3 +183,13 @@ def test_a_program_reference_is_sent_as_its_slot_or_refused_unresolved() -> None
     with pytest.raises(EncodeError, match=r"^unresolved program .*'sub'"):
         encoder.frame(placed)
     assert encoder.decode([0x0CCB, 31]) == (call, (31,))
+
+
+def test_the_download_s_create_and_close_frames() -> None:
+    """MP_CREATE 0x0AC9 and MP_ISR_CREATE 0x0ACD take the slot number; MP_CLOSE 0x0CCA and
+    MP_ISR_CLOSE 0x0CCE end the download alone (appendix table, RS 11787-11788, 11791-11792)."""
+    encoder = Encoder(CAT, 1)  # the word order has no part in one-register operands
+    assert encoder.create_frame("mp", 41) == [0x0AC9, 41]
+    assert encoder.create_frame("isr", 7) == [0x0ACD, 7]
+    assert encoder.close_frame("mp") == [0x0CCA]
+    assert encoder.close_frame("isr") == [0x0CCE]
