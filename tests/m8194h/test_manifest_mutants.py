@@ -233,3 +233,82 @@ def test_ranges_around_the_61_md_per_request_are_read_whole(count: int, order: i
         face.controller.md.set_word(n, 0x10000 * n + 7)
     got = on_device(face, lambda link: mf.read_words(link, md, order))
     assert got == [0x10000 * n + 7 for n in range(md.first, md.last + 1)]
+
+
+# ---------------------------------------------------------- the second run's survivors
+def test_register_114_and_the_padding_follow_the_layout() -> None:
+    """Word 6 is register 114 (high 16 bits) | word order (bits 8-15) | count; the body is
+    zero-padded to whole words: "b", "t" and one program named "x" make 16 bytes, 4 words
+    (a truncated name claiming 12 bytes where 3 and the padding are left does not fit)."""
+    status = (41, 0, 0x0CD6, 5, 0x0A)
+    manifest = mf.Manifest("b", "t", 0, 1, status, (mf.ManifestProgram("mp", 1, "0" * 16,
+                                                                        "x"),))
+    words = mf.encode(manifest)
+    assert len(words) == 7 + 4
+    assert words[6] == (0x0A << 16) | (1 << 8) | 1
+    assert words[4:6] == [(41 << 16) | 0, (0x0CD6 << 16) | 5]
+    assert mf.decode(words) == manifest  # the name ends exactly where the body ends
+    body = b"\x01b\x01t" + b"\x00\x01" + bytes(8) + b"\x0cabc" + bytes(2)  # 20 bytes
+    torn = with_checksum([mf.MAGIC, (mf.VERSION << 16) | 12, 0, 0, 0, 0, 1,
+                          *(int.from_bytes(body[i:i + 4], "big") for i in range(0, 20, 4))])
+    with pytest.raises(mf.ManifestError,
+                       match=r"^the manifest's contents do not fit its layout$"):
+        mf.decode(torn)
+
+
+def test_a_build_without_id_and_a_program_without_name_are_empty_texts() -> None:
+    image = image_of("MP 5\n    VAR1 = 1\nEND MP\n")
+    image.build_id = None
+    manifest = mf.manifest_of(image, STATUS, 0)
+    assert manifest.build_id == "" and [p.name for p in manifest.programs] == [""]
+
+
+def test_check_room_suggests_a_range_that_ends_where_the_given_one_ends() -> None:
+    image = image_of(JOB)
+    needed = len(mf.encode(mf.manifest_of(image, (0, 0, 0, 0, 0), 0)))
+    assert needed > 8
+    with pytest.raises(mf.ManifestError) as caught:
+        mf.check_room(image, mf.MdRange(1016, 1023))
+    assert str(caught.value) == (
+        f"the build manifest of 3 program(s) needs {needed} MD, and the identity range "
+        f"MD1016-MD1023 holds 8: give a larger one (--identity MD{1024 - needed}-MD1023 or "
+        "[flash] identity), or --no-identity")
+    with pytest.raises(mf.ManifestError, match=r"\(--identity MD0-MD7 or "):
+        mf.check_room(image, mf.MdRange(0, 7))  # never below MD0
+
+
+def test_write_manifest_fills_a_range_exactly_in_few_requests_and_clears_the_magic_first(
+        ) -> None:
+    """The words go in FC16 requests of at most 61 MD: a manifest of 12 words is the
+    cleared magic word, one request for words 1-11, the magic word, one read back."""
+    face = device()
+    words = mf.encode(mf.manifest_of(image_of(JOB), STATUS, 100))
+    exact = mf.MdRange(960, 960 + len(words) - 1)
+    writes: list[tuple[int, list[int] | None]] = []
+
+    def seen(code: int, address: int, values: list[int] | None) -> int | None:
+        if code == 16:
+            writes.append((address, values))
+        return None
+
+    face.interpose = seen
+    on_device(face, lambda link: mf.write_manifest(link, exact, words, 0))
+    assert mf.decode(held_words(face, exact)) == mf.decode(words)
+    first = mf.MD_HOLDING_BASE + 2 * 960
+    assert writes == [(first, [0, 0]), (first + 2, mf.to_registers(words[1:], 0)),
+                      (first, mf.to_registers(words[:1], 0))]
+
+
+def test_a_read_back_that_differs_is_refused() -> None:
+    face = device()
+    words = mf.encode(mf.manifest_of(image_of(JOB), STATUS, 100))
+
+    def spoil(code: int, address: int, values: list[int] | None) -> int | None:
+        if code == 3 and address == mf.MD_HOLDING_BASE + 2 * MD.first:
+            face.controller.md.set_word(MD.first + 3, 12345)  # the flash time, changed
+        return None
+
+    face.interpose = spoil
+    with pytest.raises(mf.ManifestError, match=r"^the manifest read back from MD960-MD1023 "
+                                               r"differs from what was written$"):
+        on_device(face, lambda link: mf.write_manifest(link, MD, words, 0))
