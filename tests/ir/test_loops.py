@@ -160,3 +160,17 @@ def test_a_for_counted_by_a_variable_sends_it_and_the_device_counts_it_down() ->
                    "        VAR3 = VAR3 + 1\n    NEXT\nEND MP\n")
     assert commands(result) == ["SET_VAR", "SET_VAR", "FOR", "VAR_CALCULATE", "NEXT"]
     assert final_vars(result, "MP1")["VAR3"] == 4
+
+
+def test_exit_for_leaves_the_loop_it_stands_in() -> None:
+    result = build("MP 41 main\n    FOR 3\n        VAR1 = VAR1 + 1\n        EXIT FOR\n"
+                   "    NEXT\nEND MP\n")
+    assert commands(result) == ["FOR", "VAR_CALCULATE", "EXIT_FOR", "NEXT"]
+
+
+def test_a_for_count_that_cannot_be_computed_is_one_error() -> None:
+    """A constant count that divides by zero is E206 (docs/checks/E206.md), reported once;
+    the FOR goes on to be checked as a loop with no count."""
+    diagnostics = compile_source("MP 1 main\n    FOR 1 / 0\n        FIXED_MOVE X, 1\n"
+                                 "    NEXT\nEND MP\n", "loops.mp").diagnostics
+    assert [(d.code, d.span.line) for d in diagnostics] == [("E206", 2)]

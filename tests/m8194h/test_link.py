@@ -67,6 +67,14 @@ def test_costs_count_in_budgets() -> None:
     assert "needs 9 lines" in result.diagnostics[0].message
 
 
+def test_the_close_line_counts_only_where_the_profile_says_so() -> None:
+    """close_counts_as_line (device.toml, a documented choice): FIXED_MOVE (1) and ARC_CW
+    (x2) take 3 lines, 4 with the close."""
+    result = compile_source("MP 41\n  ARC_CW 100, 0, 200, 0\n  FIXED_MOVE X, 1\nEND MP\n")
+    program = result.programs[0].program
+    assert (program.lines_used(False), program.lines_used(True)) == (3, 4)
+
+
 def test_slot_line_numbers_follow_costs() -> None:
     result = compile_source("MP 41\n  ARC_CW 100, 0, 200, 0\n  FIXED_MOVE X, 1\nEND MP\n")
     assert [lf.first_slot_line for lf in result.programs[0].lines] == [0, 2]
