@@ -210,8 +210,7 @@ def test_slot_pins_and_their_refusals() -> None:
     assert [(s.line, n) for s, n in got["E506", 4].related] == [(7, "numbered here")]
     assert got["E501", 5].message == "MP200 does not exist: slots are MP1..MP157"
     # the pins that hold: d (named in another case) gets MP12, c's pin agrees with its number
-    good = compile_source(source, "job.mp",
-                          Options(pins=(pins[4], pins[5])))
+    good = compile_source(source, "job.mp", Options(pins=(pins[5], pins[4])))
     assert good.ok, [d.render() for d in good.diagnostics]
     assert {p.program.name: p.placement.slot for p in good.programs} == {
         "a": 1, "b": 1, "c": 7, "d": 12}
@@ -228,6 +227,10 @@ def test_slot_pins_and_their_refusals() -> None:
     ("".join(f"MP {n}\n  CALL {n + 1}\nEND MP\n" for n in range(1, 8)) + "MP 8\n  EXIT\nEND MP\n",
      "E433", 1, "MP1 starts a chain of 8 nested programs; the device allows 7",
      "flatten the call chain"),
+    ("MP 1\n  CALL 1\n  CALL 1\nEND MP\n", "E432", 2, "recursive CALL: MP1 -> MP1",
+     "the device has no recursion; use a loop instead"),  # reported once per program
+    ("ISR 1\n  VAR1 = 1\nEND ISR\nMP 1\n  CALL 99\nEND MP\n", "W105", 5,
+     "MP99 is not part of this build", "make sure it is already on the device"),
 ])
 def test_the_call_graph_s_diagnostics(source: str, code: str, line: int, message: str,
                                       hint: str) -> None:
@@ -240,3 +243,33 @@ def test_the_call_graph_s_diagnostics(source: str, code: str, line: int, message
 def test_a_chain_of_seven_programs_is_allowed() -> None:
     source = "".join(f"MP {n}\n  CALL {n + 1}\nEND MP\n" for n in range(1, 7))
     assert compile_source(source + "MP 7\n  EXIT\nEND MP\n").ok
+
+
+def test_every_call_is_checked_after_one_that_is_not() -> None:
+    """An unknown name (E434), a program outside the build (W105) and a recursion (E432)
+    in one program: each is reported, none hides the ones after it."""
+    diagnostics = found("MP 1\n  CALL nosuch\n  CALL 99\n  CALL 1\nEND MP\n")
+    assert [(d.code, d.span.line) for d in diagnostics] == [
+        ("E434", 2), ("W105", 3), ("E432", 4)]
+
+
+def test_a_recursion_does_not_cut_the_depth_of_the_chain_below_it() -> None:
+    """MP1 calls itself, then MP2..MP7: MP10 -> MP1 -> ... -> MP7 is 8 programs."""
+    source = ("MP 10\n  CALL 1\nEND MP\nMP 1\n  CALL 1\n  CALL 2\nEND MP\n"
+              + "".join(f"MP {n}\n  CALL {n + 1}\nEND MP\n" for n in range(2, 7))
+              + "MP 7\n  EXIT\nEND MP\n")
+    assert [(d.code, d.span.line, d.message) for d in found(source)] == [
+        ("E433", 1, "MP10 starts a chain of 8 nested programs; the device allows 7"),
+        ("E432", 5, "recursive CALL: MP1 -> MP1")]
+
+
+def test_every_program_that_fits_nowhere_is_reported() -> None:
+    diagnostics = found(f"MP a\n{body(512)}END MP\nMP b\n{body(600)}END MP\n")
+    assert [(d.code, d.span.line) for d in diagnostics] == [("E504", 1), ("E504", 515)]
+
+
+def test_placements_carry_budget_lines_and_whether_the_linker_chose() -> None:
+    """What `mpc build`'s map and the listing show for each program."""
+    result = compile_source(f"MP 41 fixed\n{body(3)}END MP\nMP auto\n{body(9)}END MP\n")
+    assert [(p.placement.slot, p.placement.lines_used, p.placement.budget, p.placement.auto)
+            for p in result.programs] == [(41, 4, 16, False), (42, 10, 16, True)]
