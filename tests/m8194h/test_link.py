@@ -194,8 +194,9 @@ def test_slot_pins_and_their_refusals() -> None:
 
     source = (f"MP a\n{body(1)}END MP\nISR b\n{body(1)}END ISR\nMP 7 c\n{body(1)}END MP\n"
               f"MP d\n{body(1)}END MP\n")
-    pins = (pin("ghost", "mp", 3, 2), pin("b", "mp", 4, 3), pin("c", "mp", 8, 4),
-            pin("a", "mp", 200, 5), pin("D", "mp", 12, 6), pin("c", "mp", 7, 7))
+    # each refused pin comes before others: a refusal never ends the checking of the rest
+    pins = (pin("a", "mp", 200, 5), pin("ghost", "mp", 3, 2), pin("b", "mp", 4, 3),
+            pin("c", "mp", 8, 4), pin("c", "mp", 7, 7), pin("D", "mp", 12, 6))
     result = compile_source(source, "job.mp", Options(pins=pins))
     got = {(d.code, d.span.line): d for d in result.diagnostics}
     assert sorted(got) == [("E501", 5), ("E506", 3), ("E506", 4), ("W109", 2)]
@@ -210,7 +211,7 @@ def test_slot_pins_and_their_refusals() -> None:
     assert [(s.line, n) for s, n in got["E506", 4].related] == [(7, "numbered here")]
     assert got["E501", 5].message == "MP200 does not exist: slots are MP1..MP157"
     # the pins that hold: d (named in another case) gets MP12, c's pin agrees with its number
-    good = compile_source(source, "job.mp", Options(pins=(pins[5], pins[4])))
+    good = compile_source(source, "job.mp", Options(pins=(pins[4], pins[5])))
     assert good.ok, [d.render() for d in good.diagnostics]
     assert {p.program.name: p.placement.slot for p in good.programs} == {
         "a": 1, "b": 1, "c": 7, "d": 12}
@@ -251,6 +252,9 @@ def test_every_call_is_checked_after_one_that_is_not() -> None:
     diagnostics = found("MP 1\n  CALL nosuch\n  CALL 99\n  CALL 1\nEND MP\n")
     assert [(d.code, d.span.line) for d in diagnostics] == [
         ("E434", 2), ("W105", 3), ("E432", 4)]
+    # a call to a program that got no slot (E504) has nothing to check; the next one has
+    unplaced = found(f"MP 1\n  CALL big\n  CALL 99\nEND MP\nMP big\n{body(600)}END MP\n")
+    assert [(d.code, d.span.line) for d in unplaced] == [("W105", 3), ("E504", 5)]
 
 
 def test_a_recursion_does_not_cut_the_depth_of_the_chain_below_it() -> None:
