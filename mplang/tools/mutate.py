@@ -95,7 +95,9 @@ def prepare(group: Group, common: dict[str, Any]) -> None:
 def fingerprint(group: Group, common: dict[str, Any]) -> str:
     """What a group's results depend on, a line each: its modules and settings (a change
     makes mutmut start afresh), then the contents of its test files."""
-    sources = hashlib.sha256(repr(group).encode() + json.dumps(common, sort_keys=True).encode())
+    # the common settings without the groups table: editing one group restarts only that one
+    settings = {key: value for key, value in common.items() if key != "groups"}
+    sources = hashlib.sha256(repr(group).encode() + json.dumps(settings, sort_keys=True).encode())
     tests = hashlib.sha256()
     for digest, paths in ((sources, group.modules),
                           (tests, {*(t.split("::")[0] for t in group.tests), "tests/conftest.py"})):

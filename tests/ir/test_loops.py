@@ -1,4 +1,4 @@
-"""WHILE and REPEAT: what they lower to, and that they run as written on the virtual
+"""FOR, WHILE and REPEAT: what they lower to, and that they run as written on the virtual
 controller (hypothesis picks the counts)."""
 
 from __future__ import annotations
@@ -108,3 +108,69 @@ def test_label_inside_a_while_body_says_why() -> None:
                             "        VAR1 = VAR1 + 1\n    END WHILE\nEND MP\n")
     [problem] = [d for d in result.diagnostics if d.code == "E323"]
     assert "WHILE block (its body is inside an IF)" in problem.message
+
+
+# ------------------------------------------------ FOR: nesting, ISRs, counts (docs/testing.md)
+def nested_fors(depth: int, extra: str = "") -> str:
+    """MP131 (64 lines) with `depth` FORs nested, then `extra` lines at the top level."""
+    opening = "".join(f"{'    ' * (n + 1)}FOR 2\n" for n in range(depth))
+    closing = "".join(f"{'    ' * (n + 1)}NEXT\n" for n in reversed(range(depth)))
+    return (f"MP 131 deep\n{opening}{'    ' * (depth + 1)}FIXED_MOVE X, 10\n{closing}{extra}"
+            "END MP\n")
+
+
+def test_seven_nested_fors_are_allowed_and_the_eighth_is_reported_once() -> None:
+    """The profile's for_depth is 7 (ET 16778: seven levels, one outer and six inner);
+    E311 stands on the FOR that passes it, once, however deep the nesting goes."""
+    seven = build(nested_fors(7))
+    assert commands(seven) == ["FOR"] * 7 + ["FIXED_MOVE"] + ["NEXT"] * 7
+    for depth, line in ((8, 9), (9, 9)):
+        diagnostics = compile_source(nested_fors(depth), "loops.mp").diagnostics
+        assert [(d.code, d.span.line) for d in diagnostics] == [("E311", line)], depth
+        assert diagnostics[0].message == ("FOR nested 8 deep; the device allows 7 (one "
+                                          "outer and 6 inner)")
+
+
+def test_fors_side_by_side_do_not_add_up() -> None:
+    assert build(nested_fors(7, "    FOR 2\n        FIXED_MOVE X, 1\n    NEXT\n")).ok
+
+
+def test_a_for_in_an_isr_is_refused_and_its_body_still_checked() -> None:
+    diagnostics = compile_source("ISR 1 on_event\n    FOR 3\n        FIXED_MOVE X, 100\n"
+                                 "        VAR1 = NOPE\n    NEXT\nEND ISR\n",
+                                 "loops.mp").diagnostics
+    assert (diagnostics[0].code, diagnostics[0].span.line) == ("E313", 2)
+    assert diagnostics[0].message == "FOR loops are not allowed in an ISR"
+    assert any(d.span.line == 4 for d in diagnostics[1:])  # the body was lowered too
+
+
+def test_a_for_that_never_runs_is_a_warning_that_names_its_count() -> None:
+    result = compile_source("MP 41 main\n    FOR 0\n        FIXED_MOVE X, 1\n    NEXT\n"
+                            "    FOR -3\n        FIXED_MOVE X, 1\n    NEXT\n    FOR 1\n"
+                            "        FIXED_MOVE X, 1\n    NEXT\nEND MP\n", "loops.mp")
+    assert [(d.code, d.span.line, d.message) for d in result.diagnostics] == [
+        ("W102", 2, "FOR 0 never runs its body"), ("W102", 5, "FOR -3 never runs its body")]
+    assert commands(result) == ["FOR", "FIXED_MOVE", "NEXT"] * 3
+
+
+def test_a_for_counted_by_a_variable_sends_it_and_the_device_counts_it_down() -> None:
+    """FOR VARn: the operand is the variable, which the device decrements to zero; the
+    loop runs its value's number of times."""
+    result = build("MP 1 main\n    VAR2 = 4\n    VAR3 = 0\n    FOR VAR2\n"
+                   "        VAR3 = VAR3 + 1\n    NEXT\nEND MP\n")
+    assert commands(result) == ["SET_VAR", "SET_VAR", "FOR", "VAR_CALCULATE", "NEXT"]
+    assert final_vars(result, "MP1")["VAR3"] == 4
+
+
+def test_exit_for_leaves_the_loop_it_stands_in() -> None:
+    result = build("MP 41 main\n    FOR 3\n        VAR1 = VAR1 + 1\n        EXIT FOR\n"
+                   "    NEXT\nEND MP\n")
+    assert commands(result) == ["FOR", "VAR_CALCULATE", "EXIT_FOR", "NEXT"]
+
+
+def test_a_for_count_that_cannot_be_computed_is_one_error() -> None:
+    """A constant count that divides by zero is E206 (docs/checks/E206.md), reported once;
+    the FOR goes on to be checked as a loop with no count."""
+    diagnostics = compile_source("MP 1 main\n    FOR 1 / 0\n        FIXED_MOVE X, 1\n"
+                                 "    NEXT\nEND MP\n", "loops.mp").diagnostics
+    assert [(d.code, d.span.line) for d in diagnostics] == [("E206", 2)]

@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 
 from mplang.ir import catalogue
 from mplang.ir.catalogue import Command, Param
-from mplang.ir.macro import BVarRef, MacroLine, Operand, VarRef
+from mplang.ir.macro import BVarRef, MacroLine, Operand, ProgramRef, VarRef
 from mplang.lang.diagnostics import Span
 from mplang.m8194h.encode import EncodeError, Encoder, join32, split32
 
@@ -115,6 +115,9 @@ def test_frnet_out_sends_a_var_as_its_holding_address_and_reads_it_back() -> Non
         assert frame == [out.code, 0x0080, *data_words]
         assert encoder.decode(frame) == (out, (BVarRef(0), VarRef(1)))
     encoder = Encoder(CAT)
+    for n, address in ((0, 300), (5, 310), (511, 1322)):  # 300 + 2n
+        assert encoder.frame(MacroLine(out, (BVarRef(0), VarRef(n)), SPAN))[2:] == \
+            [0, address]
     frame = encoder.frame(MacroLine(out, (BVarRef(5), 7), SPAN))
     assert frame == [out.code, 0x0085, 0, 7]  # bVAR5 is 0x80 + 5
     assert encoder.decode(frame)[1] == (BVarRef(5), 7)
@@ -124,6 +127,9 @@ def test_frnet_out_sends_a_var_as_its_holding_address_and_reads_it_back() -> Non
     last = 300 + 2 * 511
     assert encoder.decode([out.code, 3, 0, last])[1] == (3, VarRef(511))
     assert encoder.decode([out.code, 3, 0, 300])[1] == (3, VarRef(0))
+    # a variable number, as the disassembler prints it: VAR511, never VAR511.0
+    (_, (_, var)) = encoder.decode([out.code, 3, 0, last])
+    assert isinstance(var, VarRef) and repr(var.index) == "511"
     for raw in (299, 301, last + 2, 0x7FFF0001):
         assert encoder.decode([out.code, 3, *split32(raw, 0)])[1] == (3, raw)
 
@@ -162,3 +168,28 @@ def test_the_one_float_parameter_round_trips() -> None:
         _, (md, ldata, fdata) = encoder.decode(frame)
         assert (md, ldata) == (1500, 0) and fdata == struct.unpack(">f", struct.pack(
             ">f", -123.456))[0]
+
+
+def test_a_program_reference_is_sent_as_its_slot_or_refused_unresolved() -> None:
+    """MP_CALL's operand is the called program's number (RS 9817-9842: one register after
+    the code 0x0CCB). A name the linker placed is sent as the slot it was given; a name
+    with no slot cannot be encoded, and the refusal names it."""
+    call = CAT.macro("MP_CALL")
+    encoder = Encoder(CAT)
+    assert call.code == 0x0CCB
+    assert encoder.frame(MacroLine(call, (ProgramRef(slot=12),), SPAN)) == [0x0CCB, 12]
+    placed = MacroLine(call, (ProgramRef(name="sub"),), SPAN)
+    assert encoder.frame(placed, lambda ref: 31 if ref.name == "sub" else None) == [0x0CCB, 31]
+    with pytest.raises(EncodeError, match=r"^unresolved program .*'sub'"):
+        encoder.frame(placed)
+    assert encoder.decode([0x0CCB, 31]) == (call, (31,))
+
+
+def test_the_download_s_create_and_close_frames() -> None:
+    """MP_CREATE 0x0AC9 and MP_ISR_CREATE 0x0ACD take the slot number; MP_CLOSE 0x0CCA and
+    MP_ISR_CLOSE 0x0CCE end the download alone (appendix table, RS 11787-11788, 11791-11792)."""
+    encoder = Encoder(CAT, 1)  # the word order has no part in one-register operands
+    assert encoder.create_frame("mp", 41) == [0x0AC9, 41]
+    assert encoder.create_frame("isr", 7) == [0x0ACD, 7]
+    assert encoder.close_frame("mp") == [0x0CCA]
+    assert encoder.close_frame("isr") == [0x0CCE]

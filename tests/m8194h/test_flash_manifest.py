@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import dataclasses
 from pathlib import Path
 
 import pytest
@@ -132,15 +133,29 @@ def test_manual_3_19_range_too_small_is_refused_before_anything_is_written() -> 
     assert all(face.controller.md.word(n) == 0 for n in range(face.controller.md.count))
 
 
-def test_manual_3_19_unchanged_manifest_is_not_rewritten() -> None:
+def test_manual_3_19_unchanged_manifest_is_not_rewritten(tmp_path: Path) -> None:
+    """A flash that finds every program already on the device (the manifest vouches for
+    them) leaves the manifest as it is, flash time included: MD are non-volatile memory.
+    A forced flash writes programs, so it clears the manifest first and writes it anew.
+    (The stored time is set back first, so a rewrite shows whatever the clock does.)"""
     face, counter = device(), Counter()
     identity = mf.MdRange(960, 1023)
-    first, second = flash_on(face, counter, FlashOptions(identity=identity),
-                             FlashOptions(identity=identity, force=True))
-    assert first.ok and second.ok  # type: ignore[attr-defined]
-    # a forced flash writes the same programs: same content, only the time could differ,
-    # and the manifest keeps the first flash's time
-    assert first.manifest == second.manifest  # type: ignore[attr-defined]
+    (first,) = flash_on(face, counter, FlashOptions(identity=identity))
+    assert first.ok  # type: ignore[attr-defined]
+    md = face.controller.md
+    earlier = dataclasses.replace(mf.decode([md.word(n) for n in range(960, 1024)]),
+                                  flashed_at=1_000_000_000)
+    for n, word in enumerate(mf.encode(earlier)):
+        md.set_word(960 + n, word)
+    second, forced = flash_on(face, counter, FlashOptions(
+        identity=identity, record=FlashRecord(tmp_path / "record.json")),
+        FlashOptions(identity=identity, force=True))
+    assert second.ok and second.count("unchanged") == 3  # type: ignore[attr-defined]
+    assert second.manifest == mf.to_json(earlier)  # type: ignore[attr-defined]
+    assert forced.ok and forced.count("verified") == 3  # type: ignore[attr-defined]
+    assert forced.manifest["flashed_at"] >= first.manifest["flashed_at"]  # type: ignore
+    assert {**forced.manifest, "flashed_at": 0} == {  # type: ignore
+        **first.manifest, "flashed_at": 0}  # type: ignore[attr-defined]
 
 
 def test_manual_3_19_a_failed_flash_leaves_no_manifest_to_trust() -> None:

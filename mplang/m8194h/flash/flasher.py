@@ -765,9 +765,9 @@ class Flasher:
         mp_no, isr_no, command, line, error = status
         expected = (program.slot, 0) if program.kind == "mp" else (0, program.slot)
         if self._anomalies() != mark:
-            raise LinkTimeout(f"{program.label}: an answer arrived that no request was "
-                              "waiting for (a delayed or duplicated request): the device may "
-                              "hold a line twice")
+            # no label: the retry note and the final failure put it before the message
+            raise LinkTimeout("an answer arrived that no request was waiting for (a delayed "
+                              "or duplicated request): the device may hold a line twice")
         if state != 0:
             raise FlashFailure("unverified", f"{program.label}: the device is in "
                                f"{state_name(state)} state after the close frame",
