@@ -1,7 +1,9 @@
 """Interpreter throughput and simulated-time speed (printed, never asserted).
 
 Targets (issue 16): 3,000,000 macro lines/s on a loop-and-arithmetic program, and a 4-axis
-job simulated at 3,000x wall time. Each figure is the best of `RUNS` runs (the machine is
+job simulated at 3,000x wall time; issue 28 raises the job's to 3,600x (motion planned on
+change only), printed as the summary line `ROW motion-job <figure> >=3600x met|MISSED`.
+Each figure is the best of `RUNS` runs (the machine is
 shared: the best run is the one least disturbed). The baseline is a bare Python loop doing
 the same arithmetic, the floor for any interpreter written in Python, timed over
 `BASELINE_ITERATIONS` iterations (best of `RUNS`) so that it is stable, then scaled to the
@@ -55,7 +57,7 @@ RUNS = 5
 BASELINE_ITERATIONS = 2_000_000
 LOOP_ITERATIONS = 20_000  # the FOR count of ARITH
 TARGET_LINES_PER_S = 3_000_000
-TARGET_REAL_TIME = 3_000
+TARGET_REAL_TIME = 3_600
 
 
 def baseline(iterations: int) -> float:
@@ -100,6 +102,9 @@ def main() -> None:
           f"{wall * 1000:.1f} ms = {simulated / wall:,.0f}x real time (target at least "
           f"{TARGET_REAL_TIME:,}x; best of {RUNS}; CPU time {cpu * 1000:.1f} ms = "
           f"{simulated / cpu:,.0f}x)")
+    ratio = simulated / wall
+    print(f"ROW motion-job {ratio:.0f}x >={TARGET_REAL_TIME}x "
+          f"{'met' if ratio >= TARGET_REAL_TIME else 'MISSED'}")
 
 
 if __name__ == "__main__":

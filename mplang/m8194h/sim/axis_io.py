@@ -69,6 +69,7 @@ from __future__ import annotations
 
 import math
 
+from mplang.m8194h.sim import profiles
 from mplang.m8194h.sim.builders import _Motion
 from mplang.m8194h.sim.crossings import _crossing
 
@@ -123,6 +124,7 @@ class AxisIO(_Scripted):
         """Rearrange the switches of one axis (they act from `now` on)."""
         self.model.settle(now)
         self.sensors[axis_index] = sensors
+        self._changed()
         self.model._recompute()
 
     def machine_position(self, axis_index: int, now: float) -> int:
@@ -342,13 +344,16 @@ class AxisIO(_Scripted):
     def reschedule(self) -> float:
         """Earliest I/O event of the present motions (called by MotionModel._recompute)."""
         self._version += 1
-        self._exempt = [m for m in self._exempt
-                        if any(self.model._ax[i].motion is m for i in m.axes)]
+        if self._exempt:
+            self._exempt = [m for m in self._exempt
+                            if any(self.model._ax[i].motion is m for i in m.axes)]
         events: list[_Event] = []
-        for m in self.model._motions():
-            self._plan(m, events)
+        if not self._calm():
+            for m in self.model._motions():
+                self._plan(m, events)
         self._plan_script(events)
-        events.sort()
+        if len(events) > 1:
+            events.sort()
         self._events = events
         self._next = events[0].time if events else _INF
         return self._next
@@ -374,7 +379,7 @@ class AxisIO(_Scripted):
 
     def _plan(self, m: _Motion, out: list[_Event]) -> None:
         now = self.now
-        exempt = any(m is e for e in self._exempt)
+        exempt = bool(self._exempt) and any(m is e for e in self._exempt)
         for k, i in enumerate(m.axes):
             st, cfg = self.status[i], self.cfg[i]
             run = st.home if st.home is not None and st.home.motion is m else None
@@ -424,6 +429,29 @@ class AxisIO(_Scripted):
             self._plan_compare(m, k, i, now, out)
             if self.watches:
                 self._plan_watches(m, k, i, mach, out)
+
+    def _calm(self) -> bool:
+        """No motion could meet an I/O event: no home search runs and no axis is
+        `_watched`. The common case, checked for all axes at once without listing the
+        motions, as `reschedule` runs after every change of the motion state; the answer
+        is kept until `_changed` (always asked afresh with `profiles.CHANGE_ONLY` off)."""
+        known = self._calm_known
+        if known is None or not profiles.CHANGE_ONLY:
+            known = self._calm_known = self._calm_now()
+        return known
+
+    def _calm_now(self) -> bool:
+        """`_calm` worked out from the settings."""
+        if self.watches:
+            return False
+        ints = self.int_enabled
+        for st, cfg, sensors in zip(self.status, self.cfg, self.sensors, strict=True):
+            if st.home is not None or cfg.slmt or sensors.wiring is not None \
+                    or sensors.limit_plus is not None or sensors.limit_minus is not None \
+                    or (ints and cfg.int_factors) \
+                    or (cfg.sync_targets and cfg.sync_factors & 0x0F):
+                return False
+        return True
 
     def _watched(self, i: int, exempt: bool) -> bool:
         """Could a motion of axis i meet any I/O event? (The common answer is no.)"""

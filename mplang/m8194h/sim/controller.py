@@ -389,7 +389,9 @@ class VirtualController:
                     break
                 if touches_motion:
                     self.epoch += 1
-                    break  # a new motion (and its interrupts): look at the events again
+                    if self.machine is not None or self.loading_until is not None or \
+                            self.isr_queue or not self.motion.io.uneventful():
+                        break  # a new motion (and its interrupts): look at the events again
                 if not stack or stack[-1] is not frame:
                     break  # MP_CALL, EXIT_MACRO or MP_TERMINATE changed the program
 

@@ -6,7 +6,8 @@ watch_axis_stops`) it copied the whole controller each time: most of a motion-he
 into it. A fork copies only what running ahead changes, and shares what never changes once
 built: a `_Motion` (a new motion replaces a running one, it is never altered), its profile
 and every path but a chain's, the chip rules (frozen), the queued `_Cmd`s (compared by
-identity), `_Plan`s and `_Seg`s, and the sensors and axis configuration, which only
+identity), `_Plan`s, the plans kept by settings (`MotionModel._plans`, a cache whose key
+is all its value depends on) and `_Seg`s, and the sensors and axis configuration, which only
 commands change (a fork runs none: it only settles time forward; the axis settings are
 copied, as a synchronous action may change a speed). A continuous interpolation's
 `_ChainPath` grows as segments come in, so it is copied, and with it every motion, event
@@ -37,10 +38,11 @@ FORKED: dict[str, frozenset[str]] = {
     "MotionModel": frozenset({
         "queue_capacity", "rules", "settings", "vector", "assigned", "_ax", "_queue", "_pending",
         "io",
-        "_next_end", "_chains", "_chain_seq", "_open"}),
+        "_next_end", "_chains", "_chain_seq", "_open", "_plans"}),
     "AxisIO": frozenset({
         "model", "sensors", "cfg", "status", "now", "emergency", "emg_input", "int_enabled",
         "triggered", "requests", "_events", "_next", "_exempt", "_version", "_prediction",
+        "_calm_known",
         "script", "script_next", "watches", "watch_above", "inpos_forced", "di_changes"}),
     "_AxisConfig": frozenset({
         "hlmt_plus_level", "hlmt_minus_level", "limit_stop_slow", "nhome_level", "home_level",

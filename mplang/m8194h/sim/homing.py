@@ -110,6 +110,7 @@ class _HomeSearch(_SyncActions):
     def _home_begin(self, i: int, t: float) -> None:
         st = self.status[i]
         st.home = run = _HomeRun(i)
+        self._changed()
         self._sync(i, SYNC_D_STA, t)
         self._home_step1(run, t)
 
@@ -280,6 +281,7 @@ class _HomeSearch(_SyncActions):
         st = self.status[i]
         st.home = None
         st.home_end = t
+        self._changed()
         self.triggered[FACTOR_HMEND] |= 1 << i
         ended = True
         if halt is not None:

@@ -20,6 +20,7 @@ Conventions and simplifications (manual = RS manual, "l.N" its line N)
 
 from __future__ import annotations
 
+from mplang.m8194h.sim import profiles
 from mplang.m8194h.sim.builders import _Motion
 from mplang.m8194h.sim.fork import fork
 from mplang.m8194h.sim.io_state import _axes, _IOBase, _one_axis, _Request
@@ -32,12 +33,14 @@ class _Interrupts(_IOBase):
     def enable_int(self, now: float) -> None:
         self.model.settle(now)
         self.int_enabled = True
+        self._changed()
         self.model._recompute()
 
     def disable_int(self, now: float) -> None:
         self.model.settle(now)
         self.int_enabled = False
         self.requests.clear()
+        self._changed()
         self.model._recompute()
 
     def intfactor_enable(self, axis: int, factor: int, isr: int, now: float) -> None:
@@ -47,6 +50,7 @@ class _Interrupts(_IOBase):
         self.model.settle(now)
         self.cfg[i].int_factors[factor] = int(isr)
         self.triggered[factor] &= ~(1 << i)
+        self._changed()
         self.model._recompute()
 
     def intfactor_disable(self, axis_mask: int, factor: int, now: float) -> None:
@@ -59,6 +63,7 @@ class _Interrupts(_IOBase):
                 factors.pop(factor, None)
             self.requests = [r for r in self.requests
                              if r.axis != i or (factor != 10 and r.factor != factor)]
+        self._changed()
         self.model._recompute()
 
     def triggered_factors(self, now: float) -> tuple[int, ...]:
@@ -99,6 +104,12 @@ class _Interrupts(_IOBase):
             t = nxt
         self._prediction = (self._version, when)
         return when
+
+    def uneventful(self) -> bool:
+        """No interrupt can be requested, so a new motion changes no event the interpreter
+        waits for (with no machine script, ISR or loading wait either, it runs on after a
+        motion command). Always False with `profiles.CHANGE_ONLY` off."""
+        return profiles.CHANGE_ONLY and not self.int_enabled and not self.requests
 
     def _may_interrupt(self) -> bool:
         if not self.int_enabled:

@@ -195,6 +195,8 @@ class _IOBase:
         self._exempt: list[_Motion] = []  # motions already stopping on a limit
         self._version = 0
         self._prediction: tuple[int, float | None] | None = None
+        # `AxisIO._calm`, known until a setting it reads changes (`_changed`); None: unknown
+        self._calm_known: bool | None = None
         # the machine file's script (`scripted`): timed changes, position conditions
         self.script: list[TimedChange] = []
         self.script_next = 0
@@ -203,11 +205,17 @@ class _IOBase:
         self.inpos_forced: list[bool | None] = [None] * len(AXES)
         self.di_changes: list[tuple[float, int, int, int]] = []  # (t, group, mask, value)
 
+    def _changed(self) -> None:
+        """A setting that decides whether a motion can meet an I/O event (a sensor, an
+        axis setting, interrupts, a home search, the machine's conditions) changed."""
+        self._calm_known = None
+
     def _configure(self, axis_mask: int, now: float, **values: object) -> None:
         self.model.settle(now)
         for i in _axes(axis_mask):
             for name, value in values.items():
                 setattr(self.cfg[i], name, value)
+        self._changed()
         self.model._recompute()
 
     # --------------------------------------------------------------- signals and levels

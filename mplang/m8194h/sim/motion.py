@@ -17,7 +17,8 @@ cited below as "manual line N"); where the manual is silent the choice is stated
 The parts of a motion are in their own modules: speed plans and profiles in `profiles`,
 paths in `paths`, motions and the builders that start them in `builders`, continuous
 interpolation in `chains`; this module holds the `MotionModel` that queues, starts, stops
-and settles them.
+and settles them. It is one file because `MotionModel` is one class whose methods all keep
+its queue, axes and chains consistent with each other; what stands alone is in those modules.
 
 Conventions and simplifications
 -------------------------------
@@ -116,27 +117,20 @@ from mplang.m8194h.sim.io_state import AxisReport
 from mplang.m8194h.sim.profiles import (
     VECTOR_KIND,
     _AxisSettings,
+    _kept_plan,
     _Plan,
+    _plans_for,
     _Profile,
     _ramp,
     _ramp_dist,
     _single_plan,
+    _vector_plan,
+    _VectorSettings,
 )
 
 _INF = math.inf
 
 __all__ = ["MotionModel", "QueueFull"]
-
-@dataclass
-class _VectorSettings:
-    mode: int = 0
-    vsv: int = 1000
-    vv: int = 10000
-    va: int = 100_000
-    vd: int = 100_000
-    vk: int = 1_000_000
-    vl: int = 1_000_000
-    vao: int = 8
 
 
 @dataclass
@@ -171,6 +165,9 @@ class MotionModel:
         self._chains: dict[int, _Chain] = {}
         self._chain_seq = 0
         self._open: _Chain | None = None
+        # plans by the settings they come from (`profiles.CHANGE_ONLY`), shared by the models
+        # of equal chip rules (so their profiles are found by identity) and with forks
+        self._plans = _plans_for(self.rules)
 
     @classmethod
     def for_device(cls, profile: Profile) -> MotionModel:
@@ -179,7 +176,9 @@ class MotionModel:
 
     def plan(self, axis: int) -> _Plan:
         """The plan a single-axis drive of axis index `axis` latches now."""
-        return _single_plan(self.settings[axis], self.rules)
+        st, rules = self.settings[axis], self.rules
+        return _kept_plan(self._plans, (st.max_v, st.mode, st.sv, st.v, st.a, st.d, st.k, st.l,
+                                        st.ao), lambda: _single_plan(st, rules))
 
     # ---------------------------------------------------------------- settings
     def _set(self, axis_mask: int, name: str, value: int) -> None:
@@ -276,21 +275,8 @@ class MotionModel:
         """The vector plan, with the values the chip holds for the MAX_V of axis 1."""
         vs, rules = self.vector, self.rules
         max_v = self.settings[self.assigned[0]].max_v
-        v = rules.speed(vs.vv, max_v)
-        sv = rules.speed(vs.vsv, max_v)
-        kind = VECTOR_KIND[vs.mode]
-        if kind == "const":
-            return _Plan(v, v, 1.0, 1.0, False, constant=True)
-        offset = float(vs.vao)
-        va, vd = rules.acceleration(vs.va, max_v), rules.acceleration(vs.vd, max_v)
-        vk, vl = rules.jerk(vs.vk, max_v), rules.jerk(vs.vl, max_v)
-        if kind == "symT":
-            return _Plan(sv, v, va, va, False, offset=offset)
-        if kind == "asymT":
-            return _Plan(sv, v, va, vd, False, offset=offset)
-        if kind == "symS":
-            return _Plan(sv, v, vk, vk, True, offset=offset)
-        return _Plan(sv, v, vk, vl, True, offset=offset)
+        key = (max_v, vs.mode, vs.vsv, vs.vv, vs.va, vs.vd, vs.vk, vs.vl, vs.vao, True)
+        return _kept_plan(self._plans, key, lambda: _vector_plan(vs, max_v, rules))
 
     # ------------------------------------------------------------------ motion
     def fixed_move(self, axis_mask: int, pulses: int, now: float) -> None:
@@ -430,19 +416,26 @@ class MotionModel:
 
     # ------------------------------------------------------------ bookkeeping
     def _motions(self) -> list[_Motion]:
+        """The running motions, each once (an interpolation drives several axes)."""
         seen: list[_Motion] = []
         for ax in self._ax:
             m = ax.motion
-            if m is not None and all(m is not o for o in seen):
-                seen.append(m)
+            if m is not None:
+                for other in seen:
+                    if other is m:
+                        break
+                else:
+                    seen.append(m)
         return seen
 
     def _recompute(self) -> None:
         end = _INF
         for ax in self._ax:
-            if ax.motion is not None and ax.motion.end < end:
-                end = ax.motion.end
-        self._next_end = min(end, self.io.reschedule())  # limits, sensors, compare
+            m = ax.motion
+            if m is not None and m.end < end:
+                end = m.end
+        io_next = self.io.reschedule()  # limits, sensors, compare
+        self._next_end = io_next if io_next < end else end
 
     def waiting_commands(self) -> int:
         """Motion commands that wait for their axes (queued behind busy axes or held)."""
@@ -454,21 +447,31 @@ class MotionModel:
         if self.queue_capacity is None:
             return
         self.settle(now)
-        queued = [set(c.axes) for c in self._queue]
-        waits = sum(1 for axes in groups if any(
-            self._ax[i].held or self._ax[i].motion is not None for i in axes)
-            or any(q & set(axes) for q in queued))
+        ax = self._ax
+        queued = [set(c.axes) for c in self._queue] if self._queue else []
+        waits = 0
+        for axes in groups:
+            for i in axes:
+                if ax[i].held or ax[i].motion is not None:
+                    waits += 1
+                    break
+            else:
+                if queued and any(q & set(axes) for q in queued):
+                    waits += 1
         waiting = self.waiting_commands()
         if waits and waiting and waiting + waits > self.queue_capacity:
             raise QueueFull(needed=waits)  # (an empty queue takes any one command)
 
     def _issue(self, cmd: _Cmd, now: float) -> None:
         self.settle(now)
-        if any(self._ax[i].held for i in cmd.axes):
-            self._pending.append(cmd)
-            return
-        if any(self._ax[i].motion is not None for i in cmd.axes) or any(
-                set(cmd.axes) & set(c.axes) for c in self._queue):
+        ax = self._ax
+        busy = False
+        for i in cmd.axes:
+            if ax[i].held:
+                self._pending.append(cmd)
+                return
+            busy = busy or ax[i].motion is not None
+        if busy or (self._queue and any(set(cmd.axes) & set(c.axes) for c in self._queue)):
             self._queue.append(cmd)
             return
         self._start(cmd, now)
@@ -501,6 +504,11 @@ class MotionModel:
 
     def settle(self, now: float) -> None:
         """Finish, in time order, every motion that ended at or before `now`."""
+        if self._next_end > now:  # nothing ends: only the I/O's present time moves
+            io = self.io
+            if now > io.now:  # (`AxisIO.advance`, inline: every query settles first)
+                io.now = now
+            return
         while self._next_end <= now:
             t = self._next_end
             self.io.fire(t)  # axis I/O events due at t (limits, home sensors, compare)

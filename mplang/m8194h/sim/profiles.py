@@ -155,8 +155,33 @@ class _Plan:
     offset: float = 0.0  # AO / VAO: pulses kept back from the deceleration, run at SV
 
 
+CHANGE_ONLY = True
+"""Plan on change only: share the profile of a (distance, plan) pair between the moves that
+ask for it and keep the plan of unchanged settings (a job repeats its moves, and a profile is
+never altered once built), keep `AxisIO._calm` until a setting it reads changes, and let the
+interpreter run on after a motion command when no event can come of it. Tests switch it off
+to compare with planning everything afresh (tests/m8194h/sim/test_planning.py)."""
+
+_MEMO_LIMIT = 4096  # distinct (distance, plan) pairs kept; a program with more starts over
+_P2P: dict[tuple[float, _Plan], _Profile] = {}
+
+
 def _point_to_point(dist: float, plan: _Plan) -> _Profile:
-    """Profile covering exactly `dist` pulses of path, starting and ending at SV."""
+    """Profile covering exactly `dist` pulses of path, starting and ending at SV (memoised,
+    see `CHANGE_ONLY`: the caller must not alter it)."""
+    if not CHANGE_ONLY:
+        return _plan_point_to_point(dist, plan)
+    key = (dist, plan)
+    prof = _P2P.get(key)
+    if prof is None:
+        if len(_P2P) >= _MEMO_LIMIT:
+            _P2P.clear()
+        prof = _P2P[key] = _plan_point_to_point(dist, plan)
+    return prof
+
+
+def _plan_point_to_point(dist: float, plan: _Plan) -> _Profile:
+    """`_point_to_point` computed afresh."""
     v = max(plan.v, 1.0)
     sv = min(plan.sv, v)
     prof = _Profile(0.0, sv)
@@ -169,7 +194,8 @@ def _point_to_point(dist: float, plan: _Plan) -> _Profile:
         return prof
     creep = min(plan.offset, dist) if plan.offset > 0.0 and sv > 0.0 else 0.0
     if creep:
-        prof = _point_to_point(dist - creep, _Plan(sv, v, plan.acc, plan.dec, plan.s_curve))
+        prof = _plan_point_to_point(dist - creep,
+                                    _Plan(sv, v, plan.acc, plan.dec, plan.s_curve))
         prof.add(creep / sv, 0.0, 0.0)
         prof.length = dist
         return prof
@@ -216,6 +242,65 @@ def _single_plan(st: _AxisSettings, rules: ChipRules) -> _Plan:
     return _Plan(sv, v, rules.acceleration(st.a, top),
                  rules.acceleration(st.d if mode == 2 else st.a, top), False,
                  offset=float(st.ao))
+
+
+@dataclass
+class _VectorSettings:
+    mode: int = 0
+    vsv: int = 1000
+    vv: int = 10000
+    va: int = 100_000
+    vd: int = 100_000
+    vk: int = 1_000_000
+    vl: int = 1_000_000
+    vao: int = 8
+
+
+def _vector_plan(vs: _VectorSettings, max_v: int, rules: ChipRules) -> _Plan:
+    """The vector plan, with the values the chip holds for `max_v` (that of axis 1)."""
+    v = rules.speed(vs.vv, max_v)
+    sv = rules.speed(vs.vsv, max_v)
+    kind = VECTOR_KIND[vs.mode]
+    if kind == "const":
+        return _Plan(v, v, 1.0, 1.0, False, constant=True)
+    offset = float(vs.vao)
+    va, vd = rules.acceleration(vs.va, max_v), rules.acceleration(vs.vd, max_v)
+    vk, vl = rules.jerk(vs.vk, max_v), rules.jerk(vs.vl, max_v)
+    if kind == "symT":
+        return _Plan(sv, v, va, va, False, offset=offset)
+    if kind == "asymT":
+        return _Plan(sv, v, va, vd, False, offset=offset)
+    if kind == "symS":
+        return _Plan(sv, v, vk, vk, True, offset=offset)
+    return _Plan(sv, v, vk, vl, True, offset=offset)
+
+
+_PLANS: dict[ChipRules, dict[tuple[object, ...], _Plan]] = {}
+_RULES_LIMIT = 16  # distinct chip rules whose plans are kept
+
+
+def _plans_for(rules: ChipRules) -> dict[tuple[object, ...], _Plan]:
+    """The kept plans of models with these chip rules: shared, so that equal settings give
+    the very same plan and its profiles are found by identity."""
+    plans = _PLANS.setdefault(rules, {})
+    if len(_PLANS) > _RULES_LIMIT:
+        _PLANS.clear()
+        _PLANS[rules] = plans
+    return plans
+
+
+def _kept_plan(plans: dict[tuple[object, ...], _Plan], key: tuple[object, ...],
+               make: Callable[[], _Plan]) -> _Plan:
+    """The plan of settings `key`, made the first time and then kept (`CHANGE_ONLY`; at most
+    `_MEMO_LIMIT` of them, then it starts over)."""
+    if not CHANGE_ONLY:
+        return make()
+    plan = plans.get(key)
+    if plan is None:
+        if len(plans) >= _MEMO_LIMIT:
+            plans.clear()
+        plan = plans[key] = make()
+    return plan
 
 
 def _bisect(lo: float, hi: float, ok: Callable[[float], bool]) -> float:

@@ -79,6 +79,7 @@ class _Scripted(_HomeSearch):
         self.script = sorted(timed, key=lambda c: c.time)
         self.script_next = 0
         self.watches = list(watches)
+        self._changed()
         self.watch_above = [self._phys(w.axis, now) >= w.threshold for w in watches]
         for w, above in zip(watches, self.watch_above, strict=True):
             if above == w.above:
