@@ -15,7 +15,7 @@ import pytest
 from test_flash import ARCS, ISR_JOB, WRITE_REGISTERS, build_of, device, endpoint, tcp_device
 
 from mplang.m8194h.flash import FlashImage, FlashReport, flash, image_from_build
-from mplang.m8194h.modbus import DeviceFace, PacketHook
+from mplang.m8194h.modbus_server import DeviceFace, PacketHook
 from mplang.m8194h.sim.controller import VirtualController
 
 READ_INPUT = 4

@@ -15,7 +15,8 @@ from test_flash import device, endpoint, tcp_device
 from test_flash_incremental import JOB, image_of
 
 from mplang.m8194h.flash import manifest as mf
-from mplang.m8194h.modbus import DeviceFace, DeviceLink
+from mplang.m8194h.modbus import DeviceLink
+from mplang.m8194h.modbus_server import DeviceFace
 
 T = TypeVar("T")
 
