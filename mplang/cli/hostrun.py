@@ -92,6 +92,8 @@ def make_plan(ctx: click.Context, kw: dict[str, Any]) -> Plan:
         raise click.UsageError(f"--identity names the machine data of an M8194H's build "
                                f"manifest; a {family.TITLE} holds none (its program listing "
                                "is compared with the build's)")
+    if family.PROTOCOL != "modbus":
+        _refuse_modbus_only(ctx, family.TITLE)
     paths = selection.paths
     if not paths:
         raise click.UsageError("give FILE... (the .mp sources of the build the device holds, "
@@ -106,6 +108,18 @@ def make_plan(ctx: click.Context, kw: dict[str, Any]) -> Plan:
                                              and setup.project.word_order is not None)
     return Plan(family, device, tuple(paths), images[0] if images else None, setup.options,
                 fixed, identity, kw["answer_timeout"], kw["retries"])
+
+
+def _refuse_modbus_only(ctx: click.Context, title: str) -> None:
+    """--unit and --retries given for a device that does not speak Modbus: refused rather
+    than silently ignored (a CSIM's line has no unit number and asks each question once)."""
+    from click.core import ParameterSource
+
+    for name, flag in (("unit", "--unit"), ("retries", "--retries")):
+        if ctx.get_parameter_source(name) in (ParameterSource.COMMANDLINE,
+                                              ParameterSource.ENVIRONMENT):
+            raise click.UsageError(f"{flag} is for a Modbus device; a {title}'s RS232 line "
+                                   "has no unit number and asks each question once")
 
 
 def run_host(plan: Plan, check: bool, werror: bool,

@@ -248,6 +248,8 @@ def test_bad_input_is_refused_with_its_reason(job: Path, served: str) -> None:
         (["var", "parts=1", "scale=1e39"], EXIT_USAGE, "scale (R3) is float32"),
         (["call", "nosuch", "--set", "parts=1"], EXIT_USAGE, "$TOUR tour"),
         (["var", "--identity", "MD0-MD7"], EXIT_USAGE, "a CSIM holds none"),
+        (["var", "--unit", "2"], EXIT_USAGE, "--unit is for a Modbus device"),
+        (["call", "tour", "--retries", "0"], EXIT_USAGE, "--retries is for a Modbus device"),
     ]
     for args, code, text in cases:
         done = mpc(job, args[0], *args[1:], "job.mp", *CSIM, "--serial", served)
