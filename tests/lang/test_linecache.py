@@ -13,6 +13,7 @@ from typing import ClassVar
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from parsecount import CountedParse
 
 from mplang.lang import caches, frontcache, linecache
 from mplang.lang.diagnostics import DiagnosticSink, Span, make_span
@@ -104,19 +105,8 @@ def test_random_edits_build_the_image_a_full_build_does(name: str,
         caches.turn_off(False)
 
 
-class _Counted:
-    """Parses through `parse_text`, keeping the texts it was given."""
-
-    def __init__(self) -> None:
-        self.texts: list[str] = []
-
-    def __call__(self, text: str, file: str, sink: DiagnosticSink) -> list[object]:
-        self.texts.append(text)
-        return parse_text(text, file, sink)  # type: ignore[return-value]
-
-
 def test_an_edit_parses_the_edited_line_only() -> None:
-    counted = _Counted()
+    counted = CountedParse()
     cache = StatementCache(counted)  # type: ignore[arg-type]
     text = (ROOT / "samples" / "full_mp156.mp").read_text(encoding="utf-8")
     lines = text.split("\n")
@@ -191,7 +181,7 @@ def test_the_front_cache_keeps_lines_of_an_earlier_text(
     text = (ROOT / "samples" / "full_mp156.mp").read_text(encoding="utf-8")
     frontcache.parse(text, "full.mp", DiagnosticSink(), where="/p/full.mp")
     edited = text.replace("2000", "2500", 1) + "  BAD = = 1\n"
-    counted = _Counted()
+    counted = CountedParse()
     monkeypatch.setattr(linecache, "_parse_text", counted)
     sink = DiagnosticSink()
     statements = frontcache.parse(edited, "full.mp", sink, where="/p/full.mp")

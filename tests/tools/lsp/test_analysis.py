@@ -6,10 +6,9 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+from parsecount import CountedParse
 
-from mplang.lang.diagnostics import DiagnosticSink
 from mplang.lang.linecache import StatementCache
-from mplang.lang.parser import parse_text
 from mplang.m8194h.compiler import compile_paths
 from mplang.tools.lsp.analysis import analyse
 from mplang.tools.lsp.positions import Pos, line_range
@@ -245,23 +244,12 @@ def test_one_change_is_one_analysis(tmp_path: Path, monkeypatch: pytest.MonkeyPa
     assert len(list((tmp_path / "cache" / "front").iterdir())) == 1
 
 
-class _CountedParse:
-    """The statement cache's parse function, recording each text it is given."""
-
-    def __init__(self) -> None:
-        self.texts: list[str] = []
-
-    def __call__(self, text: str, file: str, sink: DiagnosticSink) -> list[object]:
-        self.texts.append(text)
-        return parse_text(text, file, sink)  # type: ignore[return-value]
-
-
 def test_an_edit_is_analysed_parsing_the_edited_line_only(project: Path) -> None:
     """The server keeps one statement cache: an edit then parses its own line, and the
     analysis equals that of the same text checked afresh (diagnostics and their places)."""
     path = project / "main.mp"
     path.write_text(MAIN)
-    counted = _CountedParse()
+    counted = CountedParse()
     cache = StatementCache(counted)  # type: ignore[arg-type]
     analyse(path, MAIN, lines=cache)
     assert "".join(counted.texts).count("FIXD_MOVE X, 1000") == 1
