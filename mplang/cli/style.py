@@ -217,8 +217,11 @@ def all_checks_passed() -> None:
 
 def report_diagnostics(diagnostics: Sequence[Diagnostic],
                        known: dict[str, Sequence[str]] | None = None) -> None:
-    """Every diagnostic on standard error, rendered for a person."""
+    """Every diagnostic on standard error, rendered for a person: in one write, the colour
+    decided once (a whole device can have thousands of warnings)."""
+    if not diagnostics:
+        return
     color = color_enabled()
     sources = SourceLines(known)
-    for diagnostic in diagnostics:
-        echo(render_diagnostic(diagnostic, sources, color))
+    click.echo("\n".join(render_diagnostic(diagnostic, sources, color)
+                         for diagnostic in diagnostics), err=True, color=color)
