@@ -24,7 +24,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from mplang.tools.dap.framing import Writer
-from mplang.tools.framing import MAX_HEADER_BYTES, Dropped, Framer, Reader
+from mplang.tools.framing import CHUNK_BYTES, MAX_HEADER_BYTES, Dropped, Framer, Reader
 
 WAIT_S = 30.0  # a bound on an answer that never comes: a hung server fails the test
 BAD_MESSAGES = {  # what is sent, and what the line on stderr says
@@ -268,6 +268,9 @@ def test_dap_writer_frames_and_numbers_messages() -> None:
     writer.send({"type": "event", "event": "terminated"})
     bodies = read_all(out.getvalue())
     assert [json.loads(b)["seq"] for b in bodies if isinstance(b, bytes)] == [1, 2]
+    # the header as the DAP specification spells it (clients may match it exactly)
+    first = json.dumps({"seq": 1, "type": "event", "event": "initialized"}).encode()
+    assert out.getvalue().startswith(b"Content-Length: %d\r\n\r\n%s" % (len(first), first))
 
 
 def test_reader_holds_no_more_than_its_bounds() -> None:
@@ -296,3 +299,147 @@ def test_mpc_dap_needs_no_pygls() -> None:
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                             timeout=WAIT_S, check=True)
     assert result.stdout.strip() == "[]"
+
+
+def reasons(data: bytes, chunk: int = 7, max_body: int = 1000) -> list[bytes | str]:
+    """`read_all`, with each Dropped as its reason."""
+    return [item.reason if isinstance(item, Dropped) else item
+            for item in read_all(data, chunk, max_body)]
+
+
+def test_reader_says_what_it_dropped_word_for_word() -> None:
+    """Each reason names the bad value, cut to 40 characters with '...' after (its bytes
+    read as UTF-8, a bad byte shown as U+FFFD)."""
+    good = frame({"seq": 1})
+    body = good.split(b"\r\n\r\n", 1)[1]
+    forty = b"a" * 40
+    cases: list[tuple[bytes, str]] = [
+        (b"Content-Length: -5\r\n\r\n{}", "Content-Length '-5' is not a byte count"),
+        (b"Content-Length: \xff2\r\n\r\n{}", "Content-Length '\ufffd2' is not a byte count"),
+        (b"Content-Length: 1001\r\n\r\n", "Content-Length '1001' is over the limit of 1000 bytes"),
+        (b"Content-Type: x\r\n\r\n{}", "a message without Content-Length"),
+        (forty + b"\r\n\r\n", f"not a header line: '{'a' * 40}'"),
+        (forty + b"b\r\n\r\n", f"not a header line: '{'a' * 40}'..."),
+        (b"Content-Length: 400\r\n\r\n{\"cut\"", "a body ended after 6 of its 400 bytes (its "
+         "Content-Length was too large): a new message starts there"),
+    ]
+    for bad, reason in cases:
+        assert reasons(bad + good) == [reason, body], bad
+    for mib in (1, 16):
+        assert reasons(b"Content-Length: 99999999\r\n\r\n" + good, max_body=mib * 2**20) == [
+            f"Content-Length '99999999' is over the limit of {mib} MiB", body]
+
+
+def test_reader_resynchronises_on_a_header_one_byte_into_a_bad_block() -> None:
+    """The bad bytes are dropped up to the next `Content-Length:`, even one that starts
+    at the second byte of the block that was refused."""
+    assert reasons(b"XContent-Length: 2\r\n\r\n{}") == ["a message without Content-Length", b"{}"]
+
+
+def test_reader_asks_for_a_chunk_at_a_time() -> None:
+    """Bounded reads: the reader never asks its stream for more than CHUNK_BYTES."""
+    asked: list[int] = []
+    pieces = iter([frame({"seq": 1}), b""])
+
+    def read(size: int) -> bytes:
+        asked.append(size)
+        return next(pieces)
+
+    reader = Reader(read, 1000)
+    assert reader.next() == b'{"seq": 1}' and reader.next() is None
+    assert asked == [CHUNK_BYTES, CHUNK_BYTES]
+
+
+def test_after_a_resynchronisation_each_bad_message_is_reported_again() -> None:
+    """Skipping ends at the header found: a later bad message gets its own reason."""
+    good = frame({"seq": 1})
+    body = good.split(b"\r\n\r\n", 1)[1]
+    assert reasons(b"bad\r\n\r\n" + good + b"Content-Type: x\r\n\r\n{}" + good) == [
+        "not a header line: 'bad'", body, "a message without Content-Length", body]
+
+
+def test_skipped_bytes_are_dropped_silently_keeping_only_a_cut_mark() -> None:
+    """After a framing error, input up to the next `Content-Length:` is discarded without
+    another reason, even where it looks like a header block; what is held meanwhile is at
+    most the start of a mark cut by the end of the input (its length less one byte)."""
+    framer = Framer(1000)
+    framer.feed(b"bad\r\n\r\n")
+    assert framer.next() == Dropped("not a header line: 'bad'")
+    assert framer.next() is None
+    framer.feed(b"junk\r\n\r\n" + b"x" * 100)
+    assert framer.next() is None
+    assert framer.held == len(b"Content-Length:") - 1
+    framer.feed(frame({"seq": 1}))
+    assert framer.next() == b'{"seq": 1}'
+
+
+def test_a_complete_message_is_given_before_the_input_ends() -> None:
+    """A server answers a request without waiting for the next one: a body is returned as
+    soon as its last byte is in, exactly its Content-Length (here also the limit)."""
+    framer = Framer(10)
+    framer.feed(b"Content-Length: 10\r\n\r\n" + b'{"a": 123}')
+    assert framer.next() == b'{"a": 123}'
+    assert framer.next() is None and not framer.ended
+    # nor for the rest of the next message's header, whose first bytes came with it
+    framer.feed(b"Content-Length: 2\r\n\r\n{}" + b"Content-Le")
+    assert framer.next() == b"{}"
+
+
+def test_header_fields_as_http_defines_them() -> None:
+    """The base protocol's header is HTTP's: a field name ends at its first colon, names
+    ignore case, fields come in any order, space around a value is no part of it, and a
+    count may have leading zeros (RFC 9110, 5.1, 5.5 and 8.6)."""
+    cases = [b"Content-Type: application/vscode-jsonrpc; charset=utf-8\r\nContent-Length: 2",
+             b"X-Note: a:b\r\nContent-Length: 2",
+             b"content-length: 2",
+             b"CONTENT-LENGTH:\t 2 ",
+             b"Content-Length: 000000000002"]
+    for header in cases:
+        assert reasons(header + b"\r\n\r\n{}") == [b"{}"], header
+
+
+def test_the_bounds_are_inclusive() -> None:
+    """A header block of exactly MAX_HEADER_BYTES is read, one byte more is refused; a
+    body of exactly the limit is read, one byte more is refused."""
+    def block(size: int) -> bytes:
+        head = b"Content-Length: 2\r\nX-Pad: "
+        return head + b"p" * (size - len(head))
+
+    framer = Framer(1000)
+    framer.feed(block(MAX_HEADER_BYTES))  # all of it held, the blank line not in yet
+    assert framer.next() is None
+    framer.feed(b"\r\n\r\n{}")
+    assert framer.next() == b"{}"
+    assert reasons(block(MAX_HEADER_BYTES + 1) + b"\r\n\r\n{}", chunk=4096) == [
+        f"a header longer than {MAX_HEADER_BYTES} bytes"]
+    assert reasons(b"Content-Length: 1000\r\n\r\n" + b"x" * 1000) == [b"x" * 1000]
+
+
+def test_a_body_cut_short_by_the_next_header_at_any_point() -> None:
+    """The next message's header found inside a body cuts it, wherever it starts (at the
+    body's first byte too), and however the reads split that header: while the end of the
+    input may be the start of one, the body waits for more."""
+    good = frame({"seq": 1})
+    body = good.split(b"\r\n\r\n", 1)[1]
+    cut = ("a body ended after {} of its {} bytes (its Content-Length was too large): "
+           "a new message starts there")
+    assert reasons(b"Content-Length: 50\r\n\r\n" + good) == [cut.format(0, 50), body]
+    framer = Framer(1000)  # the first header inside it cuts it, not a later one
+    framer.feed(b'Content-Length: 200\r\n\r\n{"cut"' + good + good)
+    assert [framer.next(), framer.next(), framer.next()] == [Dropped(cut.format(6, 200)),
+                                                             body, body]
+    for split in range(1, len(b"Content-Length: 12\r\n")):
+        framer = Framer(1000)
+        framer.feed(b'Content-Length: 8\r\n\r\n{"cut"' + good[:split])
+        assert framer.next() is None, split  # 6 + split bytes may be a body of 8: wait
+        framer.feed(good[split:])
+        assert [framer.next(), framer.next()] == [Dropped(cut.format(6, 8)), body], split
+    for declared in range(7, 26):  # the header fed a byte at a time: a body of any length
+        framer = Framer(1000)
+        framer.feed(b"Content-Length: %d\r\n\r\n{\"cut\"" % declared)
+        found = []
+        for byte in good:
+            framer.feed(bytes([byte]))
+            while (item := framer.next()) is not None:
+                found.append(item)
+        assert found == [Dropped(cut.format(6, declared)), body], declared

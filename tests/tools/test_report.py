@@ -6,13 +6,14 @@ from __future__ import annotations
 
 import json
 import re
+from importlib.metadata import version
 from pathlib import Path
 from typing import Any
 from urllib.parse import unquote, urlsplit
 
 import pytest
 from click.testing import CliRunner
-from sarifcheck import validated
+from sarifcheck import SCHEMA, validated
 
 from mplang.cli import EXIT_SOURCE_ERRORS, main
 from mplang.lang.diagnostics import Diagnostic, Span
@@ -139,12 +140,19 @@ def test_github_workflow_commands_escape_data_and_properties(tmp_path: Path) -> 
 
 
 GITLAB_SEVERITIES = {"info", "minor", "major", "critical", "blocker"}
+# the Code Climate issue categories, of which GitLab's format is a subset
+CODE_CLIMATE_CATEGORIES = {"Bug Risk", "Clarity", "Compatibility", "Complexity", "Duplication",
+                           "Performance", "Security", "Style"}
 
 
 def check_code_quality(issues: Any) -> None:
-    """GitLab's Code Quality report format: the keys its documentation marks required."""
+    """GitLab's Code Quality report format: the keys its documentation marks required, and
+    the Code Climate spec's `type` (always "issue") and `categories` (one or more of its
+    list)."""
     assert isinstance(issues, list)
     for issue in issues:
+        assert issue["type"] == "issue"
+        assert issue["categories"] and set(issue["categories"]) <= CODE_CLIMATE_CATEGORIES
         for key in ("description", "check_name", "fingerprint", "severity"):
             assert isinstance(issue[key], str) and issue[key], key
         assert issue["severity"] in GITLAB_SEVERITIES
@@ -192,3 +200,31 @@ def test_lint_github_and_gitlab_formats_from_the_command_line(
     artifact = validated(result.stdout)["runs"][0]["results"][0]["locations"][0][
         "physicalLocation"]["artifactLocation"]
     assert artifact == {"uri": "cell%20one/bad.mp", "uriBaseId": "%SRCROOT%"}
+
+
+def test_sarif_regions_tool_and_schema_address(tmp_path: Path) -> None:
+    """A region ends at its endColumn, the column after the last character (SARIF 3.30.5),
+    and has none when a finding has no width (an endColumn equal to startColumn would be an
+    empty region, SARIF 3.30.2, that code scanning highlights nothing of). The driver names
+    the tool and its installed version; `$schema` is a published address of the 2.1.0 schema
+    (the OASIS schema's own id, or schemastore's, which GitHub's documentation uses)."""
+    wide = Diagnostic("E201", RULES["E201"].severity, "m", Span("a.mp", 2, 3, 9))
+    point = Diagnostic("E201", RULES["E201"].severity, "m", Span("a.mp", 4, 5, 5))
+    sarif = validated(render_sarif([wide, point], root=tmp_path))
+    regions = [r["locations"][0]["physicalLocation"]["region"] for r in sarif["runs"][0]["results"]]
+    assert regions == [{"startLine": 2, "startColumn": 3, "endColumn": 9},
+                       {"startLine": 4, "startColumn": 5}]
+    driver = sarif["runs"][0]["tool"]["driver"]
+    assert (driver["name"], driver["version"]) == ("mplang", version("mplang"))
+    schema_id = json.loads(SCHEMA.read_text(encoding="utf-8"))["id"]
+    assert sarif["$schema"] in {schema_id, "https://json.schemastore.org/sarif-2.1.0.json"}
+
+
+def test_ci_reports_name_a_file_outside_the_root_by_its_own_path(tmp_path: Path) -> None:
+    """A file outside the working directory has no repository-relative path: GitHub's and
+    GitLab's reports name it as given, never as 'None'."""
+    outside = Diagnostic("E201", RULES["E201"].severity, "m", Span("/elsewhere/x y.mp", 3))
+    ((_, props, _),) = parse_commands(render_github([outside], root=tmp_path))
+    assert props["file"] == "/elsewhere/x y.mp"
+    (issue,) = json.loads(render_gitlab([outside], root=tmp_path))
+    assert issue["location"]["path"] == "/elsewhere/x y.mp"
