@@ -25,6 +25,10 @@ from pymodbus.pdu import ExceptionResponse, ModbusPDU
 from pymodbus.server.requesthandler import ServerRequestHandler
 
 Address = tuple[str, int] | None
+MAX_QUEUED = 256
+"""Requests of one connection decoded and waiting to be served: past it, a client that sends
+without reading the answers has further frames dropped, as a device's full receive buffer
+drops them, instead of growing the simulator's memory without bound."""
 
 
 class FramerRTUInOrder(FramerRTU):
@@ -33,18 +37,21 @@ class FramerRTUInOrder(FramerRTU):
     to find the next frame's start."""
 
     def decode(self, data: bytes) -> tuple[int, int, int, bytes]:
-        """(bytes used, unit, 0, PDU), or (0, ...) to wait for more bytes."""
-        for start in range(len(data) - self.MIN_SIZE + 1):
+        """(bytes used, unit, 0, PDU), or (bytes used, 0, 0, empty) to wait for more bytes:
+        bytes that can no longer start a frame are used up, so line noise is neither kept
+        nor scanned again on every read."""
+        starts = range(len(data) - self.MIN_SIZE + 1)
+        for start in starts:
             kind = self.decoder.lookupPduClass(data[start:])
             if kind is None:
                 continue
             size = kind.calculateRtuFrameSize(data[start:])
             if not size or len(data) < start + size:
-                break  # wait for the rest of the frame
+                return start, 0, 0, self.EMPTY  # wait for the rest of this frame
             end = start + size - 2
             if FramerRTU.check_CRC(data[start:end], int.from_bytes(data[end:end + 2], "big")):
                 return start + size, int(data[start]), 0, data[start + 1:end]
-        return 0, 0, 0, self.EMPTY
+        return len(starts), 0, 0, self.EMPTY
 
 
 class OrderedRequestHandler(ServerRequestHandler):
@@ -79,7 +86,8 @@ class OrderedRequestHandler(ServerRequestHandler):
             used += cut
             if pdu is None:
                 break
-            self._queue.append((self.trace_pdu(False, pdu), addr))
+            if len(self._queue) < MAX_QUEUED:
+                self._queue.append((self.trace_pdu(False, pdu), addr))
         if self._queue and (self._worker is None or self._worker.done()):
             self._worker = asyncio.get_running_loop().create_task(self._serve_queue())
         # a packet hook that changed the bytes (a test's fault) had the whole read

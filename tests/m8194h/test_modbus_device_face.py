@@ -14,16 +14,19 @@ import struct
 import subprocess
 import sys
 import time
+from collections import deque
 from collections.abc import Callable, Coroutine
 from pathlib import Path
 from typing import Any, TypeVar
 
 import pytest
+from pymodbus.pdu import DecodePDU
 from simproc import start_sim
 from test_modbus import mbpoll, needs_mbpoll
 
 from mplang.family.ptylink import PtyLink
 from mplang.m8194h.modbus_server import DeviceFace, SimClock, serve_rtu, serve_tcp, stop
+from mplang.m8194h.ordered import MAX_QUEUED, FramerRTUInOrder, OrderedRequestHandler
 from mplang.m8194h.sim.controller import VirtualController
 
 # The manual's RSM_WRITE_MD frames (RS 2622-2650): MD100 = 0x12345678, MD1500 = 321.65
@@ -465,3 +468,39 @@ def test_an_rtu_frame_with_a_bad_crc_is_skipped_and_the_next_one_in_the_read_ser
     face, answer = over_rtu(lambda client, _face: corrupted_then_good(client))
     assert answer[1:-2] == bytes([3, 4, 0, 0, 0, 0]), answer.hex()  # VAR0 was not written
     assert face.requests == 1
+
+
+def test_rtu_line_noise_is_used_up_not_kept() -> None:
+    """Bytes that cannot start a frame any more are used up at once (kept, they would be
+    scanned again on every read and grow without bound); a frame's start is kept until its
+    rest arrives, and a frame after the noise is still decoded."""
+    framer = FramerRTUInOrder(DecodePDU(True))
+    noise = bytes([0xFF] * 200)
+    used, _unit, _tid, pdu = framer.decode(noise)
+    assert pdu == b"" and 200 - used <= framer.MIN_SIZE  # at most a possible start kept
+    frame = bytes([1]) + fc3(300, 2)
+    frame += crc16(frame)
+    used, _unit, _tid, pdu = framer.decode(noise + frame[:5])
+    assert used <= 200 and pdu == b""  # the frame's start is kept
+    used, unit, _tid, pdu = framer.decode(noise + frame)
+    assert (used, unit, pdu) == (200 + len(frame), 1, frame[1:-2])
+
+
+def test_a_client_that_never_reads_cannot_queue_without_bound() -> None:
+    """A connection's decoded requests wait in a queue of at most MAX_QUEUED."""
+    handler = OrderedRequestHandler.__new__(OrderedRequestHandler)
+    handler._queue = deque()
+    handler._worker = None
+    handler.framer = FramerRTUInOrder(DecodePDU(True))
+    handler.trace_packet = lambda _sending, data: data
+    handler.trace_pdu = lambda _sending, pdu: pdu
+    frame = bytes([1]) + fc3(300, 2)
+    frame += crc16(frame)
+
+    async def flood() -> int:
+        handler._worker = asyncio.get_running_loop().create_future()  # busy: not drained
+        return handler.callback_data(frame * (MAX_QUEUED + 50))
+
+    used = asyncio.run(flood())
+    assert used == len(frame) * (MAX_QUEUED + 50)
+    assert len(handler._queue) == MAX_QUEUED
