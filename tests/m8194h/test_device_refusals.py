@@ -9,46 +9,20 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import dataclasses
 from collections.abc import AsyncIterator, Awaitable, Callable
 
 import pytest
+from deviceframes import CLOSE, CREATE, CREATE_ISR, ISR_CLOSE, macro, rtc, variant
 from pymodbus.client import AsyncModbusSerialClient, AsyncModbusTcpClient
 from simproc import start_sim
 
 from mplang.family.ptylink import PtyLink
-from mplang.ir import catalogue
 from mplang.ir.macro import VarRef
-from mplang.m8194h.encode import Encoder
 from mplang.m8194h.modbus_server import DeviceFace, SimClock, serve_rtu, serve_tcp, stop
 from mplang.m8194h.sim.controller import VirtualController
 
-CAT = catalogue.load()
-ENC = Encoder(CAT, 0)
-CREATE, CREATE_ISR, CLOSE, ISR_CLOSE = 0x0AC9, 0x0ACD, 0x0CCA, 0x0CCE
 ILLEGAL_FUNCTION, DEVICE_FAILURE = 0x01, 0x04
 Client = AsyncModbusTcpClient | AsyncModbusSerialClient
-
-
-def rtc(name: str, *values: object) -> list[int]:
-    """A real-time frame, encoded by hand from the catalogue (no compiler checks)."""
-    command = CAT.rtc_by_short[name]
-    return [command.code or 0, *_words(command.name, values)]
-
-
-def macro(name: str, *values: object) -> list[int]:
-    command = CAT.macro_by_short[name]
-    return [command.code or 0, *_words(command.name, values)]
-
-
-def _words(vendor: str, values: tuple[object, ...]) -> list[int]:
-    command = CAT.by_vendor[vendor]
-    words: list[int] = []
-    for param, value in zip(command.params, values, strict=True):
-        raw = ENC.var_base + value.index if isinstance(value, VarRef) else int(value)  # type: ignore[call-overload]
-        raw &= 0xFFFFFFFF
-        words += [raw >> 16, raw & 0xFFFF] if param.wire == 2 else [raw & 0xFFFF]
-    return words
 
 
 class Device:
@@ -410,14 +384,6 @@ def test_3_18_mpc_sim_survives_write_var_var600_and_bad_tables() -> None:
     finally:
         proc.terminate()
         assert proc.wait(10) == 0
-
-
-def variant(**download: str) -> VirtualController:
-    """A controller whose profile makes the other [download] choice."""
-    profile = CAT.profile
-    raw = {**profile.raw, "download": {**profile.raw["download"], **download}}
-    return VirtualController(dataclasses.replace(CAT, profile=dataclasses.replace(profile,
-                                                                                 raw=raw)))
 
 
 def test_9_12_the_other_download_choices_of_the_profile() -> None:
