@@ -224,3 +224,13 @@ def test_interrupt_after_the_program_ended_still_runs_its_isr() -> None:
     vc = run("MP 21\n INTFACTOR_ENABLE X, 7, 2\n ENABLE_INT\n FIXED_MOVE X, 1000\nEND MP\n"
              "ISR 2\n VAR5 = GET_LP(X)\nEND ISR\n")
     assert vc.vars[5] == 1000 and vc.chip_state == 11
+
+
+def test_rsm_write_md_is_carried_out_as_it_arrives() -> None:
+    """The manual's RSM_WRITE_MD frames (RS 2622-2650) take effect with the write, before any
+    simulated time passes: MD100 = 0x12345678 and MD1500 = 321.65, and nothing is queued."""
+    vc = VirtualController()
+    assert vc.write_subfunction([0x0A27, 0x0000, 0x0064, 0x1234, 0x5678, 0x0000, 0x0000]) == 0
+    assert vc.write_subfunction([0x0A27, 0x0000, 0x05DC, 0x0000, 0x0000, 0x43A0, 0xD333]) == 0
+    assert vc.md.word(100) == 0x12345678 and vc.md.word(1500) == 0x43A0D333
+    assert not vc.fifo
