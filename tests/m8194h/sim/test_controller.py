@@ -227,7 +227,7 @@ def test_interrupt_after_the_program_ended_still_runs_its_isr() -> None:
 
 
 def test_rsm_write_md_is_carried_out_as_it_arrives() -> None:
-    """The manual's RSM_WRITE_MD frames (RS 2622-2650) take effect with the write, before any
+    """The manual's RSM_WRITE_MD frames (RS 2623-2651) take effect with the write, before any
     simulated time passes: MD100 = 0x12345678 and MD1500 = 321.65, and nothing is queued."""
     vc = VirtualController()
     assert vc.write_subfunction([0x0A27, 0x0000, 0x0064, 0x1234, 0x5678, 0x0000, 0x0000]) == 0

@@ -1,6 +1,6 @@
 """The virtual M8194H's download state machine (`mplang.m8194h.sim.download`), in process:
 what input registers 100-102 and 110-114 say during and after a download (appendix tables
-12 and 13, RS 11365-11377; 9.12, RS 10961-10974), the profile's other [download] choices,
+12 and 13, RS 11365-11379; 9.12, RS 10961-10974), the profile's other [download] choices,
 what the memory file keeps, and what `mpc sim -v` is told. Expected values come from those
 lines of the manual and from the choices in stdlib/m8194h/device.toml; the Modbus side of
 the same rules is in tests/m8194h/test_device_refusals.py."""
@@ -104,7 +104,7 @@ def test_the_close_of_a_download_failed_at_a_line_is_acknowledged_with_no_cause(
 def test_an_empty_write_names_no_command() -> None:
     """A write of no registers inside a download is "No such command" (cause 3, RS 11366)
     and fails the download with 0x0F; register 112 names the register after 8000
-    (RS 11375), and there is none: 0."""
+    (RS 11379), and there is none: 0."""
     vc = VirtualController()
     assert vc.write_subfunction([CREATE, 41]) == 0
     assert vc.write_subfunction([]) == 0x03
@@ -114,9 +114,9 @@ def test_an_empty_write_names_no_command() -> None:
 
 def test_status_numbers_since_power_on_keep_the_other_kinds_number() -> None:
     """status_numbers = "since-power-on": 110 and 111 each hold "the last downloaded
-    Macro MP [ISR] program number since RS-M8194H power on" (RS 11373-11374), whatever the
+    Macro MP [ISR] program number since RS-M8194H power on" (RS 11377-11378), whatever the
     other kind did since, a failed download included; "last-download" (the default)
-    zeroes the other kind's number (RS 10961, 'If no ISR Macro has been downloaded IsrNo
+    zeroes the other kind's number (RS 10972, 'If no ISR Macro has been downloaded IsrNo
     will be zero')."""
     steps = [([CREATE, 3], [SET_VAR1]), ([CREATE_ISR, 2], [SET_VAR1]),
              ([CREATE, 5], [SET_VAR1]), ([CREATE_ISR, 4], [VAR512])]
