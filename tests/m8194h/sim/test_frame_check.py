@@ -51,11 +51,13 @@ def not_taken(value: int) -> str:
 # --- axis codes (Table 4, RS 970-979; Table 5 = Table 4 + 0x10, RS 981-988) ---------------
 
 def test_an_axis_is_any_combination_of_table_4() -> None:
-    """`axis`: X=1, Y=2, Z=4, U=8 and their sums, 1..15; 0 names no axis."""
+    """`axis`: SET_MAX_V takes "Axis or axes" (RS 1157), X=1, Y=2, Z=4, U=8 and their sums
+    1..15; 0 names no axis, and a macro line takes no Table 5 code ("IT table can not be
+    used inside macro program", RS 990)."""
     for axis in (1, 2, 5, 8, 15):
-        assert refusal("RSM_MACRO_FIXED_MOVE", axis, 100) is None
-    for axis in (0, 16, 0x11):
-        assert refusal("RSM_MACRO_FIXED_MOVE", axis, 100) == f"axis: {not_taken(axis)}"
+        assert refusal("RSM_MACRO_SET_MAX_V", axis, 8000) is None
+    for axis in (0, 16, 0x11, 0x1F):
+        assert refusal("RSM_MACRO_SET_MAX_V", axis, 8000) == f"axis: {not_taken(axis)}"
 
 
 def test_a_single_axis_is_one_of_x_y_z_u() -> None:
@@ -240,7 +242,7 @@ def test_a_byte_variable_is_refused_where_the_parameter_is_not_one() -> None:
     ("RSM_MACRO_SET_AO", (1,), (), -32768, 32767, "data"),
     # FRNET_WAIT bDiGroup "8~15" (RS 4591)
     ("RSM_MACRO_FRNET_WAIT", (), (0, 0, 0), 8, 15, "bDiGroup"),
-    # WRITE_MD mdNo MD0 ~ MD2047 (RS 2602) and its long data, the whole 32-bit range (2603)
+    # WRITE_MD mdNo MD0 ~ MD2047 (RS 2602) and its long data, the whole 32-bit range (RS 2603)
     ("RSM_WRITE_MD", (), (0, 0.0), 0, 2047, "mdNo"),
     ("RSM_WRITE_MD", (0,), (0.0,), -2147483648, 2147483647, "ldata"),
     # a move's data "-2,000,000,000 ~ +2,000,000,000" (RS 5418)
@@ -379,20 +381,23 @@ def inputs(vc: VirtualController, address: int, count: int) -> list[int]:
     return RegisterMap(vc).read_input(address, count)
 
 
-@pytest.mark.parametrize(("line", "expected"), [
-    (macro("IF", VarRef(1), 0x3D3F, 0), WRONG_IF),
-    (macro("VAR_CALCULATE", VarRef(1), 0x25, VarRef(2), VarRef(3)), WRONG_CALC),
-    (macro("SET_VAR", VarRef(1), 2000000001), NOT_WRITTEN),
-    (macro("GOTO", 4), NOT_WRITTEN),
+MP_DOWNLOAD = ([CREATE, 1], CLOSE, [1, 0])  # 110 and 111 after it: MP1, no ISR (RS 10972)
+ISR_DOWNLOAD = ([CREATE_ISR, 1], ISR_CLOSE, [0, 1])
+
+
+@pytest.mark.parametrize(("line", "expected", "downloads"), [
+    (macro("IF", VarRef(1), 0x3D3F, 0), WRONG_IF, [MP_DOWNLOAD, ISR_DOWNLOAD]),
+    (macro("VAR_CALCULATE", VarRef(1), 0x25, VarRef(2), VarRef(3)), WRONG_CALC,
+     [MP_DOWNLOAD, ISR_DOWNLOAD]),
+    (macro("SET_VAR", VarRef(1), 2000000001), NOT_WRITTEN, [MP_DOWNLOAD, ISR_DOWNLOAD]),
+    (macro("GOTO", 4), NOT_WRITTEN, [MP_DOWNLOAD]),  # GOTO is an MP command (Table 1)
 ])
-def test_a_refused_download_line_names_its_download_error(line: list[int], expected: int
-                                                          ) -> None:
+def test_a_refused_download_line_names_its_download_error(
+        line: list[int], expected: int,
+        downloads: list[tuple[list[int], int, list[int]]]) -> None:
     """Cause 2 for the line (RS 11368); the close reports the line's code, its 0-based line
     number and the download error in 110-114 (RS 10961-10974)."""
-    for create, close, numbers in (([CREATE, 1], CLOSE, [1, 0]),
-                                   ([CREATE_ISR, 1], ISR_CLOSE, [0, 1])):
-        if line[0] == macro("GOTO", 0)[0] and create[0] == CREATE_ISR:
-            continue  # GOTO is an MP command (Table 1): in an ISR it is cause 6's business
+    for create, close, numbers in downloads:
         vc = VirtualController()
         assert vc.write_subfunction(create) == 0
         assert vc.write_subfunction(macro("SET_VAR", VarRef(0), 1)) == 0
