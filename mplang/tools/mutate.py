@@ -143,6 +143,9 @@ def run(group: Group, common: dict[str, Any]) -> int:
         names = pending
     elif last and last.split("\n")[0] == current.split("\n")[0]:
         names = [name for name, code in codes.items() if STATUS.get(code) != "killed"]
+        # which tests reach which function was recorded with the old tests: a new test
+        # that reaches a survivor's function would not be run against it
+        (group.work / "mutants" / "mutmut-stats.json").unlink(missing_ok=True)
     else:
         names = []
     started.write_text(current)
