@@ -175,10 +175,12 @@ def test_every_if_operator_is_taken_in_either_byte_order() -> None:
 @pytest.mark.parametrize("op", [
     0x3C00,  # '<' moved to the high byte: a one-character operator has no second character
     0x3D3F,  # '?=' is in no table
-    0x0021,  # '!' alone
+    0x0021,  # '!' alone: in the worked example's ASCII table, not an operator (compare_set)
+    0x003D,  # '=' alone: the same
     0x3C3C,  # '<<'
 ])
 def test_another_if_operator_is_download_error_0x06(op: int) -> None:
+    """Only the six comparisons of the constant table (RS 10536-10542), in either order."""
     assert refusal("RSM_MACRO_IF", VarRef(1), op, 0) == f"Operator: {not_taken(op)}"
     assert error("RSM_MACRO_IF", VarRef(1), op, 0) == WRONG_IF
 
