@@ -10,7 +10,8 @@ and only lines not among them are parsed. A change of the front end misses both,
 file is parsed again. The keys head the entry and are compared before it is unpickled.
 Entries live in the user cache dir (`mplang.lang.caches`, `front/`), one file per source
 file, replaced atomically, so runs side by side never read half of one; a damaged entry is
-a miss too. `--no-cache` (or `MPLANG_CACHE=off`) parses everything.
+a miss too. `--no-cache` (or `MPLANG_CACHE=off`) keeps nothing across runs: every line is
+parsed, a text's repeated lines once (a `linecache.StatementCache` for the run).
 """
 
 from __future__ import annotations
@@ -56,10 +57,8 @@ def parse(text: str, display: str, sink: DiagnosticSink, *, store: bool = True,
     lines it has not seen; without it, an entry of an earlier text of the file gives the
     lines that did not change, so an edit parses the edited lines."""
     directory = caches.user_cache_dir()
-    if directory is None:
-        if lines is not None:
-            return lines.parse(text, display, sink)
-        return _parse_text(text, display, sink)
+    if directory is None:  # still a line repeated in the text is parsed once
+        return (lines or StatementCache()).parse(text, display, sink)
     front = front_end_key()
     key = caches.digest(front, display, text)
     file_key = caches.digest(front, display, where)
@@ -97,9 +96,3 @@ def _replayed(kept: list[Line], sink: DiagnosticSink) -> list[ast.Statement]:
             sink.add(item.code, item.span, item.message, item.hint, item.related)
     return statements
 
-
-def _parse_text(text: str, display: str, sink: DiagnosticSink) -> list[ast.Statement]:
-    """`parser.parse_text`, its module (and lark with it) imported on the first miss only."""
-    from mplang.lang import parser
-
-    return parser.parse_text(text, display, sink)

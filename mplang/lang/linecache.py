@@ -38,6 +38,7 @@ Line = tuple[str, list[ast.Statement], list[Diagnostic]]
 """One source line: its text, its statements and its syntax diagnostics, at its place."""
 
 _LONE_CR = re.compile(r"\r(?!\n)")
+_new = object.__new__
 _SLACK = 4096
 """Line texts kept beyond those of the files held, before the table is swept."""
 
@@ -49,20 +50,49 @@ def _parse_text(text: str, file: str, sink: DiagnosticSink) -> list[ast.Statemen
     return parser.parse_text(text, file, sink)
 
 
+_PLAIN = frozenset({"str", "int", "bool", "str | None", "int | None"})
+"""Field annotations of a syntax-tree class that can hold no span: copied as they are."""
+
+_plans: dict[type, tuple[str, ...] | None] = {}
+
+
+def _plan(kind: type) -> tuple[str, ...] | None:
+    """The fields of syntax-tree class `kind` that can hold a span (a span, a node or a list
+    of them), found once per class from its annotations; None for anything else."""
+    names: tuple[str, ...] | None = getattr(kind, "_fields", None)
+    plan = None
+    if names is not None:
+        hints: dict[str, str] = {}
+        for klass in reversed(kind.__mro__):
+            hints.update(getattr(klass, "__annotations__", {}))
+        plan = tuple(name for name in names if hints.get(name) not in _PLAIN)
+    _plans[kind] = plan
+    return plan
+
+
 def moved(value: Any, file: str, line: int) -> Any:
     """`value` (a statement, an expression, a list of them) with every span moved to
-    `file`:`line`, columns kept; shared parts that hold no span are not copied."""
+    `file`:`line`, columns kept; shared parts that hold no span are not copied.
+
+    The cost of a cached line found at another place, so per class only the fields that can
+    hold a span are visited (`_plan`); the others come over in one copy of the node's dict."""
     kind = type(value)
     if kind is Span:
         return make_span(file, line, value.col, value.end_col)
     if kind is list:
         return [moved(item, file, line) for item in value]
-    names: tuple[str, ...] | None = getattr(kind, "_fields", None)
-    if names is None:  # a string, a number, None: nothing to move
+    plan = _plans[kind] if kind in _plans else _plan(kind)
+    if plan is None:  # a string, a number, None: nothing to move
         return value
-    copy = object.__new__(kind)
-    for name in names:
-        setattr(copy, name, moved(getattr(value, name), file, line))
+    state = value.__dict__.copy()
+    for name in plan:
+        item = state[name]
+        if type(item) is Span:
+            state[name] = make_span(file, line, item.col, item.end_col)
+        elif item is not None:
+            state[name] = moved(item, file, line)
+    copy = _new(kind)
+    copy.__dict__ = state
     return copy
 
 
@@ -140,8 +170,7 @@ class StatementCache:
               missing: dict[str, list[int]], file: str) -> None:
         """Parse the missing lines in one call: the whole text when most lines are new
         (every span already in place), else the new texts alone, joined."""
-        count = sum(len(places) for places in missing.values())
-        whole = 2 * count > len(segments)
+        whole = 2 * len(missing) > len(segments)
         batch = segments if whole else list(missing)
         scratch = DiagnosticSink()
         found = self._parse_with("\n".join(batch), file, scratch)

@@ -111,7 +111,8 @@ def test_an_edit_parses_the_edited_line_only() -> None:
     text = (ROOT / "samples" / "full_mp156.mp").read_text(encoding="utf-8")
     lines = text.split("\n")
     cache.parse(text, "full.mp", DiagnosticSink())
-    assert counted.texts == [text]  # all new: the whole text, once
+    assert len(counted.texts) == 1  # all new: one parse of every distinct line, once each
+    assert counted.texts[0].split("\n") == list(dict.fromkeys(lines))
     number = next(i for i, line in enumerate(lines) if "0" in line and "MP" not in line
                   and not line.lstrip().startswith(("#", "//")))
     lines[number] = lines[number].replace("0", "7", 1)
@@ -125,6 +126,24 @@ def test_an_edit_parses_the_edited_line_only() -> None:
     counted.texts.clear()
     cache.parse(edited, "other.mp", DiagnosticSink())  # another file of the same lines
     assert counted.texts == []
+
+
+def test_a_repeated_line_is_parsed_once() -> None:
+    """Within one text too: a line repeated all over a file is parsed once and copied to
+    its other places, its spans moved there; lines all distinct parse as the whole text."""
+    counted = CountedParse()
+    cache = StatementCache(counted)  # type: ignore[arg-type]
+    body = ["  IF VAR2 > 10", "    SET_A Y, 5000", "  END IF", "  X = = 1"] * 40
+    text = "\n".join(["MP 1", *body, "END MP", ""])
+    sink = DiagnosticSink()
+    statements = cache.parse(text, "repeat.mp", sink)
+    assert counted.texts == ["\n".join(["MP 1", *body[:4], "END MP", ""])]
+    assert (statements, sink.items) == _full_named(text, "repeat.mp")
+    assert [d.span.line for d in sink.items] == list(range(5, 162, 4))
+    distinct = "\n".join(f"  VAR{n} = {n}" for n in range(40))
+    counted.texts.clear()
+    assert StatementCache(counted).parse(distinct, "d.mp", DiagnosticSink())  # type: ignore[arg-type]
+    assert counted.texts == [distinct]
 
 
 def _full_named(text: str, name: str) -> tuple[object, ...]:
