@@ -17,6 +17,7 @@ from parsecount import CountedParse
 
 from mplang.lang import caches, frontcache, linecache
 from mplang.lang.diagnostics import DiagnosticSink, Span, make_span
+from mplang.lang.limits import MAX_EXPRESSION_DEPTH
 from mplang.lang.linecache import StatementCache
 from mplang.lang.parser import parse_text
 from mplang.m8194h.compiler import compile_paths
@@ -144,6 +145,26 @@ def test_a_repeated_line_is_parsed_once() -> None:
     counted.texts.clear()
     assert StatementCache(counted).parse(distinct, "d.mp", DiagnosticSink())  # type: ignore[arg-type]
     assert counted.texts == [distinct]
+
+
+DEEP = "  X = " + "(" * (MAX_EXPRESSION_DEPTH + 5) + "1" + ")" * (MAX_EXPRESSION_DEPTH + 5)
+"""E107: nested deeper than the compiler follows."""
+
+
+@settings(max_examples=60, deadline=None)
+@given(picks=st.lists(st.integers(0, 10_000), min_size=1, max_size=120),
+       pool=st.lists(st.sampled_from(SPARE_LINES), min_size=1, max_size=12))
+def test_a_text_of_repeated_lines_parses_as_a_full_parse_does(picks: list[int],
+                                                              pool: list[str]) -> None:
+    """Lines drawn from a few (good, broken, too deep, blank), so most repeat: each is
+    parsed once and copied, and statements, spans and diagnostics (their order too) are
+    those of a full parse, in a fresh cache and in one that saw another text first."""
+    choices = [*pool, *BROKEN, DEEP, ""]
+    text = "\n".join(choices[pick % len(choices)] for pick in picks)
+    assert _incremental(StatementCache(), text) == _full(text)
+    warm = StatementCache()
+    warm.parse("\n".join(reversed(choices)), "edited.mp", DiagnosticSink())
+    assert _incremental(warm, text) == _full(text)
 
 
 def _full_named(text: str, name: str) -> tuple[object, ...]:
