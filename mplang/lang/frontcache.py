@@ -1,6 +1,8 @@
 """Front-end results kept across runs, as ruff and mypy keep theirs: the statements and
-syntax diagnostics of each source line, so re-building a project where one file changed
-parses that file's changed lines only (`mplang.lang.linecache`).
+syntax diagnostics of each distinct source line (the first line of each text, its number
+with it: every other line of the same text is a copy, its spans moved), so re-building a
+project where one file changed parses that file's changed lines only
+(`mplang.lang.linecache`); a line repeated all over a file is kept, and read back, once.
 
 An entry is found by the file's path and its name as diagnostics show it, and kept under a
 key of that name, its text and the front end itself (the grammar and the source of the
@@ -22,13 +24,13 @@ from importlib import resources
 
 from mplang.lang import ast, caches
 from mplang.lang.diagnostics import DiagnosticSink
-from mplang.lang.linecache import Line, StatementCache
+from mplang.lang.linecache import StatementCache
 
 KEYED_MODULES = ("ast", "diagnostics", "limits", "linecache", "parser", "tokenizer")
 """The modules of `mplang.lang` whose source is part of the key, named, not imported: the
 parser and tokenizer bring lark, which a run where every file hits needs never load."""
 
-FORMAT = "front 2"
+FORMAT = "front 3"
 """Part of the key: change it when what an entry holds changes shape."""
 
 
@@ -65,34 +67,23 @@ def parse(text: str, display: str, sink: DiagnosticSink, *, store: bool = True,
     name = hashlib.sha256(f"{where}\0{display}".encode("utf-8", "surrogatepass")
                           ).hexdigest()[:32]
     path = directory / "front" / f"{name}.pickle"
-    table = lines
-    if table is None or not table.lines_of(display):
+    table = lines or StatementCache()
+    same = False
+    if not table.lines_of(display):
         found = caches.load_keyed(path, (key, file_key))
         if found is not None and _well_formed(found[1]):
-            if found[0] == 0 and table is None:
-                return _replayed(found[1], sink)  # type: ignore[arg-type]
-            table = table or StatementCache()
             table.seed(display, found[1])  # type: ignore[arg-type]
-    table = table or StatementCache()
+            same = found[0] == 0  # kept from this very text: nothing new to keep
     statements = table.parse(text, display, sink)
-    if store:
-        caches.store(path, key, table.lines_of(display), file_key)
+    kept = table.distinct_of(display)
+    if store and not same and kept is not None:
+        caches.store(path, key, kept, file_key)
     return statements
 
 
 def _well_formed(kept: object) -> bool:
-    """An entry's lines have the shape `linecache.Line` (a damaged one may not)."""
+    """An entry's lines have the shape of `linecache.Numbered` (a damaged one may not)."""
     return isinstance(kept, list) and all(
-        type(line) is tuple and len(line) == 3 and type(line[0]) is str
-        and type(line[1]) is list and type(line[2]) is list for line in kept)
-
-
-def _replayed(kept: list[Line], sink: DiagnosticSink) -> list[ast.Statement]:
-    """The statements of a file's stored lines, their diagnostics reported to `sink`."""
-    statements: list[ast.Statement] = []
-    for _, found, reported in kept:
-        statements.extend(found)
-        for item in reported:
-            sink.add(item.code, item.span, item.message, item.hint, item.related)
-    return statements
-
+        type(entry) is tuple and len(entry) == 2 and type(entry[0]) is int
+        and type(line := entry[1]) is tuple and len(line) == 3 and type(line[0]) is str
+        and type(line[1]) is list and type(line[2]) is list for entry in kept)

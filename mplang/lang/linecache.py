@@ -17,8 +17,9 @@ syntax error whose line only the whole text has).
 
 The language server keeps one `StatementCache` for the documents it analyses and passes it
 to `mplang.lang.sources.load_sources(..., lines=cache)`; the front cache on disk
-(`mplang.lang.frontcache`) keeps each file's lines the same way, so `mpc build` after an
-edit parses the edited lines.
+(`mplang.lang.frontcache`) keeps the first line of each text of a file (`distinct_of`) and
+seeds a cache with them in the next run, so `mpc build` after an edit parses the edited
+lines.
 """
 
 from __future__ import annotations
@@ -36,6 +37,9 @@ Parse = Callable[[str, str, DiagnosticSink], list[ast.Statement]]
 
 Line = tuple[str, list[ast.Statement], list[Diagnostic]]
 """One source line: its text, its statements and its syntax diagnostics, at its place."""
+
+Numbered = tuple[int, Line]
+"""A line with its (1-based) number in its file."""
 
 _LONE_CR = re.compile(r"\r(?!\n)")
 _new = object.__new__
@@ -121,13 +125,29 @@ class StatementCache:
         self._files: dict[str, list[Line]] = {}
 
     def lines_of(self, file: str) -> list[Line]:
-        """`file`'s lines as last parsed (empty if never): what the front cache stores."""
+        """`file`'s lines as last parsed (empty if never, or if its text was parsed whole)."""
         return self._files.get(file, [])
 
-    def seed(self, file: str, lines: list[Line]) -> None:
-        """Take `file`'s lines from an earlier run (the front cache's entry)."""
-        self._files[file] = lines
+    def distinct_of(self, file: str) -> list[Numbered] | None:
+        """The first line of each text among `file`'s lines as last parsed, with its number:
+        what the front cache stores (every other line is a copy of one of them, its spans
+        moved). None when the last text of `file` was parsed whole and not kept (a lone
+        carriage return): nothing of it may be stored."""
+        lines = self._files.get(file)
+        if lines is None:
+            return None
+        seen: set[str] = set()
+        first: list[Numbered] = []
         for number, found in enumerate(lines, start=1):
+            if found[0] not in seen:
+                seen.add(found[0])
+                first.append((number, found))
+        return first
+
+    def seed(self, file: str, lines: list[Numbered]) -> None:
+        """Take lines of `file` from an earlier run (`distinct_of` then: the front cache's
+        entry): a text among them is not parsed again, wherever it now stands."""
+        for number, found in lines:
             self._texts.setdefault(found[0], (found, (file, number)))
 
     def forget(self, file: str) -> None:
@@ -138,6 +158,7 @@ class StatementCache:
         """What `parser.parse_text(text, file, sink)` gives, parsing only lines this cache
         has not seen; the diagnostics reach `sink` in the same order."""
         if "\r" in text and _LONE_CR.search(text):
+            self._files.pop(file, None)  # parsed whole, kept nowhere
             return self._parse_with(text, file, sink)
         segments = text.split("\n")
         known = self._files.get(file, [])

@@ -242,3 +242,39 @@ def test_a_made_span_is_a_span() -> None:
     with pytest.raises(dataclasses.FrozenInstanceError):
         made.line = 4  # type: ignore[misc]
     assert pickle.loads(pickle.dumps(made)) == built
+
+
+def test_the_front_cache_keeps_each_text_once(tmp_path: Path,
+                                              monkeypatch: pytest.MonkeyPatch) -> None:
+    """An entry holds the first line of each text with its number; the next run places
+    every line from them (spans moved) without a parse, as a full parse gives it."""
+    monkeypatch.setenv("MPLANG_CACHE", str(tmp_path / "cache"))
+    body = ["  IF VAR2 > 10", "    SET_A Y, 5000", "  END IF", "  X = = 1"] * 30
+    text = "\n".join(["MP 1", *body, "END MP", ""])
+    frontcache.parse(text, "r.mp", DiagnosticSink(), where="/p/r.mp")
+    (entry,) = (tmp_path / "cache" / "front").iterdir()
+    kept = pickle.loads(entry.read_bytes().split(b"\n", 1)[1])
+    assert [(number, line[0]) for number, line in kept] == [
+        (1, "MP 1"), (2, body[0]), (3, body[1]), (4, body[2]), (5, body[3]),
+        (122, "END MP"), (123, "")]
+    counted = CountedParse()
+    monkeypatch.setattr(linecache, "_parse_text", counted)
+    for again in (text, text.replace("5000", "6000")):
+        sink = DiagnosticSink()
+        statements = frontcache.parse(again, "r.mp", sink, where="/p/r.mp")
+        assert (statements, sink.items) == _full_named(again, "r.mp")
+    assert counted.texts == ["    SET_A Y, 6000"]
+
+
+def test_a_text_parsed_whole_is_never_kept(tmp_path: Path,
+                                           monkeypatch: pytest.MonkeyPatch) -> None:
+    """A lone carriage return makes the text parse whole, outside the statement cache: the
+    next run parses it again and reports the same (it once found an empty entry there)."""
+    monkeypatch.setenv("MPLANG_CACHE", str(tmp_path / "cache"))
+    text = "MP 1\n  X = 1\r  Y = 2\nEND MP\n"
+    for _ in range(2):
+        sink = DiagnosticSink()
+        statements = frontcache.parse(text, "cr.mp", sink, where="/p/cr.mp")
+        assert (statements, sink.items) == _full_named(text, "cr.mp")
+        assert [d.code for d in sink.items] == ["E101"]
+    assert not (tmp_path / "cache" / "front").exists()
