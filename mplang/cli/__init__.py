@@ -45,6 +45,7 @@ import click
 from mplang import __version__
 from mplang.cli import commands
 from mplang.cli.style import COLOR_CHOICES, error, quiet_option, set_color
+from mplang.lang import heap
 
 EXIT_BROKEN_PIPE = 141
 """128 + SIGPIPE: what a shell reports for a program that stopped because its reader left."""
@@ -139,7 +140,9 @@ class CommandPackage(click.Group):
             if close:
                 meant = " or ".join(f"'{c}'" for c in close)
                 ctx.fail(f"No such command '{name}'; did you mean {meant}?")
-        return super().resolve_command(ctx, args)
+        resolved = super().resolve_command(ctx, args)
+        heap.started()  # its modules are imported: mplang.lang.heap
+        return resolved
 
     def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
         """`mpc --help`'s list of commands, as click writes it, with each command's
@@ -164,9 +167,11 @@ class CommandPackage(click.Group):
     def main(self, *args: Any, **kwargs: Any) -> Any:
         """The last flush of standard output can meet a closed pipe too: quietly, as well."""
         _tolerant_output()
+        collector_was_on = heap.starting()  # off while the command's modules are imported
         try:
             return super().main(*args, **kwargs)
         finally:
+            heap.finished(collector_was_on)
             try:
                 if not sys.stdout.closed:  # `mpc lsp` closes it when the client leaves
                     sys.stdout.flush()

@@ -1,6 +1,8 @@
 """Front-end results kept across runs, as ruff and mypy keep theirs: the statements and
-syntax diagnostics of each source line, so re-building a project where one file changed
-parses that file's changed lines only (`mplang.lang.linecache`).
+syntax diagnostics of each distinct source line (the first line of each text, its number
+with it: every other line of the same text is a copy, its spans moved), so re-building a
+project where one file changed parses that file's changed lines only
+(`mplang.lang.linecache`); a line repeated all over a file is kept, and read back, once.
 
 An entry is found by the file's path and its name as diagnostics show it, and kept under a
 key of that name, its text and the front end itself (the grammar and the source of the
@@ -10,7 +12,8 @@ and only lines not among them are parsed. A change of the front end misses both,
 file is parsed again. The keys head the entry and are compared before it is unpickled.
 Entries live in the user cache dir (`mplang.lang.caches`, `front/`), one file per source
 file, replaced atomically, so runs side by side never read half of one; a damaged entry is
-a miss too. `--no-cache` (or `MPLANG_CACHE=off`) parses everything.
+a miss too. `--no-cache` (or `MPLANG_CACHE=off`) keeps nothing across runs: every line is
+parsed, a text's repeated lines once (a `linecache.StatementCache` for the run).
 """
 
 from __future__ import annotations
@@ -21,13 +24,13 @@ from importlib import resources
 
 from mplang.lang import ast, caches
 from mplang.lang.diagnostics import DiagnosticSink
-from mplang.lang.linecache import Line, StatementCache
+from mplang.lang.linecache import StatementCache
 
 KEYED_MODULES = ("ast", "diagnostics", "limits", "linecache", "parser", "tokenizer")
 """The modules of `mplang.lang` whose source is part of the key, named, not imported: the
 parser and tokenizer bring lark, which a run where every file hits needs never load."""
 
-FORMAT = "front 2"
+FORMAT = "front 3"
 """Part of the key: change it when what an entry holds changes shape."""
 
 
@@ -56,50 +59,31 @@ def parse(text: str, display: str, sink: DiagnosticSink, *, store: bool = True,
     lines it has not seen; without it, an entry of an earlier text of the file gives the
     lines that did not change, so an edit parses the edited lines."""
     directory = caches.user_cache_dir()
-    if directory is None:
-        if lines is not None:
-            return lines.parse(text, display, sink)
-        return _parse_text(text, display, sink)
+    if directory is None:  # still a line repeated in the text is parsed once
+        return (lines or StatementCache()).parse(text, display, sink)
     front = front_end_key()
     key = caches.digest(front, display, text)
     file_key = caches.digest(front, display, where)
     name = hashlib.sha256(f"{where}\0{display}".encode("utf-8", "surrogatepass")
                           ).hexdigest()[:32]
     path = directory / "front" / f"{name}.pickle"
-    table = lines
-    if table is None or not table.lines_of(display):
+    table = lines or StatementCache()
+    same = False
+    if not table.lines_of(display):
         found = caches.load_keyed(path, (key, file_key))
         if found is not None and _well_formed(found[1]):
-            if found[0] == 0 and table is None:
-                return _replayed(found[1], sink)  # type: ignore[arg-type]
-            table = table or StatementCache()
             table.seed(display, found[1])  # type: ignore[arg-type]
-    table = table or StatementCache()
+            same = found[0] == 0  # kept from this very text: nothing new to keep
     statements = table.parse(text, display, sink)
-    if store:
-        caches.store(path, key, table.lines_of(display), file_key)
+    kept = table.distinct_of(display)
+    if store and not same and kept is not None:
+        caches.store(path, key, kept, file_key)
     return statements
 
 
 def _well_formed(kept: object) -> bool:
-    """An entry's lines have the shape `linecache.Line` (a damaged one may not)."""
+    """An entry's lines have the shape of `linecache.Numbered` (a damaged one may not)."""
     return isinstance(kept, list) and all(
-        type(line) is tuple and len(line) == 3 and type(line[0]) is str
-        and type(line[1]) is list and type(line[2]) is list for line in kept)
-
-
-def _replayed(kept: list[Line], sink: DiagnosticSink) -> list[ast.Statement]:
-    """The statements of a file's stored lines, their diagnostics reported to `sink`."""
-    statements: list[ast.Statement] = []
-    for _, found, reported in kept:
-        statements.extend(found)
-        for item in reported:
-            sink.add(item.code, item.span, item.message, item.hint, item.related)
-    return statements
-
-
-def _parse_text(text: str, display: str, sink: DiagnosticSink) -> list[ast.Statement]:
-    """`parser.parse_text`, its module (and lark with it) imported on the first miss only."""
-    from mplang.lang import parser
-
-    return parser.parse_text(text, display, sink)
+        type(entry) is tuple and len(entry) == 2 and type(entry[0]) is int
+        and type(line := entry[1]) is tuple and len(line) == 3 and type(line[0]) is str
+        and type(line[1]) is list and type(line[2]) is list for entry in kept)

@@ -17,8 +17,9 @@ syntax error whose line only the whole text has).
 
 The language server keeps one `StatementCache` for the documents it analyses and passes it
 to `mplang.lang.sources.load_sources(..., lines=cache)`; the front cache on disk
-(`mplang.lang.frontcache`) keeps each file's lines the same way, so `mpc build` after an
-edit parses the edited lines.
+(`mplang.lang.frontcache`) keeps the first line of each text of a file (`distinct_of`) and
+seeds a cache with them in the next run, so `mpc build` after an edit parses the edited
+lines.
 """
 
 from __future__ import annotations
@@ -37,7 +38,11 @@ Parse = Callable[[str, str, DiagnosticSink], list[ast.Statement]]
 Line = tuple[str, list[ast.Statement], list[Diagnostic]]
 """One source line: its text, its statements and its syntax diagnostics, at its place."""
 
+Numbered = tuple[int, Line]
+"""A line with its (1-based) number in its file."""
+
 _LONE_CR = re.compile(r"\r(?!\n)")
+_new = object.__new__
 _SLACK = 4096
 """Line texts kept beyond those of the files held, before the table is swept."""
 
@@ -49,20 +54,49 @@ def _parse_text(text: str, file: str, sink: DiagnosticSink) -> list[ast.Statemen
     return parser.parse_text(text, file, sink)
 
 
+_PLAIN = frozenset({"str", "int", "bool", "str | None", "int | None"})
+"""Field annotations of a syntax-tree class that can hold no span: copied as they are."""
+
+_plans: dict[type, tuple[str, ...] | None] = {}
+
+
+def _plan(kind: type) -> tuple[str, ...] | None:
+    """The fields of syntax-tree class `kind` that can hold a span (a span, a node or a list
+    of them), found once per class from its annotations; None for anything else."""
+    names: tuple[str, ...] | None = getattr(kind, "_fields", None)
+    plan = None
+    if names is not None:
+        hints: dict[str, str] = {}
+        for klass in reversed(kind.__mro__):
+            hints.update(getattr(klass, "__annotations__", {}))
+        plan = tuple(name for name in names if hints.get(name) not in _PLAIN)
+    _plans[kind] = plan
+    return plan
+
+
 def moved(value: Any, file: str, line: int) -> Any:
     """`value` (a statement, an expression, a list of them) with every span moved to
-    `file`:`line`, columns kept; shared parts that hold no span are not copied."""
+    `file`:`line`, columns kept; shared parts that hold no span are not copied.
+
+    The cost of a cached line found at another place, so per class only the fields that can
+    hold a span are visited (`_plan`); the others come over in one copy of the node's dict."""
     kind = type(value)
     if kind is Span:
         return make_span(file, line, value.col, value.end_col)
     if kind is list:
         return [moved(item, file, line) for item in value]
-    names: tuple[str, ...] | None = getattr(kind, "_fields", None)
-    if names is None:  # a string, a number, None: nothing to move
+    plan = _plans[kind] if kind in _plans else _plan(kind)
+    if plan is None:  # a string, a number, None: nothing to move
         return value
-    copy = object.__new__(kind)
-    for name in names:
-        setattr(copy, name, moved(getattr(value, name), file, line))
+    state = value.__dict__.copy()
+    for name in plan:
+        item = state[name]
+        if type(item) is Span:
+            state[name] = make_span(file, line, item.col, item.end_col)
+        elif item is not None:
+            state[name] = moved(item, file, line)
+    copy = _new(kind)
+    copy.__dict__ = state
     return copy
 
 
@@ -91,13 +125,29 @@ class StatementCache:
         self._files: dict[str, list[Line]] = {}
 
     def lines_of(self, file: str) -> list[Line]:
-        """`file`'s lines as last parsed (empty if never): what the front cache stores."""
+        """`file`'s lines as last parsed (empty if never, or if its text was parsed whole)."""
         return self._files.get(file, [])
 
-    def seed(self, file: str, lines: list[Line]) -> None:
-        """Take `file`'s lines from an earlier run (the front cache's entry)."""
-        self._files[file] = lines
+    def distinct_of(self, file: str) -> list[Numbered] | None:
+        """The first line of each text among `file`'s lines as last parsed, with its number:
+        what the front cache stores (every other line is a copy of one of them, its spans
+        moved). None when the last text of `file` was parsed whole and not kept (a lone
+        carriage return): nothing of it may be stored."""
+        lines = self._files.get(file)
+        if lines is None:
+            return None
+        seen: set[str] = set()
+        first: list[Numbered] = []
         for number, found in enumerate(lines, start=1):
+            if found[0] not in seen:
+                seen.add(found[0])
+                first.append((number, found))
+        return first
+
+    def seed(self, file: str, lines: list[Numbered]) -> None:
+        """Take lines of `file` from an earlier run (`distinct_of` then: the front cache's
+        entry): a text among them is not parsed again, wherever it now stands."""
+        for number, found in lines:
             self._texts.setdefault(found[0], (found, (file, number)))
 
     def forget(self, file: str) -> None:
@@ -108,6 +158,7 @@ class StatementCache:
         """What `parser.parse_text(text, file, sink)` gives, parsing only lines this cache
         has not seen; the diagnostics reach `sink` in the same order."""
         if "\r" in text and _LONE_CR.search(text):
+            self._files.pop(file, None)  # parsed whole, kept nowhere
             return self._parse_with(text, file, sink)
         segments = text.split("\n")
         known = self._files.get(file, [])
@@ -140,8 +191,7 @@ class StatementCache:
               missing: dict[str, list[int]], file: str) -> None:
         """Parse the missing lines in one call: the whole text when most lines are new
         (every span already in place), else the new texts alone, joined."""
-        count = sum(len(places) for places in missing.values())
-        whole = 2 * count > len(segments)
+        whole = 2 * len(missing) > len(segments)
         batch = segments if whole else list(missing)
         scratch = DiagnosticSink()
         found = self._parse_with("\n".join(batch), file, scratch)

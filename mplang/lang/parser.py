@@ -439,11 +439,12 @@ def _shallow(statement: ast.Statement, sink: DiagnosticSink) -> list[ast.Stateme
     return []
 
 
-def _bounded(statements: list[ast.Statement], text: str,
-             sink: DiagnosticSink) -> list[ast.Statement]:
-    """The statements with E107 stand-ins for too-deep expressions. Only lines longer than
-    the depth bound can hold one (every level takes a character), so only they are walked."""
-    long_lines = {number for number, line in enumerate(text.split("\n"), start=1)
+def _bounded(statements: list[ast.Statement], text: str, sink: DiagnosticSink,
+             first: int = 1) -> list[ast.Statement]:
+    """The statements with E107 stand-ins for too-deep expressions (`text` starting at line
+    `first`). Only lines longer than the depth bound can hold one (every level takes a
+    character), so only they are walked."""
+    long_lines = {number for number, line in enumerate(text.split("\n"), start=first)
                   if len(line) > MAX_EXPRESSION_DEPTH}
     if not long_lines:
         return statements
@@ -488,7 +489,10 @@ def _parse_slowly(text: str, file: str, sink: DiagnosticSink) -> list[ast.Statem
             continue
         builder.line_offset = index
         try:
-            statements.extend(parser.parse(line_text, start="line"))  # type: ignore[arg-type]
+            found: list[ast.Statement] = parser.parse(line_text, start="line")  # type: ignore[assignment]
+            # bounded line by line: its E107 comes in line order among the E101s, as the
+            # statement cache (`linecache`) reports the lines
+            statements.extend(_bounded(found, line_text, sink, index + 1))
         except UnexpectedInput as err:
             _report(err, file, index + 1, line_text, sink)
             statements.extend(_placeholder(line_text, Span(file, index + 1)))
@@ -499,7 +503,7 @@ def _parse_slowly(text: str, file: str, sink: DiagnosticSink) -> list[ast.Statem
             _report_problem(problem, file, index, sink)
             del problem  # its traceback holds this frame: a cycle through every local
             statements.extend(_placeholder(line_text, Span(file, index + 1)))
-    return _bounded(statements, text, sink)
+    return statements
 
 
 def _report_problem(problem: _SyntaxProblem, file: str, index: int,

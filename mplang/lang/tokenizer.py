@@ -20,17 +20,19 @@ from typing import Any
 from lark import Token
 from lark.lexer import Lexer, LexerState
 
-# One expression for the shape of the next token; the group says which. Keywords, names,
-# interrupt conditions and DI channels all start as a `word`: the state decides.
+# One expression for the shape of the next token, the blanks before it taken with it; the
+# group says which. Keywords, names, interrupt conditions and DI channels all start as a
+# `word`: the state decides. Blanks up to the end of the text are `end`.
 _SHAPE = re.compile(r"""
-    (?P<space>[ \t\f]+)
+    [ \t\f]*
+    (?:(?P<end>\Z)
   | (?P<comment>(?:\#|//)[^\n]*)
   | (?P<newline>\r?\n)
   | (?P<int>0[xX][0-9a-fA-F]+|[0-9]+)
   | (?P<word>[A-Za-z_][A-Za-z0-9_]*)
   | (?P<string>"[^"\n]*"|'[^'\n]*')
   | (?P<cmp><=|>=|==|!=)
-  | (?P<char>[<>=|&+\-*/()@,])
+  | (?P<char>[<>=|&+\-*/()@,]))
 """, re.VERBOSE)
 
 _CHAR_TERMINALS = {"<": "CMP", ">": "CMP", "=": "EQUAL", "|": "BAR", "&": "AMP", "+": "PLUS",
@@ -86,12 +88,16 @@ class FastLexer(Lexer):
             found = match_shape(text, pos, stop)
             if found is None:
                 raise Refused(f"character {text[pos]!r} at offset {pos}")
-            kind = found.lastgroup
+            kind: str = found.lastgroup  # type: ignore[assignment]  # every branch is named
             end = found.end()
-            if kind == "space" or kind == "comment":
+            if kind == "comment":
                 pos = end
                 continue
-            value = found.group()
+            if kind == "end":
+                counter.char_pos = end
+                break
+            pos = found.start(kind)  # past the blanks
+            value = found.group(kind)
             if kind == "word":
                 if end < stop and not text[end].isascii():
                     raise Refused("a non-ASCII character joins a word")

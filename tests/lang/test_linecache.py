@@ -17,6 +17,7 @@ from parsecount import CountedParse
 
 from mplang.lang import caches, frontcache, linecache
 from mplang.lang.diagnostics import DiagnosticSink, Span, make_span
+from mplang.lang.limits import MAX_EXPRESSION_DEPTH
 from mplang.lang.linecache import StatementCache
 from mplang.lang.parser import parse_text
 from mplang.m8194h.compiler import compile_paths
@@ -111,7 +112,8 @@ def test_an_edit_parses_the_edited_line_only() -> None:
     text = (ROOT / "samples" / "full_mp156.mp").read_text(encoding="utf-8")
     lines = text.split("\n")
     cache.parse(text, "full.mp", DiagnosticSink())
-    assert counted.texts == [text]  # all new: the whole text, once
+    assert len(counted.texts) == 1  # all new: one parse of every distinct line, once each
+    assert counted.texts[0].split("\n") == list(dict.fromkeys(lines))
     number = next(i for i, line in enumerate(lines) if "0" in line and "MP" not in line
                   and not line.lstrip().startswith(("#", "//")))
     lines[number] = lines[number].replace("0", "7", 1)
@@ -125,6 +127,44 @@ def test_an_edit_parses_the_edited_line_only() -> None:
     counted.texts.clear()
     cache.parse(edited, "other.mp", DiagnosticSink())  # another file of the same lines
     assert counted.texts == []
+
+
+def test_a_repeated_line_is_parsed_once() -> None:
+    """Within one text too: a line repeated all over a file is parsed once and copied to
+    its other places, its spans moved there; lines all distinct parse as the whole text."""
+    counted = CountedParse()
+    cache = StatementCache(counted)  # type: ignore[arg-type]
+    body = ["  IF VAR2 > 10", "    SET_A Y, 5000", "  END IF", "  X = = 1"] * 40
+    text = "\n".join(["MP 1", *body, "END MP", ""])
+    sink = DiagnosticSink()
+    statements = cache.parse(text, "repeat.mp", sink)
+    assert counted.texts == ["\n".join(["MP 1", *body[:4], "END MP", ""])]
+    assert (statements, sink.items) == _full_named(text, "repeat.mp")
+    assert [d.span.line for d in sink.items] == list(range(5, 162, 4))
+    distinct = "\n".join(f"  VAR{n} = {n}" for n in range(40))
+    counted.texts.clear()
+    assert StatementCache(counted).parse(distinct, "d.mp", DiagnosticSink())  # type: ignore[arg-type]
+    assert counted.texts == [distinct]
+
+
+DEEP = "  X = " + "(" * (MAX_EXPRESSION_DEPTH + 5) + "1" + ")" * (MAX_EXPRESSION_DEPTH + 5)
+"""E107: nested deeper than the compiler follows."""
+
+
+@settings(max_examples=60, deadline=None)
+@given(picks=st.lists(st.integers(0, 10_000), min_size=1, max_size=120),
+       pool=st.lists(st.sampled_from(SPARE_LINES), min_size=1, max_size=12))
+def test_a_text_of_repeated_lines_parses_as_a_full_parse_does(picks: list[int],
+                                                              pool: list[str]) -> None:
+    """Lines drawn from a few (good, broken, too deep, blank), so most repeat: each is
+    parsed once and copied, and statements, spans and diagnostics (their order too) are
+    those of a full parse, in a fresh cache and in one that saw another text first."""
+    choices = [*pool, *BROKEN, DEEP, ""]
+    text = "\n".join(choices[pick % len(choices)] for pick in picks)
+    assert _incremental(StatementCache(), text) == _full(text)
+    warm = StatementCache()
+    warm.parse("\n".join(reversed(choices)), "edited.mp", DiagnosticSink())
+    assert _incremental(warm, text) == _full(text)
 
 
 def _full_named(text: str, name: str) -> tuple[object, ...]:
@@ -202,3 +242,39 @@ def test_a_made_span_is_a_span() -> None:
     with pytest.raises(dataclasses.FrozenInstanceError):
         made.line = 4  # type: ignore[misc]
     assert pickle.loads(pickle.dumps(made)) == built
+
+
+def test_the_front_cache_keeps_each_text_once(tmp_path: Path,
+                                              monkeypatch: pytest.MonkeyPatch) -> None:
+    """An entry holds the first line of each text with its number; the next run places
+    every line from them (spans moved) without a parse, as a full parse gives it."""
+    monkeypatch.setenv("MPLANG_CACHE", str(tmp_path / "cache"))
+    body = ["  IF VAR2 > 10", "    SET_A Y, 5000", "  END IF", "  X = = 1"] * 30
+    text = "\n".join(["MP 1", *body, "END MP", ""])
+    frontcache.parse(text, "r.mp", DiagnosticSink(), where="/p/r.mp")
+    (entry,) = (tmp_path / "cache" / "front").iterdir()
+    kept = pickle.loads(entry.read_bytes().split(b"\n", 1)[1])
+    assert [(number, line[0]) for number, line in kept] == [
+        (1, "MP 1"), (2, body[0]), (3, body[1]), (4, body[2]), (5, body[3]),
+        (122, "END MP"), (123, "")]
+    counted = CountedParse()
+    monkeypatch.setattr(linecache, "_parse_text", counted)
+    for again in (text, text.replace("5000", "6000")):
+        sink = DiagnosticSink()
+        statements = frontcache.parse(again, "r.mp", sink, where="/p/r.mp")
+        assert (statements, sink.items) == _full_named(again, "r.mp")
+    assert counted.texts == ["    SET_A Y, 6000"]
+
+
+def test_a_text_parsed_whole_is_never_kept(tmp_path: Path,
+                                           monkeypatch: pytest.MonkeyPatch) -> None:
+    """A lone carriage return makes the text parse whole, outside the statement cache: the
+    next run parses it again and reports the same (it once found an empty entry there)."""
+    monkeypatch.setenv("MPLANG_CACHE", str(tmp_path / "cache"))
+    text = "MP 1\n  X = 1\r  Y = 2\nEND MP\n"
+    for _ in range(2):
+        sink = DiagnosticSink()
+        statements = frontcache.parse(text, "cr.mp", sink, where="/p/cr.mp")
+        assert (statements, sink.items) == _full_named(text, "cr.mp")
+        assert [d.code for d in sink.items] == ["E101"]
+    assert not (tmp_path / "cache" / "front").exists()

@@ -106,9 +106,11 @@ def test_the_tokenizer_gives_lark_s_tokens_on_any_text(text: str) -> None:
 @pytest.mark.parametrize("text", [
     "ON X P>=C+ CALL ISR 3\n", "ON DI 8.0 OFF_TO_ON CALL cycle\n", "VAR for\n", "MP 5 next\n",
     "x == 1\n", "IF a == b THEN\n", "FOO 0x\n", "a = 1 // c\r\n# d\n", "ON X on CALL 3\n",
+    "X = 1   ", "   ", "", "\t\f \n  \n", "a = 1 \t# c  \n  ", " \t\r\n",
 ])
 def test_the_tokenizer_on_the_contextual_cases(text: str) -> None:
-    """Keywords that are names where only a name fits, conditions, DI channels, `==`."""
+    """Keywords that are names where only a name fits, conditions, DI channels, `==`; blanks
+    before a token, a comment, a line's end and the text's end."""
     _same_stream(text)
 
 
