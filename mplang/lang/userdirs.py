@@ -10,29 +10,20 @@ platform, so a user (or a test) moves them the same way everywhere.
 from __future__ import annotations
 
 import os
-import sys
+from collections.abc import Callable
 from pathlib import Path
 
-_LINUX = {"XDG_STATE_HOME": "~/.local/state", "XDG_CACHE_HOME": "~/.cache"}
-"""What platformdirs gives on Linux when the variable is not set, written out: every mpc
-process asks for the cache directory, and importing platformdirs is a few ms of each start."""
+import platformdirs
 
 
-def _home(variable: str, kind: str) -> Path | None:
-    """`variable` when it holds an absolute path, else the platform's directory of `kind`
-    ("state" or "cache"); None when neither is absolute (no home directory to build it
-    from)."""
+def _home(variable: str, platform_dir: Callable[[], str]) -> Path | None:
+    """`variable` when it holds an absolute path, else the platform's directory; None when
+    neither is absolute (no home directory to build it from)."""
     value = os.environ.get(variable)
     if value and os.path.isabs(value):
         return Path(value)
     try:
-        if sys.platform == "linux":
-            found = os.path.expanduser(_LINUX[variable])
-        else:
-            import platformdirs
-
-            found = platformdirs.user_state_dir() if kind == "state" else \
-                platformdirs.user_cache_dir()
+        found = platform_dir()
     except (RuntimeError, KeyError, OSError):  # no HOME and no password entry
         return None
     return Path(found) if os.path.isabs(found) else None
@@ -40,9 +31,9 @@ def _home(variable: str, kind: str) -> Path | None:
 
 def state_home() -> Path | None:
     """The user's state directory (mpc's own is its `mpc` folder)."""
-    return _home("XDG_STATE_HOME", "state")
+    return _home("XDG_STATE_HOME", platformdirs.user_state_dir)
 
 
 def cache_home() -> Path | None:
     """The user's cache directory (mpc's own is its `mplang` folder)."""
-    return _home("XDG_CACHE_HOME", "cache")
+    return _home("XDG_CACHE_HOME", platformdirs.user_cache_dir)
