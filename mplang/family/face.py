@@ -20,21 +20,24 @@ from collections.abc import Awaitable, Callable, Mapping, Sequence
 from contextlib import AbstractAsyncContextManager
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Protocol, TypeVar
+from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 
-from mplang.family.debug import DebugStart
-from mplang.family.hostview import (
-    ExecutionError,
-    HostProgram,
-    HostValue,
-    HostVariable,
-    HostView,
-)
-from mplang.family.run_error import RunError
-from mplang.family.trace import Trace
-from mplang.family.watch import Watch
 from mplang.ir.unit import Options
 from mplang.lang.diagnostics import Diagnostic, Span
+
+if TYPE_CHECKING:  # named in signatures only: a lint or a build does not load the run,
+    # debug and host sides (imported by the commands that use them)
+    from mplang.family.debug import DebugStart
+    from mplang.family.hostview import (
+        ExecutionError,
+        HostProgram,
+        HostValue,
+        HostVariable,
+        HostView,
+    )
+    from mplang.family.run_error import RunError
+    from mplang.family.trace import Trace
+    from mplang.family.watch import Watch
 
 T = TypeVar("T")
 

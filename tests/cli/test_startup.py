@@ -50,7 +50,8 @@ def test_lint_does_not_load_the_virtual_controller(tmp_path: Path) -> None:
 
 NEVER_FOR_A_BUILD = ("lark", "difflib", "pymodbus.server", "aiohttp", "mplang.cli.commands.monitor",
                      "mplang.tools.monitor.server", "mplang.m8194h.debugger",
-                     "mplang.m8194h.run", "mplang.cli.commands.dap", "mplang.tools.dap")
+                     "mplang.m8194h.run", "mplang.cli.commands.dap", "mplang.tools.dap",
+                     "mplang.family.debug", "mplang.family.trace")
 """What `mpc lint` and `mpc flash --dry-run` whose files all hit the front cache, and `mpc
 status`, never need."""
 
