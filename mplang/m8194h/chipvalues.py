@@ -20,10 +20,12 @@ from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
+from mplang.lang.diagnostics import DiagnosticSink
+
 if TYPE_CHECKING:
     from mplang.ir.catalogue import Profile
     from mplang.ir.macro import LoweredProgram, MacroLine
-    from mplang.lang.diagnostics import DiagnosticSink
+    from mplang.ir.reuse import Lowerings
 
 #: the power-on maximum speed (factory initial table, RS 9705)
 DEFAULT_MAX_V = 200_000
@@ -195,9 +197,12 @@ def _axes_of(mask: int) -> list[int]:
 
 
 def warn_changed(programs: Iterable[LoweredProgram], init: LoweredProgram | None,
-                 profile: Profile, sink: DiagnosticSink) -> None:
+                 profile: Profile, sink: DiagnosticSink, kept: Lowerings | None = None
+                 ) -> None:
     """W111: a constant speed, acceleration or jerk argument the chip will hold as another
-    value (clamped to its range, or stepped), with the value it will use."""
+    value (clamped to its range, or stepped), with the value it will use. With `kept` (the
+    lowerings of the last build), a program lowered as then, starting from the same MAX_V
+    values, gives the warnings it gave then."""
     rules = ChipRules.from_profile(profile.raw)
     factory = float(profile.raw["initial_table"]["factory"]["max_v"])
     start: list[float | None] = [factory] * 4
@@ -206,8 +211,19 @@ def warn_changed(programs: Iterable[LoweredProgram], init: LoweredProgram | None
         for line in init.lines:
             reading.see(line.command.short_name, _named(line))
         start = reading.axes
+    key = ("W111", rules, tuple(start))
     for program in [*([init] if init is not None else []), *programs]:
-        _warn_lines(program, list(start), rules, sink)
+        entry = kept.entry(program) if kept is not None else None
+        if entry is None or entry.result is None or \
+                len(entry.result.lines) != len(program.lines):  # wiring added lines
+            _warn_lines(program, list(start), rules, sink)
+            continue
+        found = entry.derived.get(key)
+        if not isinstance(found, list):
+            own = DiagnosticSink()
+            _warn_lines(program, list(start), rules, own)
+            found = entry.derived[key] = own.items
+        sink.extend(found)
 
 
 def _named(line: MacroLine) -> dict[str, object]:

@@ -33,7 +33,7 @@ from mplang.lang.diagnostics import (
 from mplang.lang.linecache import StatementCache
 from mplang.lang.sources import SourceFile, SourceSet, load_sources
 from mplang.lang.structure import build_unit
-from mplang.m8194h.compiler import Lowering, compile_sources
+from mplang.m8194h.compiler import BuildMemo, Lowering, compile_sources
 from mplang.m8194h.link import Placement, link
 from mplang.tools.lsp.positions import Location, Range, line_range, span_range, split_lines
 from mplang.tools.lsp.tokens import Token, lex_line
@@ -243,7 +243,8 @@ class Analysis:
 
 def analyse(path: Path, text: str, context: BuildContext | None = None,
             open_texts: Mapping[Path, str] | None = None,
-            lines: StatementCache | None = None) -> Analysis:
+            lines: StatementCache | None = None, memo: BuildMemo | None = None,
+            previous: Analysis | None = None) -> Analysis:
     """Compile `text` as the contents of `path` and index what the editor features need.
 
     `context` says which sources are compiled with it and how (`workspace.context_for`);
@@ -252,12 +253,16 @@ def analyse(path: Path, text: str, context: BuildContext | None = None,
     text, not the disk. A failure inside the compiler does not escape: the analysis then
     holds one diagnostic that says so, and the features that need only the text and the
     catalogue (hover on commands, completion of commands) keep working. `lines`, kept by
-    the caller between analyses (the server's), makes an edit parse the edited lines only.
+    the caller between analyses (the server's), makes an edit parse the edited lines only;
+    `memo`, kept for this document, makes it re-check only the programs it changed
+    (`mplang.ir.reuse`), and `previous`, the document's last analysis, gives the
+    diagnostics placed as then that stand where they stood.
     """
     context = context or BuildContext((path,), Options())
     catalogue = catalogue_module.load()
     try:
-        return _analyse(path, text, context, open_texts or {}, catalogue, lines)
+        return _analyse(path, text, context, open_texts or {}, catalogue, lines, memo,
+                        previous)
     except Exception as exc:  # a compiler bug must not take the editor's features down
         logger.exception("checking %s failed", path)
         analysis = Analysis(path.resolve(), split_lines(text), catalogue, context.options)
@@ -269,7 +274,10 @@ def analyse(path: Path, text: str, context: BuildContext | None = None,
 
 
 def _analyse(path: Path, text: str, context: BuildContext, open_texts: Mapping[Path, str],
-             catalogue: Catalogue, statements: StatementCache | None = None) -> Analysis:
+             catalogue: Catalogue, statements: StatementCache | None = None,
+             memo: BuildMemo | None = None, previous: Analysis | None = None) -> Analysis:
+    """`analyse`, with its failures let through. One function: the steps share the loaded
+    sources and the files' index, and each is a few lines."""
     family = _family_of(context.options.target)
     # a FATEK or CSIM project: its .mp files are M8194H language, checked by that family
     options = context.options if family is None else replace(context.options, target="et")
@@ -289,7 +297,8 @@ def _analyse(path: Path, text: str, context: BuildContext, open_texts: Mapping[P
         # the parses of files read from disk are kept for the next change; editor buffers,
         # text being typed, are not
         lowering = Lowering()
-        diagnostics = compile_sources(paths, sources, sink, options, lowering).diagnostics
+        diagnostics = compile_sources(paths, sources, sink, options, lowering,
+                                      memo).diagnostics
     else:
         diagnostics = family.compile_mp(paths, options, context.options.target,
                                         texts=texts).diagnostics
