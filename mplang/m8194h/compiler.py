@@ -80,8 +80,12 @@ def compile_sources(paths: list[Path], sources: SourceSet, sink: DiagnosticSink,
         first = paths[0].resolve()
         result.first_source = next((s for s in result.sources if Path(s).resolve() == first),
                                    None)
+    # only a file with an `mpc: ignore` comment can silence anything: the thousands of
+    # warnings of a whole device are not looked up line by line in the others
+    marked = {f.display for f in sources.files if "mpc:" in f.text}
     result.diagnostics = settle_includes(
-        [d for d in result.diagnostics if not suppressed(d, result.sources)], result.sources)
+        [d for d in result.diagnostics
+         if d.span.file not in marked or not suppressed(d, result.sources)], result.sources)
     return result
 
 

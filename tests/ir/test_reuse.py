@@ -9,48 +9,11 @@ from pathlib import Path
 
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from sourceedits import CHECKS, SAMPLES, STEPS, changed
 
 from mplang.ir.reuse import BuildMemo
 from mplang.lang.linecache import StatementCache
 from mplang.m8194h.compiler import BuildResult, compile_paths
-
-ROOT = Path(__file__).resolve().parents[2]
-SAMPLES = sorted((ROOT / "samples").glob("*.mp"))
-CHECKS = sorted((ROOT / "tests" / "data" / "checks").glob("*.mp"))
-FILES = [*SAMPLES, *CHECKS]
-POOL = sorted({line for path in FILES for line in path.read_text(encoding="utf-8").split("\n")}
-              | {"CONST SPEED = 7", "CONST SPEED = 2147483647 * 4", "VAR spare",
-                 "ALIAS hits = VAR9", "  VAR450 = 1", "  CALL missing", "MP 9 extra",
-                 "END MP", "  IF X >", "  NEXT"})
-
-
-def _changed(lines: list[str], step: tuple[int, int, int]) -> list[str]:
-    """`lines` after one step of typing: a digit stepped (in any line, or in a line that
-    declares what every program reads), a line replaced by, or a line inserted from, the
-    pool (lines of every sample and check, and some that change what programs share:
-    CONSTs, declared variables, names), a line dropped, two lines swapped."""
-    how, at, pick = step
-    out = list(lines)
-    row = at % len(out) if out else 0
-    if how == 5:
-        shared = [i for i, line in enumerate(out)
-                  if line.lstrip().upper().startswith(("CONST", "ALIAS", "VAR "))]
-        how, row = 0, shared[at % len(shared)] if shared else row
-    if how == 0 and out:
-        digits = [i for i, c in enumerate(out[row]) if c.isdigit()]
-        if digits:
-            col = digits[pick % len(digits)]
-            out[row] = out[row][:col] + str((int(out[row][col]) + 3) % 10) + out[row][col + 1:]
-    elif how == 1 and out:
-        out[row] = POOL[pick % len(POOL)]
-    elif how == 2 and out:
-        out.pop(row)
-    elif how == 3:
-        out.insert(row, POOL[pick % len(POOL)])
-    elif how == 4 and len(out) > 1:
-        other = (row + 1) % len(out)
-        out[row], out[other] = out[other], out[row]
-    return out
 
 
 def _seen(result: BuildResult) -> tuple[object, ...]:
@@ -68,10 +31,6 @@ def _build(path: Path, text: str, lines: StatementCache | None = None,
     return compile_paths([path], texts={path: text}, lines=lines, memo=memo)
 
 
-STEPS = st.lists(st.tuples(st.integers(0, 5), st.integers(0, 5_000), st.integers(0, 5_000)),
-                 min_size=1, max_size=6)
-
-
 @settings(max_examples=50, deadline=None)
 @given(path=st.sampled_from(SAMPLES) | st.sampled_from(CHECKS), steps=STEPS)
 def test_random_edits_build_as_a_fresh_build_does(path: Path,
@@ -80,7 +39,7 @@ def test_random_edits_build_as_a_fresh_build_does(path: Path,
     text = path.read_text(encoding="utf-8").split("\n")
     assert _seen(_build(path, "\n".join(text), lines, memo)) == _seen(_build(path, "\n".join(text)))
     for step in steps:
-        text = _changed(text, step)
+        text = changed(text, step)
         joined = "\n".join(text)
         assert _seen(_build(path, joined, lines, memo)) == _seen(_build(path, joined))
         # the same text again, everything kept: still the same

@@ -196,6 +196,10 @@ class Analysis:
                                                          compare=False)
     _here: tuple[int, list[int], list[ProgramBlock]] = field(default=(-1, [], []),
                                                              repr=False, compare=False)
+    # Diagnostics placed in this document from its own text, by id: the diagnostic, its
+    # line's text then, and where it was placed (the next analysis takes what still holds)
+    placed: dict[int, tuple[Diagnostic, str, EditorDiagnostic]] = field(
+        default_factory=dict, repr=False, compare=False)
 
     def program_at(self, line: int) -> ProgramBlock | None:
         """The program of the open document that line (0-based) belongs to."""
@@ -317,8 +321,10 @@ def _analyse(path: Path, text: str, context: BuildContext, open_texts: Mapping[P
         analysis.files[entry.path] = entry
         by_display[entry.display] = entry
         _index_file(analysis, source, entry)
-    analysis.variables_used = {int(m.group(1)) for entry in analysis.files.values()
-                               for line in entry.lines for m in _VAR_USE.finditer(line)}
+    # one search of each whole text, not one per line: a line break is no word character,
+    # so the words found are the same
+    analysis.variables_used = {int(number) for entry in analysis.files.values()
+                               for number in _VAR_USE.findall("\n".join(entry.lines))}
     analysis.includes = [replace(i, target=_include_target(analysis.path, i.spelled, analysis,
                                                            by_display))
                          for i in analysis.includes]
@@ -328,9 +334,15 @@ def _analyse(path: Path, text: str, context: BuildContext, open_texts: Mapping[P
     # the loaded files that are the open document, told apart without comparing paths for
     # each of the thousands of diagnostics a whole device can have
     own = {id(entry) for entry in by_display.values() if entry.path == analysis.path}
-    placed = (_place_diagnostic(analysis, d, by_display, graph, pages, own)
-              for d in diagnostics)
-    analysis.diagnostics = [d for d in placed if d is not None]
+    before = previous.placed if previous is not None and previous.path == resolved else {}
+    here = {display for display, entry in by_display.items() if id(entry) in own}
+    analysis.diagnostics = []
+    for diagnostic in diagnostics:
+        placed = _reuse_placed(analysis, diagnostic, before, here) if before else None
+        if placed is None:
+            placed = _place_diagnostic(analysis, diagnostic, by_display, graph, pages, own)
+        if placed is not None:
+            analysis.diagnostics.append(placed)
     if context.problem:
         analysis.diagnostics.insert(0, EditorDiagnostic(line_range(0, 0, 0), "error", "",
                                                         context.problem, "", (), None))
@@ -540,6 +552,25 @@ def _reachable(start: Path, graph: dict[Path, list[Path]]) -> set[Path]:
     return seen
 
 
+def _reuse_placed(analysis: Analysis, diagnostic: Diagnostic,
+                  before: dict[int, tuple[Diagnostic, str, EditorDiagnostic]],
+                  here: set[str]) -> EditorDiagnostic | None:
+    """The placement of the last analysis, for the same diagnostic object (a program the
+    edit left alone: `mplang.ir.reuse`) on a line of this document (`here`: its names)
+    whose text is unchanged: a placement reads nothing else. None when it must be placed
+    afresh."""
+    kept = before.get(id(diagnostic))
+    if kept is None or kept[0] is not diagnostic:
+        return None
+    span = diagnostic.span
+    lines = analysis.lines
+    if span.file not in here or not 0 < span.line <= len(lines) or \
+            lines[span.line - 1] != kept[1]:
+        return None
+    analysis.placed[id(diagnostic)] = kept
+    return kept[2]
+
+
 def _place_diagnostic(analysis: Analysis, diagnostic: Diagnostic,
                       by_display: dict[str, SourceText],
                       graph: dict[Path, list[Path]], pages: dict[str, Path | None],
@@ -558,6 +589,12 @@ def _place_diagnostic(analysis: Analysis, diagnostic: Diagnostic,
     here = id(entry) in own  # never the id of None: `own` holds loaded files only
     if here:
         where = span_range(diagnostic.span, analysis.lines)
+        line = diagnostic.span.line
+        if not related and 0 < line <= len(analysis.lines):
+            placed = EditorDiagnostic(where, diagnostic.severity.value, diagnostic.code,
+                                      message, diagnostic.hint, related, docs)
+            analysis.placed[id(diagnostic)] = (diagnostic, analysis.lines[line - 1], placed)
+            return placed
     else:
         message = f"{diagnostic.span}: {message}"
         where = line_range(0, 0, 0)

@@ -45,6 +45,7 @@ from pygls.lsp.server import LanguageServer
 from pygls.protocol import LanguageServerProtocol, lsp_method
 
 from mplang import __version__
+from mplang.ir.reuse import BuildMemo
 from mplang.lang.linecache import StatementCache
 from mplang.tools.lsp import features
 from mplang.tools.lsp.analysis import Analysis, EditorDiagnostic, analyse
@@ -132,6 +133,9 @@ class MpLanguageServer(LanguageServer):
         self.analyses: dict[str, Analysis] = {}  # by document URI
         # parsed statements by line text, so that an edit parses the edited lines only
         self.statements = StatementCache()
+        # by URI: what each open document's builds keep for the next (`mplang.ir.reuse`),
+        # so that an edit re-checks only the programs it changed
+        self.memos: dict[str, BuildMemo] = {}
         # By URI: the document version each kept analysis checked, how long its check took,
         # the check waiting for a pause in the changes, and the diagnostics as last
         # converted for the client (with the analysis and encoding they were converted for).
@@ -230,9 +234,11 @@ class MpLanguageServer(LanguageServer):
         others = {self.document_path(u).resolve(): self.open_text(u)
                   for u in self.analyses if u != uri and self.is_open(u)}
         path = self.document_path(uri)
+        opened = self.is_open(uri)
+        memo = self.memos.setdefault(uri, BuildMemo()) if opened else None
         analysis = analyse(path, text, context_for(path, self.overrides), others,
-                           self.statements)
-        if self.is_open(uri):
+                           self.statements, memo, self.analyses.get(uri) if opened else None)
+        if opened:
             self.analyses[uri] = analysis
             self.versions[uri] = self.version_of(uri)
             self.check_seconds[uri] = time.perf_counter() - started
@@ -355,7 +361,8 @@ class MpLanguageServer(LanguageServer):
     def forget(self, uri: str) -> None:
         self.texts.pop(unquote(uri), None)
         self.cancel_pending(uri)
-        for kept in (self.versions, self.check_seconds, self.converted, self.published):
+        for kept in (self.versions, self.check_seconds, self.converted, self.published,
+                     self.memos):
             kept.pop(uri, None)
         closed = self.analyses.pop(uri, None)
         self.text_document_publish_diagnostics(lsp.PublishDiagnosticsParams(uri=uri,
