@@ -90,9 +90,9 @@ class DiagnosticSink:
         same objects, each once as `add` would."""
         seen, items = self._seen, self.items
         for diagnostic in diagnostics:
-            key = (diagnostic.code, diagnostic.span, diagnostic.message)
-            if key not in seen:
-                seen.add(key)
+            count = len(seen)
+            seen.add((diagnostic.code, diagnostic.span, diagnostic.message))  # hashed once
+            if len(seen) != count:
                 items.append(diagnostic)
 
     @property

@@ -67,14 +67,15 @@ def compile_paths(paths: list[Path], options: Options = Options(), *,
 
 def compile_sources(paths: list[Path], sources: SourceSet, sink: DiagnosticSink,
                     options: Options = Options(), lowering: Lowering | None = None,
-                    memo: BuildMemo | None = None) -> BuildResult:
+                    memo: BuildMemo | None = None, encode: bool = True) -> BuildResult:
     """`compile_paths` for sources already read into `sources` (their diagnostics in
-    `sink`); `lowering`, when given, receives the scope, lowered programs and placements."""
+    `sink`); `lowering`, when given, receives the scope, lowered programs and placements.
+    `encode=False` checks only (an editor's diagnostics): the result holds no image."""
     catalogue = catalogue_module.load()
     with collection_paused():
         unit = build_unit(sources, sink, memo.blocks if memo is not None else None)
         result = _finish(unit, catalogue, sink, options, lowering,
-                         memo.lowerings if memo is not None else None)
+                         memo.lowerings if memo is not None else None, encode)
     result.sources = {f.display: f.text.splitlines() for f in sources.files}
     if paths:
         first = paths[0].resolve()
@@ -122,7 +123,7 @@ def _check_filled(placements: list[Placement], wired: list[Wire],
 
 def _finish(unit: object, catalogue: Catalogue, sink: DiagnosticSink,
             options: Options, lowering: Lowering | None = None,
-            kept: Lowerings | None = None) -> BuildResult:
+            kept: Lowerings | None = None, encode: bool = True) -> BuildResult:
     assert isinstance(unit, ast.Unit)
     profile = catalogue.profile
     word_order = profile.word_order_default if options.word_order is None else options.word_order
@@ -143,7 +144,7 @@ def _finish(unit: object, catalogue: Catalogue, sink: DiagnosticSink,
     result = BuildResult(sink.sorted(), word_order=word_order, target=options.target,
                          variables=sorted(scope.variables, key=lambda v: v.index),
                          aliases=list(scope.alias_names))
-    if not result.ok:
+    if not encode or not result.ok:
         return result
     encoder = Encoder(catalogue, word_order)
     if init is not None:

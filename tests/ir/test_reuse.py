@@ -7,9 +7,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
-from sourceedits import CHECKS, SAMPLES, STEPS, changed
+from sourceedits import CHECKS, ROOT, SAMPLES, STEPS, changed
 
 from mplang.ir.reuse import BuildMemo
 from mplang.lang.linecache import StatementCache
@@ -33,6 +33,8 @@ def _build(path: Path, text: str, lines: StatementCache | None = None,
 
 @settings(max_examples=50, deadline=None)
 @given(path=st.sampled_from(SAMPLES) | st.sampled_from(CHECKS), steps=STEPS)
+@example(path=ROOT / "samples" / "expressions.mp", steps=[(5, 0, 0), (5, 1, 1)])  # CONSTs
+@example(path=ROOT / "samples" / "pick_and_place.mp", steps=[(5, 2, 0), (0, 40, 1)])
 def test_random_edits_build_as_a_fresh_build_does(path: Path,
                                                   steps: list[tuple[int, int, int]]) -> None:
     lines, memo = StatementCache(), BuildMemo()

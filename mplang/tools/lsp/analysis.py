@@ -301,8 +301,8 @@ def _analyse(path: Path, text: str, context: BuildContext, open_texts: Mapping[P
         # the parses of files read from disk are kept for the next change; editor buffers,
         # text being typed, are not
         lowering = Lowering()
-        diagnostics = compile_sources(paths, sources, sink, options, lowering,
-                                      memo).diagnostics
+        diagnostics = compile_sources(paths, sources, sink, options, lowering, memo,
+                                      encode=False).diagnostics
     else:
         diagnostics = family.compile_mp(paths, options, context.options.target,
                                         texts=texts).diagnostics

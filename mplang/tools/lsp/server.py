@@ -7,14 +7,16 @@ hints are answered from the latest analysis. Positions cross the boundary here, 
 between code points and the client's negotiated encoding. A handler that fails logs the
 error and answers nothing: one bad input never takes the server down.
 
-Speed: a check's diagnostics are converted to the client's positions once (ASCII lines
-without counting), semantic tokens are kept per analysis (`handlers`), and a document whose
-last check took longer than `DEBOUNCE_ABOVE_S` is checked `DEBOUNCE_S` after the last change
-of a burst instead of after every keystroke; requests on it check it first, and diagnostics
-are published only for the document's current version, so none shown is ever stale. After
-start-up the heap built so far (catalogue, grammar, the code) is frozen out of the cycle
-collector, which would otherwise walk it on every collection, and the collector waits while
-a check runs.
+Speed: each open document keeps a build memo (`mplang.ir.reuse`), so an edit re-checks only
+the programs it changed, and its diagnostics, placed and converted to JSON, are taken from
+the last check where they are the same objects on unchanged lines; a check's diagnostics
+are converted to the client's positions once (ASCII lines without counting), semantic
+tokens are kept per analysis (`handlers`), and a document whose last check took longer
+than `DEBOUNCE_ABOVE_S` is checked `DEBOUNCE_S` after the last change of a burst instead
+of after every keystroke; requests on it check it first, and diagnostics are published only
+for the document's current version, so none shown is ever stale. After start-up the heap
+built so far (catalogue, grammar, the code) is frozen out of the cycle collector, which
+would otherwise walk it on every collection, and the collector waits while a check runs.
 
 Hostile input: messages are read by `transport` (bounded, resynchronising after a framing
 error) instead of pygls' own loop, and a request on a document the client did not open reads
@@ -146,6 +148,8 @@ class MpLanguageServer(LanguageServer):
         # By URI: the diagnostics last published, as JSON-ready values, by what they were
         # converted from (`_published_key`), for the next publish to take again.
         self.published: dict[str, dict[Hashable, dict[str, Any]]] = {}
+        self.published_same: dict[str, dict[int, tuple[EditorDiagnostic, str,
+                                                       dict[str, Any]]]] = {}
         # The text of each open document (by unquoted URI), kept here with the protocol's
         # line breaks (`positions.apply_change`) rather than by pygls' incremental sync.
         self.texts: dict[str, str] = {}
@@ -330,9 +334,18 @@ class MpLanguageServer(LanguageServer):
         whole device's warnings are not."""
         before = self.published.get(uri, {})
         now: dict[Hashable, dict[str, Any]] = {}
+        # first by identity: a diagnostic the analysis took from the last one (its line
+        # unchanged, `analysis._reuse_placed`) is the same object, with the same JSON
+        same_before = self.published_same.get(uri, {})
+        same_now: dict[int, tuple[EditorDiagnostic, str, dict[str, Any]]] = {}
         found = []
         encoding = self.encoding
         for diagnostic in analysis.diagnostics:
+            same = same_before.get(id(diagnostic))
+            if same is not None and same[0] is diagnostic and same[1] == encoding:
+                same_now[id(diagnostic)] = same
+                found.append(same[2])
+                continue
             key = _published_key(diagnostic, analysis.lines, encoding)
             value = now.get(key) if key is not None else None
             if value is None and key is not None:
@@ -342,9 +355,11 @@ class MpLanguageServer(LanguageServer):
                     self.diagnostic(uri, analysis, diagnostic))
             if key is not None:
                 now[key] = value
+                same_now[id(diagnostic)] = (diagnostic, encoding, value)
             found.append(value)
         if self.is_open(uri):
             self.published[uri] = now
+            self.published_same[uri] = same_now
         return found
 
     def client_diagnostics(self, uri: str, analysis: Analysis) -> list[lsp.Diagnostic]:
@@ -362,7 +377,7 @@ class MpLanguageServer(LanguageServer):
         self.texts.pop(unquote(uri), None)
         self.cancel_pending(uri)
         for kept in (self.versions, self.check_seconds, self.converted, self.published,
-                     self.memos):
+                     self.published_same, self.memos):
             kept.pop(uri, None)
         closed = self.analyses.pop(uri, None)
         self.text_document_publish_diagnostics(lsp.PublishDiagnosticsParams(uri=uri,

@@ -8,9 +8,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
-from sourceedits import CHECKS, SAMPLES, STEPS, changed
+from sourceedits import CHECKS, ROOT, SAMPLES, STEPS, changed
 
 from mplang.ir.reuse import BuildMemo
 from mplang.lang.linecache import StatementCache
@@ -25,6 +25,8 @@ def _seen(analysis: Analysis) -> tuple[object, ...]:
 
 @settings(max_examples=50, deadline=None)
 @given(path=st.sampled_from(SAMPLES) | st.sampled_from(CHECKS), steps=STEPS)
+@example(path=ROOT / "samples" / "expressions.mp", steps=[(5, 0, 0), (5, 1, 1)])  # CONSTs
+@example(path=ROOT / "samples" / "pick_and_place.mp", steps=[(5, 2, 0), (0, 40, 1)])
 def test_random_edits_analyse_as_a_fresh_analysis_does(path: Path,
                                                        steps: list[tuple[int, int, int]]
                                                        ) -> None:
