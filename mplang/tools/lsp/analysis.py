@@ -188,7 +188,7 @@ class Analysis:
     slot_uses: dict[tuple[Path, int], SlotUse] = field(default_factory=dict)  # by header
     diagnostics: list[EditorDiagnostic] = field(default_factory=list)
     includes: list[IncludeLine] = field(default_factory=list)
-    variables_used: set[int] = field(default_factory=set)
+    _variables_used: set[int] | None = field(default=None, repr=False, compare=False)
     # Built on the first lookup, with the count of programs each was built from: upper-case
     # program name -> its first block, and this document's blocks with their first lines
     # (semantic tokens look up every word and header of the document).
@@ -200,6 +200,16 @@ class Analysis:
     # line's text then, and where it was placed (the next analysis takes what still holds)
     placed: dict[int, tuple[Diagnostic, str, EditorDiagnostic]] = field(
         default_factory=dict, repr=False, compare=False)
+
+    @property
+    def variables_used(self) -> set[int]:
+        """Every VARn the build's files name (completion offers them): looked for when first
+        asked, not on every edit. One search of each whole text, not one per line: a line
+        break is no word character, so the words found are the same."""
+        if self._variables_used is None:
+            self._variables_used = {int(number) for entry in self.files.values()
+                                    for number in _VAR_USE.findall("\n".join(entry.lines))}
+        return self._variables_used
 
     def program_at(self, line: int) -> ProgramBlock | None:
         """The program of the open document that line (0-based) belongs to."""
@@ -321,10 +331,6 @@ def _analyse(path: Path, text: str, context: BuildContext, open_texts: Mapping[P
         analysis.files[entry.path] = entry
         by_display[entry.display] = entry
         _index_file(analysis, source, entry)
-    # one search of each whole text, not one per line: a line break is no word character,
-    # so the words found are the same
-    analysis.variables_used = {int(number) for entry in analysis.files.values()
-                               for number in _VAR_USE.findall("\n".join(entry.lines))}
     analysis.includes = [replace(i, target=_include_target(analysis.path, i.spelled, analysis,
                                                            by_display))
                          for i in analysis.includes]
@@ -418,6 +424,9 @@ def _line_tokens(entry: SourceText, line: int) -> list[Token]:
 _INDEXED = (ast.Const, ast.Alias, ast.VarDecl, ast.ProgramHeader, ast.End, ast.LabelStmt,
             ast.Include)
 """The statements `_index_file` reads."""
+_INDEXED_TYPES = frozenset(_INDEXED)
+"""The same, looked up by exact type (thousands of statements a check; no syntax-tree class
+has subclasses)."""
 
 
 def _index_file(analysis: Analysis, source: SourceFile, entry: SourceText) -> None:
@@ -433,7 +442,7 @@ def _index_file(analysis: Analysis, source: SourceFile, entry: SourceText) -> No
             open_block = None
 
     for statement in source.statements:
-        if not isinstance(statement, _INDEXED):
+        if type(statement) not in _INDEXED_TYPES:
             continue  # commands and the like define nothing: their line is not lexed
         if isinstance(statement, ast.End):
             if statement.what in ("mp", "isr"):
