@@ -29,6 +29,8 @@ from __future__ import annotations
 import asyncio
 import functools
 import gc
+import inspect
+import json
 import logging
 import os
 import sys
@@ -41,7 +43,7 @@ from urllib.parse import unquote
 
 from lsprotocol import types as lsp
 from pygls import uris
-from pygls.exceptions import JsonRpcException
+from pygls.exceptions import JsonRpcException, JsonRpcInternalError
 from pygls.io_ import StdoutWriter
 from pygls.lsp.server import LanguageServer
 from pygls.protocol import LanguageServerProtocol, lsp_method
@@ -95,6 +97,16 @@ WARM_UP_TEXT = "MP 1\n    SET_V X, 100\nEND MP\n"
 out of the cycle collector's walks) before the first keystroke."""
 
 
+_SENDING: set[asyncio.Future[Any]] = set()
+"""Writes of `EncodedMessage`s still under way on an asynchronous transport."""
+
+
+class EncodedMessage(str):
+    """A message already written as JSON text (ASCII: `json.dumps` escapes the rest), sent
+    as it is by `_Protocol._send_data`: a whole device's publish is thousands of diagnostics
+    whose JSON text is kept from the publish before, not encoded again."""
+
+
 class _Protocol(LanguageServerProtocol):
     """pygls' protocol, with the server's own incremental sync instead of pygls': pygls
     applies a change on lines split by `str.splitlines` (form feeds, U+2028 ... end a line
@@ -121,6 +133,31 @@ class _Protocol(LanguageServerProtocol):
         if (handler := self.fm.features.get(lsp.TEXT_DOCUMENT_DID_CHANGE)) is not None:
             yield handler, (params,), None
 
+    def _send_data(self, data: Any) -> None:
+        """pygls' sending, and an `EncodedMessage` sent without encoding it again (framed
+        and guarded as pygls frames and guards every message)."""
+        if not isinstance(data, EncodedMessage):
+            super()._send_data(data)
+            return
+        if self.writer is None:
+            logger.error("Unable to send data, no available transport!")
+            return
+        try:
+            body = data.encode(self.CHARSET)
+            header = (f"Content-Length: {len(body)}\r\nContent-Type: {self.CONTENT_TYPE}; "
+                      f"charset={self.CHARSET}\r\n\r\n").encode(self.CHARSET)
+            written = self.writer.write(header + body)
+            if inspect.isawaitable(written):  # kept until done: a task only weakly held
+                sending = asyncio.ensure_future(written)  # may be collected while it runs
+                _SENDING.add(sending)
+                sending.add_done_callback(_SENDING.discard)
+        except BrokenPipeError:
+            logger.exception("Error sending data. BrokenPipeError", exc_info=True)
+            raise
+        except Exception as error:
+            logger.exception("Error sending data", exc_info=True)
+            self._server._report_server_error(error, JsonRpcInternalError)
+
 
 class MpLanguageServer(LanguageServer):
     """Holds the command line's options and the latest analysis of every open document."""
@@ -145,11 +182,10 @@ class MpLanguageServer(LanguageServer):
         self.check_seconds: dict[str, float] = {}
         self.pending: dict[str, asyncio.TimerHandle] = {}
         self.converted: dict[str, tuple[Analysis, str, list[lsp.Diagnostic]]] = {}
-        # By URI: the diagnostics last published, as JSON-ready values, by what they were
-        # converted from (`_published_key`), for the next publish to take again.
-        self.published: dict[str, dict[Hashable, dict[str, Any]]] = {}
-        self.published_same: dict[str, dict[int, tuple[EditorDiagnostic, str,
-                                                       dict[str, Any]]]] = {}
+        # By URI: the diagnostics last published, as JSON text, by what they were converted
+        # from (`_published_key`) and by identity, for the next publish to take again.
+        self.published: dict[str, dict[Hashable, str]] = {}
+        self.published_same: dict[str, dict[int, tuple[EditorDiagnostic, str, str]]] = {}
         # The text of each open document (by unquoted URI), kept here with the protocol's
         # line breaks (`positions.apply_change`) rather than by pygls' incremental sync.
         self.texts: dict[str, str] = {}
@@ -319,25 +355,26 @@ class MpLanguageServer(LanguageServer):
         version = self.version_of(uri)
         if self.versions.get(uri, version) != version:
             return
-        params: dict[str, Any] = {"uri": uri, "diagnostics": self.json_diagnostics(uri,
-                                                                                   analysis)}
-        if version is not None:
-            params["version"] = version
-        # JSON-ready values: the C encoder writes them without a call back per object
-        self.protocol._send_data({"jsonrpc": "2.0", "params": params,
-                                  "method": lsp.TEXT_DOCUMENT_PUBLISH_DIAGNOSTICS})
+        head = {"uri": uri, "version": version} if version is not None else {"uri": uri}
+        diagnostics = ", ".join(self.json_diagnostics(uri, analysis))
+        # the diagnostics' JSON text is kept between publishes: the message is put together
+        # around it, never encoded whole again
+        self.protocol._send_data(EncodedMessage(
+            f'{{"jsonrpc": "2.0", "params": {json.dumps(head)[:-1]}, "diagnostics": '
+            f'[{diagnostics}]}}, "method": '
+            f'{json.dumps(lsp.TEXT_DOCUMENT_PUBLISH_DIAGNOSTICS)}}}'))
 
-    def json_diagnostics(self, uri: str, analysis: Analysis) -> list[dict[str, Any]]:
-        """The diagnostics to publish, as JSON values. One that was published last time
+    def json_diagnostics(self, uri: str, analysis: Analysis) -> list[str]:
+        """The diagnostics to publish, as JSON text. One that was published last time
         (the same diagnostic on the same line text, in the same encoding) is taken from then:
         after an edit, only the diagnostics it changed are converted; the thousands of a
         whole device's warnings are not."""
         before = self.published.get(uri, {})
-        now: dict[Hashable, dict[str, Any]] = {}
+        now: dict[Hashable, str] = {}
         # first by identity: a diagnostic the analysis took from the last one (its line
         # unchanged, `analysis._reuse_placed`) is the same object, with the same JSON
         same_before = self.published_same.get(uri, {})
-        same_now: dict[int, tuple[EditorDiagnostic, str, dict[str, Any]]] = {}
+        same_now: dict[int, tuple[EditorDiagnostic, str, str]] = {}
         found = []
         encoding = self.encoding
         for diagnostic in analysis.diagnostics:
@@ -351,8 +388,8 @@ class MpLanguageServer(LanguageServer):
             if value is None and key is not None:
                 value = before.get(key)
             if value is None:
-                value = self.protocol._converter.unstructure(
-                    self.diagnostic(uri, analysis, diagnostic))
+                value = json.dumps(self.protocol._converter.unstructure(
+                    self.diagnostic(uri, analysis, diagnostic)))
             if key is not None:
                 now[key] = value
                 same_now[id(diagnostic)] = (diagnostic, encoding, value)
