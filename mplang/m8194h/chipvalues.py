@@ -172,6 +172,7 @@ class _MaxV:
         self.axis1 = 0  # the first assigned axis (AXIS_ASSIGN; X and Y at power on)
 
     def see(self, command: str, params: dict[str, object]) -> None:
+        """Follow a command that sets MAX_V or axis 1 (`_sets_max_v` names them)."""
         mask = params.get("axis")
         if command == "SET_MAX_V" and isinstance(mask, int):
             value = params.get("data")
@@ -190,6 +191,11 @@ class _MaxV:
             if isinstance(mask, int) and _axes_of(mask):
                 return [self.axes[i] for i in _axes_of(mask)]
         return [self.axes[self.axis1]]
+
+
+def _sets_max_v(command: str) -> bool:
+    """Whether a command can change what `_MaxV` reads (its `see`)."""
+    return command in ("SET_MAX_V", "AXIS_ASSIGN") or command.endswith("_INITIAL")
 
 
 def _axes_of(mask: int) -> list[int]:
@@ -235,6 +241,8 @@ def _warn_lines(program: LoweredProgram, start: list[float | None], rules: ChipR
     reading = _MaxV(start)
     for line in program.lines:
         command = line.command.short_name
+        if command not in rules.parameters and not _sets_max_v(command):
+            continue  # no speed, acceleration or jerk argument, no MAX_V or axis 1 change
         params = _named(line)
         names = [p.name for p in line.command.params]
         for max_v in dict.fromkeys(reading.of(params)):
