@@ -12,7 +12,7 @@ the later passes do the same per program:
   declared variables as placed, the names and kinds of the build's programs, the options
   and the catalogue. A change of the context drops every lowering;
 - what a back end derives from one lowered program alone (the M8194H's W111 warnings and
-  frames) is kept beside it (`Lowered.derived`), under a key that names what else it read.
+  frames) is kept beside it (`Lowered.derived_for`), for the last key (what else it read).
 
 Declarations, variable placement, interrupt wiring, triggers and linking are whole-build
 passes and run every time: they are cheap, and linking must see every program.
@@ -38,7 +38,18 @@ class Lowered:
     program: ast.Program
     result: LoweredProgram | None
     diagnostics: list[Diagnostic]
-    derived: dict[Hashable, object] = field(default_factory=dict)
+    derived: dict[str, tuple[Hashable, object]] = field(default_factory=dict)
+
+    def derived_for(self, kind: str, key: Hashable, make: Callable[[], object]) -> object:
+        """What a back end derives from this lowering (`kind`: "W111", "frames", ...) for
+        `key`, what else it read: kept for the last key only, so that a program kept
+        through many edits of what it does not contain keeps one of each."""
+        kept = self.derived.get(kind)
+        if kept is not None and kept[0] == key:
+            return kept[1]
+        made = make()
+        self.derived[kind] = (key, made)
+        return made
 
     def copy(self) -> LoweredProgram | None:
         """The lowered program for one build: later passes add lines (interrupt wiring) and

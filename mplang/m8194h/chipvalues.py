@@ -20,7 +20,7 @@ from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
-from mplang.lang.diagnostics import DiagnosticSink
+from mplang.lang.diagnostics import Diagnostic, DiagnosticSink
 
 if TYPE_CHECKING:
     from mplang.ir.catalogue import Profile
@@ -217,18 +217,21 @@ def warn_changed(programs: Iterable[LoweredProgram], init: LoweredProgram | None
         for line in init.lines:
             reading.see(line.command.short_name, _named(line))
         start = reading.axes
-    key = ("W111", rules, tuple(start))
+    key = (rules, tuple(start))
     for program in [*([init] if init is not None else []), *programs]:
         entry = kept.entry(program) if kept is not None else None
         if entry is None or entry.result is None or \
                 len(entry.result.lines) != len(program.lines):  # wiring added lines
             _warn_lines(program, list(start), rules, sink)
             continue
-        found = entry.derived.get(key)
-        if not isinstance(found, list):
+
+        def warn(program: LoweredProgram = program) -> list[Diagnostic]:
             own = DiagnosticSink()
             _warn_lines(program, list(start), rules, own)
-            found = entry.derived[key] = own.items
+            return own.items
+
+        found = entry.derived_for("W111", key, warn)
+        assert isinstance(found, list)
         sink.extend(found)
 
 

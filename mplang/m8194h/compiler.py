@@ -176,12 +176,11 @@ def _frames(program: LoweredProgram, encoder: Encoder,
     entry = kept.entry(program) if kept is not None else None
     if entry is None or entry.result is None or len(entry.result.lines) != len(program.lines):
         return [encoder.frame(line, slot_of) for line in program.lines]
-    refs = entry.derived.get("refs")
-    if not isinstance(refs, tuple):
-        refs = entry.derived["refs"] = tuple(dict.fromkeys(
-            o for line in program.lines for o in line.operands if isinstance(o, ProgramRef)))
-    key = ("frames", encoder.word_order, tuple(slot_of(ref) for ref in refs))
-    found = entry.derived.get(key)
-    if not isinstance(found, list):
-        found = entry.derived[key] = [encoder.frame(line, slot_of) for line in program.lines]
+    refs = entry.derived_for("refs", None, lambda: tuple(dict.fromkeys(
+        o for line in program.lines for o in line.operands if isinstance(o, ProgramRef))))
+    assert isinstance(refs, tuple)
+    key = (encoder.word_order, tuple(slot_of(ref) for ref in refs))
+    found = entry.derived_for("frames", key,
+                              lambda: [encoder.frame(line, slot_of) for line in program.lines])
+    assert isinstance(found, list)
     return [list(frame) for frame in found]

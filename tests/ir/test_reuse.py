@@ -80,3 +80,17 @@ def test_a_kept_program_is_its_own_copy_in_each_build(tmp_path: Path) -> None:
     first = _build(path, text, lines, memo)
     for _ in range(3):
         assert _seen(_build(path, text, lines, memo)) == _seen(first)
+
+
+def test_w111_follows_the_max_v_a_kept_program_starts_from(tmp_path: Path) -> None:
+    """An unchanged program's W111 warnings are kept for the MAX_V values it starts from:
+    editing the INIT block's SET_MAX_V, and back, gives each time what a fresh build does."""
+    path = tmp_path / "maxv.mp"
+    text = "\n".join(["INIT", "  SET_MAX_V X, 200000", "END INIT", "MP 1 moves",
+                      "  SET_ACC X, 123457", "  SET_V X, 70001", "END MP", ""])
+    lines, memo = StatementCache(), BuildMemo()
+    for max_v in ("200000", "160000", "200000", "8000"):
+        edited = text.replace("200000", max_v)
+        kept = _build(path, edited, lines, memo)
+        assert any(d.code == "W111" for d in kept.diagnostics)
+        assert _seen(kept) == _seen(_build(path, edited))
