@@ -20,6 +20,7 @@ from mplang.ir.configure import (
 )
 from mplang.ir.lower import DEFAULT_VAR_POOL, ConstError, ProgramLowerer, Scope
 from mplang.ir.macro import LoweredProgram
+from mplang.ir.reuse import Lowerings, lowering_context
 from mplang.lang import ast
 from mplang.lang.diagnostics import DiagnosticSink, Span
 
@@ -78,17 +79,28 @@ class LoweredUnit:
     triggers: TriggerTable | None
 
 
-def lower_unit(unit: ast.Unit, scope: Scope, sink: DiagnosticSink, options: Options
-               ) -> LoweredUnit:
+def lower_unit(unit: ast.Unit, scope: Scope, sink: DiagnosticSink, options: Options,
+               kept: Lowerings | None = None) -> LoweredUnit:
     """Every program and configuration block of a declared unit, lowered and checked: the
-    one path the compiler and the editor's budget display share."""
+    one path the compiler and the editor's budget display share. `kept`, from the last
+    build, gives each unchanged program its lowering from then (`mplang.ir.reuse`)."""
     catalogue = scope.catalogue
     names = {p.name.upper(): p for p in unit.programs if p.name}
     lowered: list[LoweredProgram] = []
+    if kept is not None:
+        kept.start(lowering_context(scope, names, options.temps, options.target))
     for program in unit.programs:
-        with contextlib.suppress(ConstError):  # already reported where it arose
-            lowered.append(ProgramLowerer(scope, program, options.temps, options.target,
-                                          names).lower_program())
+        def lower(program: ast.Program = program) -> LoweredProgram | None:
+            with contextlib.suppress(ConstError):  # already reported where it arose
+                return ProgramLowerer(scope, program, options.temps, options.target,
+                                      names).lower_program()
+            return None
+
+        result = lower() if kept is None else kept.lower(program, scope, sink, lower)
+        if result is not None:
+            lowered.append(result)
+    if kept is not None:
+        kept.finish()
     init = _lower_init(unit, scope, sink, options.target)
     wiring = wire_interrupts(unit.interrupts, lowered, init, catalogue, sink, names)
     triggers = build_trigger_table(unit.triggers, catalogue, sink, names)

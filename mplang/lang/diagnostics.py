@@ -8,6 +8,7 @@ through the compiler, the way they are rendered, and the `# mpc: ignore` comment
 from __future__ import annotations
 
 import re
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 
 from mplang.lang.rules import RULES
@@ -83,6 +84,16 @@ class DiagnosticSink:
             return
         self._seen.add(key)
         self.items.append(Diagnostic(code, RULES[code].severity, message, span, hint, related))
+
+    def extend(self, diagnostics: Iterable[Diagnostic]) -> None:
+        """Add diagnostics an earlier build made (the part of it an edit left alone), the
+        same objects, each once as `add` would."""
+        seen, items = self._seen, self.items
+        for diagnostic in diagnostics:
+            count = len(seen)
+            seen.add((diagnostic.code, diagnostic.span, diagnostic.message))  # hashed once
+            if len(seen) != count:
+                items.append(diagnostic)
 
     @property
     def errors(self) -> list[Diagnostic]:

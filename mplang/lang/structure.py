@@ -11,7 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from mplang.lang import ast
-from mplang.lang.diagnostics import DiagnosticSink, Span
+from mplang.lang.diagnostics import Diagnostic, DiagnosticSink, Span
 from mplang.lang.limits import MAX_BLOCK_DEPTH
 from mplang.lang.sources import SourceSet
 
@@ -85,16 +85,70 @@ def _operator_text(expr: ast.Expr) -> str:
     return "?"
 
 
-def build_unit(sources: SourceSet, sink: DiagnosticSink) -> ast.Unit:
+@dataclass
+class _Built:
+    """A program as one build matched it: its statements, from its header to its END, the
+    program and what matching them reported."""
+
+    statements: list[ast.Statement]
+    program: ast.Program
+    diagnostics: list[Diagnostic]
+
+
+class BlockMemo:
+    """The programs of the last build, so that the next one takes a program whose
+    statements are unchanged (equal, and at the same place) as the same `ast.Program`
+    object, with the diagnostics it had, instead of matching its blocks again.
+
+    Only a program that starts at the top level and is closed by its own END is kept: its
+    matching then depends on its statements alone. The same objects also tell the later
+    passes (`mplang.ir.reuse`) what an edit left alone. Entries no build used last time are
+    dropped, so the memo holds about one build's programs."""
+
+    def __init__(self) -> None:
+        self._now: dict[Span, _Built] = {}
+        self._before: dict[Span, _Built] = {}
+
+    def find(self, statements: list[ast.Statement], index: int) -> _Built | None:
+        """The kept program whose header is `statements[index]`, if the statements that
+        follow it are still its statements."""
+        span = statements[index].span
+        kept = self._now.get(span) or self._before.get(span)
+        if kept is None:
+            return None
+        count = len(kept.statements)
+        if statements[index:index + count] != kept.statements:  # identity first, then value
+            return None
+        self._now[span] = kept
+        return kept
+
+    def keep(self, built: _Built) -> None:
+        self._now[built.statements[0].span] = built
+
+    def turn(self) -> None:
+        """A build is over: what it did not use is forgotten."""
+        self._before, self._now = self._now, {}
+
+
+def build_unit(sources: SourceSet, sink: DiagnosticSink, memo: BlockMemo | None = None
+               ) -> ast.Unit:
+    """The files' statements matched into programs and configuration blocks; `memo`, kept
+    between builds, takes unchanged programs from the last one."""
     unit = ast.Unit()
     for source in sources.files:
-        _build_file(source.statements, source.display, unit, sink)
+        _build_file(source.statements, source.display, unit, sink, memo)
+    if memo is not None:
+        memo.turn()
     return unit
 
 
 def _build_file(statements: list[ast.Statement], file: str, unit: ast.Unit,
-                sink: DiagnosticSink) -> None:
+                sink: DiagnosticSink, memo: BlockMemo | None = None) -> None:
+    """One file's statements matched into blocks. One function: the nested helpers share
+    the stack of open blocks, and each rule reads as one case of the match."""
     stack: list[_Open] = []
+    started: int | None = None  # where the program being matched began, when it can be kept
+    mark = 0  # the sink's length then
 
     def close_program(end_span: Span) -> None:
         block = stack.pop()
@@ -212,7 +266,18 @@ def _build_file(statements: list[ast.Statement], file: str, unit: ast.Unit,
             close_inner(stack.pop(), at)
         close_inner(stack.pop(), at)
 
-    for raw in statements:
+    index, count = 0, len(statements)
+    while index < count:
+        raw = statements[index]
+        if memo is not None and not stack and isinstance(raw, ast.ProgramHeader):
+            kept = memo.find(statements, index)
+            if kept is not None:
+                unit.programs.append(kept.program)
+                sink.extend(kept.diagnostics)
+                index += len(kept.statements)
+                continue
+            started, mark = index, len(sink.items)
+        index += 1
         statement = normalise(raw)
         if stack and stack[0].kind in CONFIG_KINDS and config_line(statement):
             continue
@@ -230,6 +295,7 @@ def _build_file(statements: list[ast.Statement], file: str, unit: ast.Unit,
                         unclosed(stack[-1], statement.span)
                         close_inner(stack.pop(), statement.span)
                     close_program(statement.span)
+                    started = None
                 stack.append(_Open(kind, statement))
             case ast.End(what="init" | "interrupts" | "triggers"):
                 sink.add("E805", statement.span, f"END {statement.what.upper()} without an "
@@ -264,6 +330,7 @@ def _build_file(statements: list[ast.Statement], file: str, unit: ast.Unit,
                         unclosed(stack[-1], statement.span)
                         close_inner(stack.pop(), statement.span)
                     close_program(statement.span)
+                    started = None
                 stack.append(_Open(statement.kind, statement))
             case ast.End(what="mp" | "isr"):
                 if not in_program():
@@ -278,6 +345,10 @@ def _build_file(statements: list[ast.Statement], file: str, unit: ast.Unit,
                              f"{stack[0].kind.upper()} opened at line {stack[0].head.span.line}",
                              hint=f"write {BLOCK_WORD[stack[0].kind]}")
                 close_program(statement.span)
+                if memo is not None and started is not None:
+                    memo.keep(_Built(statements[started:index], unit.programs[-1],
+                                     sink.items[mark:]))
+                started = None
             case ast.ForStmt():
                 if not in_program():
                     sink.add("E301", statement.span, "FOR outside an MP block")

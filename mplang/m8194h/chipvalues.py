@@ -20,10 +20,12 @@ from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
+from mplang.lang.diagnostics import Diagnostic, DiagnosticSink
+
 if TYPE_CHECKING:
     from mplang.ir.catalogue import Profile
     from mplang.ir.macro import LoweredProgram, MacroLine
-    from mplang.lang.diagnostics import DiagnosticSink
+    from mplang.ir.reuse import Lowerings
 
 #: the power-on maximum speed (factory initial table, RS 9705)
 DEFAULT_MAX_V = 200_000
@@ -170,6 +172,7 @@ class _MaxV:
         self.axis1 = 0  # the first assigned axis (AXIS_ASSIGN; X and Y at power on)
 
     def see(self, command: str, params: dict[str, object]) -> None:
+        """Follow a command that sets MAX_V or axis 1 (`_sets_max_v` names them)."""
         mask = params.get("axis")
         if command == "SET_MAX_V" and isinstance(mask, int):
             value = params.get("data")
@@ -190,14 +193,22 @@ class _MaxV:
         return [self.axes[self.axis1]]
 
 
+def _sets_max_v(command: str) -> bool:
+    """Whether a command can change what `_MaxV` reads (its `see`)."""
+    return command in ("SET_MAX_V", "AXIS_ASSIGN") or command.endswith("_INITIAL")
+
+
 def _axes_of(mask: int) -> list[int]:
     return [i for i in range(4) if mask & 0xF & (1 << i)]
 
 
 def warn_changed(programs: Iterable[LoweredProgram], init: LoweredProgram | None,
-                 profile: Profile, sink: DiagnosticSink) -> None:
+                 profile: Profile, sink: DiagnosticSink, kept: Lowerings | None = None
+                 ) -> None:
     """W111: a constant speed, acceleration or jerk argument the chip will hold as another
-    value (clamped to its range, or stepped), with the value it will use."""
+    value (clamped to its range, or stepped), with the value it will use. With `kept` (the
+    lowerings of the last build), a program lowered as then, starting from the same MAX_V
+    values, gives the warnings it gave then."""
     rules = ChipRules.from_profile(profile.raw)
     factory = float(profile.raw["initial_table"]["factory"]["max_v"])
     start: list[float | None] = [factory] * 4
@@ -206,8 +217,22 @@ def warn_changed(programs: Iterable[LoweredProgram], init: LoweredProgram | None
         for line in init.lines:
             reading.see(line.command.short_name, _named(line))
         start = reading.axes
+    key = (rules, tuple(start))
     for program in [*([init] if init is not None else []), *programs]:
-        _warn_lines(program, list(start), rules, sink)
+        entry = kept.entry(program) if kept is not None else None
+        if entry is None or entry.result is None or \
+                len(entry.result.lines) != len(program.lines):  # wiring added lines
+            _warn_lines(program, list(start), rules, sink)
+            continue
+
+        def warn(program: LoweredProgram = program) -> list[Diagnostic]:
+            own = DiagnosticSink()
+            _warn_lines(program, list(start), rules, own)
+            return own.items
+
+        found = entry.derived_for("W111", key, warn)
+        assert isinstance(found, list)
+        sink.extend(found)
 
 
 def _named(line: MacroLine) -> dict[str, object]:
@@ -219,6 +244,8 @@ def _warn_lines(program: LoweredProgram, start: list[float | None], rules: ChipR
     reading = _MaxV(start)
     for line in program.lines:
         command = line.command.short_name
+        if command not in rules.parameters and not _sets_max_v(command):
+            continue  # no speed, acceleration or jerk argument, no MAX_V or axis 1 change
         params = _named(line)
         names = [p.name for p in line.command.params]
         for max_v in dict.fromkeys(reading.of(params)):

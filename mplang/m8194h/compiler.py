@@ -14,6 +14,7 @@ from mplang.ir.catalogue import Catalogue
 from mplang.ir.configure import TriggerTable, Wire
 from mplang.ir.lower import Scope
 from mplang.ir.macro import LoweredProgram, ProgramRef
+from mplang.ir.reuse import BuildMemo, Lowerings
 from mplang.ir.unit import DEFAULT_TEMPS, Options, lower_unit
 from mplang.lang import ast
 from mplang.lang.diagnostics import DiagnosticSink, suppressed
@@ -34,9 +35,9 @@ from mplang.m8194h.image import (
 )
 from mplang.m8194h.link import Placement, link, resolve
 
-__all__ = ["DEFAULT_TEMPS", "IMAGE_FORMAT", "BuildResult", "InitImage", "LineFrames", "Lowering",
-           "Options", "ProgramImage", "TriggerImage", "compile_paths", "compile_source",
-           "compile_sources"]
+__all__ = ["DEFAULT_TEMPS", "IMAGE_FORMAT", "BuildMemo", "BuildResult", "InitImage",
+           "LineFrames", "Lowering", "Options", "ProgramImage", "TriggerImage", "compile_paths",
+           "compile_source", "compile_sources"]
 
 
 @dataclass
@@ -51,32 +52,41 @@ class Lowering:
 
 def compile_paths(paths: list[Path], options: Options = Options(), *,
                   texts: dict[Path, str] | None = None,
-                  lines: StatementCache | None = None) -> BuildResult:
+                  lines: StatementCache | None = None,
+                  memo: BuildMemo | None = None) -> BuildResult:
     """Compile files (and their includes) together into one image; `lines`, kept between
-    builds, parses only the lines it has not seen (`mplang.lang.linecache`)."""
+    builds, parses only the lines it has not seen (`mplang.lang.linecache`), and `memo`,
+    kept between builds of the same files, re-does only the programs an edit changed
+    (`mplang.ir.reuse`)."""
     with collection_paused():  # mplang.lang.heap: a build makes no cycles
         sink = DiagnosticSink()
         sources = load_sources(paths, sink, allow_outside=options.allow_outside_includes,
                                texts=texts, lines=lines)
-        return compile_sources(paths, sources, sink, options)
+        return compile_sources(paths, sources, sink, options, memo=memo)
 
 
 def compile_sources(paths: list[Path], sources: SourceSet, sink: DiagnosticSink,
-                    options: Options = Options(), lowering: Lowering | None = None
-                    ) -> BuildResult:
+                    options: Options = Options(), lowering: Lowering | None = None,
+                    memo: BuildMemo | None = None, encode: bool = True) -> BuildResult:
     """`compile_paths` for sources already read into `sources` (their diagnostics in
-    `sink`); `lowering`, when given, receives the scope, lowered programs and placements."""
+    `sink`); `lowering`, when given, receives the scope, lowered programs and placements.
+    `encode=False` checks only (an editor's diagnostics): the result holds no image."""
     catalogue = catalogue_module.load()
     with collection_paused():
-        unit = build_unit(sources, sink)
-        result = _finish(unit, catalogue, sink, options, lowering)
+        unit = build_unit(sources, sink, memo.blocks if memo is not None else None)
+        result = _finish(unit, catalogue, sink, options, lowering,
+                         memo.lowerings if memo is not None else None, encode)
     result.sources = {f.display: f.text.splitlines() for f in sources.files}
     if paths:
         first = paths[0].resolve()
         result.first_source = next((s for s in result.sources if Path(s).resolve() == first),
                                    None)
+    # only a file with an `mpc: ignore` comment can silence anything: the thousands of
+    # warnings of a whole device are not looked up line by line in the others
+    marked = {f.display for f in sources.files if "mpc:" in f.text}
     result.diagnostics = settle_includes(
-        [d for d in result.diagnostics if not suppressed(d, result.sources)], result.sources)
+        [d for d in result.diagnostics
+         if d.span.file not in marked or not suppressed(d, result.sources)], result.sources)
     return result
 
 
@@ -112,12 +122,13 @@ def _check_filled(placements: list[Placement], wired: list[Wire],
 
 
 def _finish(unit: object, catalogue: Catalogue, sink: DiagnosticSink,
-            options: Options, lowering: Lowering | None = None) -> BuildResult:
+            options: Options, lowering: Lowering | None = None,
+            kept: Lowerings | None = None, encode: bool = True) -> BuildResult:
     assert isinstance(unit, ast.Unit)
     profile = catalogue.profile
     word_order = profile.word_order_default if options.word_order is None else options.word_order
     scope = Scope.declared(unit, catalogue, sink, options.var_pool, options.temps)
-    lowered_unit = lower_unit(unit, scope, sink, options)
+    lowered_unit = lower_unit(unit, scope, sink, options, kept)
     lowered, init = lowered_unit.programs, lowered_unit.init
     wiring, triggers = lowered_unit.wiring, lowered_unit.triggers
     placements = link(lowered, profile, sink, options.pins)
@@ -129,11 +140,11 @@ def _finish(unit: object, catalogue: Catalogue, sink: DiagnosticSink,
         return resolve(ref, by_name)
 
     _check_filled(placements, wiring.all_wires, triggers, slot_of, sink)
-    warn_changed(lowered, init, profile, sink)
+    warn_changed(lowered, init, profile, sink, kept)
     result = BuildResult(sink.sorted(), word_order=word_order, target=options.target,
                          variables=sorted(scope.variables, key=lambda v: v.index),
                          aliases=list(scope.alias_names))
-    if not result.ok:
+    if not encode or not result.ok:
         return result
     encoder = Encoder(catalogue, word_order)
     if init is not None:
@@ -146,10 +157,30 @@ def _finish(unit: object, catalogue: Catalogue, sink: DiagnosticSink,
         program = placement.program
         line_no = 0
         lines: list[LineFrames] = []
-        for line in program.lines:
-            lines.append(LineFrames(line, line_no, encoder.frame(line, slot_of)))
+        frames = _frames(program, encoder, slot_of, kept)
+        for line, frame in zip(program.lines, frames, strict=True):
+            lines.append(LineFrames(line, line_no, frame))
             line_no += line.command.line_cost
         result.programs.append(ProgramImage(
             placement, encoder.create_frame(program.kind, placement.slot), lines,
             encoder.close_frame(program.kind), program.end_span))
     return result
+
+
+def _frames(program: LoweredProgram, encoder: Encoder,
+            slot_of: Callable[[ProgramRef], int | None], kept: Lowerings | None
+            ) -> list[list[int]]:
+    """The frames of a program's lines. A program lowered as in the last build (and given no
+    lines by the wiring since) is encoded as then when the programs it names are in the same
+    slots and the word order is the same: those are all a frame reads besides its line."""
+    entry = kept.entry(program) if kept is not None else None
+    if entry is None or entry.result is None or len(entry.result.lines) != len(program.lines):
+        return [encoder.frame(line, slot_of) for line in program.lines]
+    refs = entry.derived_for("refs", None, lambda: tuple(dict.fromkeys(
+        o for line in program.lines for o in line.operands if isinstance(o, ProgramRef))))
+    assert isinstance(refs, tuple)
+    key = (encoder.word_order, tuple(slot_of(ref) for ref in refs))
+    found = entry.derived_for("frames", key,
+                              lambda: [encoder.frame(line, slot_of) for line in program.lines])
+    assert isinstance(found, list)
+    return [list(frame) for frame in found]

@@ -17,7 +17,7 @@ from typing import Any
 from mplang.ir import catalogue as catalogue_module
 from mplang.ir.lower import Variable
 from mplang.ir.macro import LoweredProgram, MacroLine
-from mplang.lang.diagnostics import Diagnostic, Span
+from mplang.lang.diagnostics import Diagnostic, Severity, Span
 from mplang.m8194h.link import Placement
 
 IMAGE_FORMAT = "mplang-image/1"
@@ -111,7 +111,8 @@ class BuildResult:
 
     @property
     def ok(self) -> bool:
-        return not any(d.severity.value == "error" for d in self.diagnostics)
+        error = Severity.ERROR  # compared by identity: thousands of warnings are looked at
+        return not any(d.severity is error for d in self.diagnostics)
 
     def build_id(self) -> str:
         """Content hash of what would be downloaded: the same image, the same id."""

@@ -33,7 +33,7 @@ from mplang.lang.diagnostics import (
 from mplang.lang.linecache import StatementCache
 from mplang.lang.sources import SourceFile, SourceSet, load_sources
 from mplang.lang.structure import build_unit
-from mplang.m8194h.compiler import Lowering, compile_sources
+from mplang.m8194h.compiler import BuildMemo, Lowering, compile_sources
 from mplang.m8194h.link import Placement, link
 from mplang.tools.lsp.positions import Location, Range, line_range, span_range, split_lines
 from mplang.tools.lsp.tokens import Token, lex_line
@@ -188,7 +188,7 @@ class Analysis:
     slot_uses: dict[tuple[Path, int], SlotUse] = field(default_factory=dict)  # by header
     diagnostics: list[EditorDiagnostic] = field(default_factory=list)
     includes: list[IncludeLine] = field(default_factory=list)
-    variables_used: set[int] = field(default_factory=set)
+    _variables_used: set[int] | None = field(default=None, repr=False, compare=False)
     # Built on the first lookup, with the count of programs each was built from: upper-case
     # program name -> its first block, and this document's blocks with their first lines
     # (semantic tokens look up every word and header of the document).
@@ -196,6 +196,20 @@ class Analysis:
                                                          compare=False)
     _here: tuple[int, list[int], list[ProgramBlock]] = field(default=(-1, [], []),
                                                              repr=False, compare=False)
+    # Diagnostics placed in this document from its own text, by id: the diagnostic, its
+    # line's text then, and where it was placed (the next analysis takes what still holds)
+    placed: dict[int, tuple[Diagnostic, str, EditorDiagnostic]] = field(
+        default_factory=dict, repr=False, compare=False)
+
+    @property
+    def variables_used(self) -> set[int]:
+        """Every VARn the build's files name (completion offers them): looked for when first
+        asked, not on every edit. One search of each whole text, not one per line: a line
+        break is no word character, so the words found are the same."""
+        if self._variables_used is None:
+            self._variables_used = {int(number) for entry in self.files.values()
+                                    for number in _VAR_USE.findall("\n".join(entry.lines))}
+        return self._variables_used
 
     def program_at(self, line: int) -> ProgramBlock | None:
         """The program of the open document that line (0-based) belongs to."""
@@ -243,7 +257,8 @@ class Analysis:
 
 def analyse(path: Path, text: str, context: BuildContext | None = None,
             open_texts: Mapping[Path, str] | None = None,
-            lines: StatementCache | None = None) -> Analysis:
+            lines: StatementCache | None = None, memo: BuildMemo | None = None,
+            previous: Analysis | None = None) -> Analysis:
     """Compile `text` as the contents of `path` and index what the editor features need.
 
     `context` says which sources are compiled with it and how (`workspace.context_for`);
@@ -252,12 +267,16 @@ def analyse(path: Path, text: str, context: BuildContext | None = None,
     text, not the disk. A failure inside the compiler does not escape: the analysis then
     holds one diagnostic that says so, and the features that need only the text and the
     catalogue (hover on commands, completion of commands) keep working. `lines`, kept by
-    the caller between analyses (the server's), makes an edit parse the edited lines only.
+    the caller between analyses (the server's), makes an edit parse the edited lines only;
+    `memo`, kept for this document, makes it re-check only the programs it changed
+    (`mplang.ir.reuse`), and `previous`, the document's last analysis, gives the
+    diagnostics placed as then that stand where they stood.
     """
     context = context or BuildContext((path,), Options())
     catalogue = catalogue_module.load()
     try:
-        return _analyse(path, text, context, open_texts or {}, catalogue, lines)
+        return _analyse(path, text, context, open_texts or {}, catalogue, lines, memo,
+                        previous)
     except Exception as exc:  # a compiler bug must not take the editor's features down
         logger.exception("checking %s failed", path)
         analysis = Analysis(path.resolve(), split_lines(text), catalogue, context.options)
@@ -269,7 +288,10 @@ def analyse(path: Path, text: str, context: BuildContext | None = None,
 
 
 def _analyse(path: Path, text: str, context: BuildContext, open_texts: Mapping[Path, str],
-             catalogue: Catalogue, statements: StatementCache | None = None) -> Analysis:
+             catalogue: Catalogue, statements: StatementCache | None = None,
+             memo: BuildMemo | None = None, previous: Analysis | None = None) -> Analysis:
+    """`analyse`, with its failures let through. One function: the steps share the loaded
+    sources and the files' index, and each is a few lines."""
     family = _family_of(context.options.target)
     # a FATEK or CSIM project: its .mp files are M8194H language, checked by that family
     options = context.options if family is None else replace(context.options, target="et")
@@ -289,7 +311,8 @@ def _analyse(path: Path, text: str, context: BuildContext, open_texts: Mapping[P
         # the parses of files read from disk are kept for the next change; editor buffers,
         # text being typed, are not
         lowering = Lowering()
-        diagnostics = compile_sources(paths, sources, sink, options, lowering).diagnostics
+        diagnostics = compile_sources(paths, sources, sink, options, lowering, memo,
+                                      encode=False).diagnostics
     else:
         diagnostics = family.compile_mp(paths, options, context.options.target,
                                         texts=texts).diagnostics
@@ -308,8 +331,6 @@ def _analyse(path: Path, text: str, context: BuildContext, open_texts: Mapping[P
         analysis.files[entry.path] = entry
         by_display[entry.display] = entry
         _index_file(analysis, source, entry)
-    analysis.variables_used = {int(m.group(1)) for entry in analysis.files.values()
-                               for line in entry.lines for m in _VAR_USE.finditer(line)}
     analysis.includes = [replace(i, target=_include_target(analysis.path, i.spelled, analysis,
                                                            by_display))
                          for i in analysis.includes]
@@ -319,9 +340,15 @@ def _analyse(path: Path, text: str, context: BuildContext, open_texts: Mapping[P
     # the loaded files that are the open document, told apart without comparing paths for
     # each of the thousands of diagnostics a whole device can have
     own = {id(entry) for entry in by_display.values() if entry.path == analysis.path}
-    placed = (_place_diagnostic(analysis, d, by_display, graph, pages, own)
-              for d in diagnostics)
-    analysis.diagnostics = [d for d in placed if d is not None]
+    before = previous.placed if previous is not None and previous.path == resolved else {}
+    here = {display for display, entry in by_display.items() if id(entry) in own}
+    analysis.diagnostics = []
+    for diagnostic in diagnostics:
+        placed = _reuse_placed(analysis, diagnostic, before, here) if before else None
+        if placed is None:
+            placed = _place_diagnostic(analysis, diagnostic, by_display, graph, pages, own)
+        if placed is not None:
+            analysis.diagnostics.append(placed)
     if context.problem:
         analysis.diagnostics.insert(0, EditorDiagnostic(line_range(0, 0, 0), "error", "",
                                                         context.problem, "", (), None))
@@ -397,6 +424,9 @@ def _line_tokens(entry: SourceText, line: int) -> list[Token]:
 _INDEXED = (ast.Const, ast.Alias, ast.VarDecl, ast.ProgramHeader, ast.End, ast.LabelStmt,
             ast.Include)
 """The statements `_index_file` reads."""
+_INDEXED_TYPES = frozenset(_INDEXED)
+"""The same, looked up by exact type (thousands of statements a check; no syntax-tree class
+has subclasses)."""
 
 
 def _index_file(analysis: Analysis, source: SourceFile, entry: SourceText) -> None:
@@ -412,7 +442,7 @@ def _index_file(analysis: Analysis, source: SourceFile, entry: SourceText) -> No
             open_block = None
 
     for statement in source.statements:
-        if not isinstance(statement, _INDEXED):
+        if type(statement) not in _INDEXED_TYPES:
             continue  # commands and the like define nothing: their line is not lexed
         if isinstance(statement, ast.End):
             if statement.what in ("mp", "isr"):
@@ -531,6 +561,25 @@ def _reachable(start: Path, graph: dict[Path, list[Path]]) -> set[Path]:
     return seen
 
 
+def _reuse_placed(analysis: Analysis, diagnostic: Diagnostic,
+                  before: dict[int, tuple[Diagnostic, str, EditorDiagnostic]],
+                  here: set[str]) -> EditorDiagnostic | None:
+    """The placement of the last analysis, for the same diagnostic object (a program the
+    edit left alone: `mplang.ir.reuse`) on a line of this document (`here`: its names)
+    whose text is unchanged: a placement reads nothing else. None when it must be placed
+    afresh."""
+    kept = before.get(id(diagnostic))
+    if kept is None or kept[0] is not diagnostic:
+        return None
+    span = diagnostic.span
+    lines = analysis.lines
+    if span.file not in here or not 0 < span.line <= len(lines) or \
+            lines[span.line - 1] != kept[1]:
+        return None
+    analysis.placed[id(diagnostic)] = kept
+    return kept[2]
+
+
 def _place_diagnostic(analysis: Analysis, diagnostic: Diagnostic,
                       by_display: dict[str, SourceText],
                       graph: dict[Path, list[Path]], pages: dict[str, Path | None],
@@ -549,6 +598,12 @@ def _place_diagnostic(analysis: Analysis, diagnostic: Diagnostic,
     here = id(entry) in own  # never the id of None: `own` holds loaded files only
     if here:
         where = span_range(diagnostic.span, analysis.lines)
+        line = diagnostic.span.line
+        if not related and 0 < line <= len(analysis.lines):
+            placed = EditorDiagnostic(where, diagnostic.severity.value, diagnostic.code,
+                                      message, diagnostic.hint, related, docs)
+            analysis.placed[id(diagnostic)] = (diagnostic, analysis.lines[line - 1], placed)
+            return placed
     else:
         message = f"{diagnostic.span}: {message}"
         where = line_range(0, 0, 0)

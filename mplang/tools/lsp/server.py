@@ -7,14 +7,16 @@ hints are answered from the latest analysis. Positions cross the boundary here, 
 between code points and the client's negotiated encoding. A handler that fails logs the
 error and answers nothing: one bad input never takes the server down.
 
-Speed: a check's diagnostics are converted to the client's positions once (ASCII lines
-without counting), semantic tokens are kept per analysis (`handlers`), and a document whose
-last check took longer than `DEBOUNCE_ABOVE_S` is checked `DEBOUNCE_S` after the last change
-of a burst instead of after every keystroke; requests on it check it first, and diagnostics
-are published only for the document's current version, so none shown is ever stale. After
-start-up the heap built so far (catalogue, grammar, the code) is frozen out of the cycle
-collector, which would otherwise walk it on every collection, and the collector waits while
-a check runs.
+Speed: each open document keeps a build memo (`mplang.ir.reuse`), so an edit re-checks only
+the programs it changed, and its diagnostics, placed and converted to JSON, are taken from
+the last check where they are the same objects on unchanged lines; a check's diagnostics
+are converted to the client's positions once (ASCII lines without counting), semantic
+tokens are kept per analysis (`handlers`), and a document whose last check took longer
+than `DEBOUNCE_ABOVE_S` is checked `DEBOUNCE_S` after the last change of a burst instead
+of after every keystroke; requests on it check it first, and diagnostics are published only
+for the document's current version, so none shown is ever stale. After start-up the heap
+built so far (catalogue, grammar, the code) is frozen out of the cycle collector, which
+would otherwise walk it on every collection, and the collector waits while a check runs.
 
 Hostile input: messages are read by `transport` (bounded, resynchronising after a framing
 error) instead of pygls' own loop, and a request on a document the client did not open reads
@@ -27,6 +29,8 @@ from __future__ import annotations
 import asyncio
 import functools
 import gc
+import inspect
+import json
 import logging
 import os
 import sys
@@ -39,12 +43,13 @@ from urllib.parse import unquote
 
 from lsprotocol import types as lsp
 from pygls import uris
-from pygls.exceptions import JsonRpcException
+from pygls.exceptions import JsonRpcException, JsonRpcInternalError
 from pygls.io_ import StdoutWriter
 from pygls.lsp.server import LanguageServer
 from pygls.protocol import LanguageServerProtocol, lsp_method
 
 from mplang import __version__
+from mplang.ir.reuse import BuildMemo
 from mplang.lang.linecache import StatementCache
 from mplang.tools.lsp import features
 from mplang.tools.lsp.analysis import Analysis, EditorDiagnostic, analyse
@@ -92,6 +97,16 @@ WARM_UP_TEXT = "MP 1\n    SET_V X, 100\nEND MP\n"
 out of the cycle collector's walks) before the first keystroke."""
 
 
+_SENDING: set[asyncio.Future[Any]] = set()
+"""Writes of `EncodedMessage`s still under way on an asynchronous transport."""
+
+
+class EncodedMessage(str):
+    """A message already written as JSON text (ASCII: `json.dumps` escapes the rest), sent
+    as it is by `_Protocol._send_data`: a whole device's publish is thousands of diagnostics
+    whose JSON text is kept from the publish before, not encoded again."""
+
+
 class _Protocol(LanguageServerProtocol):
     """pygls' protocol, with the server's own incremental sync instead of pygls': pygls
     applies a change on lines split by `str.splitlines` (form feeds, U+2028 ... end a line
@@ -118,6 +133,31 @@ class _Protocol(LanguageServerProtocol):
         if (handler := self.fm.features.get(lsp.TEXT_DOCUMENT_DID_CHANGE)) is not None:
             yield handler, (params,), None
 
+    def _send_data(self, data: Any) -> None:
+        """pygls' sending, and an `EncodedMessage` sent without encoding it again (framed
+        and guarded as pygls frames and guards every message)."""
+        if not isinstance(data, EncodedMessage):
+            super()._send_data(data)
+            return
+        if self.writer is None:
+            logger.error("Unable to send data, no available transport!")
+            return
+        try:
+            body = data.encode(self.CHARSET)
+            header = (f"Content-Length: {len(body)}\r\nContent-Type: {self.CONTENT_TYPE}; "
+                      f"charset={self.CHARSET}\r\n\r\n").encode(self.CHARSET)
+            written = self.writer.write(header + body)
+            if inspect.isawaitable(written):  # kept until done: a task only weakly held
+                sending = asyncio.ensure_future(written)  # may be collected while it runs
+                _SENDING.add(sending)
+                sending.add_done_callback(_SENDING.discard)
+        except BrokenPipeError:
+            logger.exception("Error sending data. BrokenPipeError", exc_info=True)
+            raise
+        except Exception as error:
+            logger.exception("Error sending data", exc_info=True)
+            self._server._report_server_error(error, JsonRpcInternalError)
+
 
 class MpLanguageServer(LanguageServer):
     """Holds the command line's options and the latest analysis of every open document."""
@@ -132,6 +172,9 @@ class MpLanguageServer(LanguageServer):
         self.analyses: dict[str, Analysis] = {}  # by document URI
         # parsed statements by line text, so that an edit parses the edited lines only
         self.statements = StatementCache()
+        # by URI: what each open document's builds keep for the next (`mplang.ir.reuse`),
+        # so that an edit re-checks only the programs it changed
+        self.memos: dict[str, BuildMemo] = {}
         # By URI: the document version each kept analysis checked, how long its check took,
         # the check waiting for a pause in the changes, and the diagnostics as last
         # converted for the client (with the analysis and encoding they were converted for).
@@ -139,9 +182,10 @@ class MpLanguageServer(LanguageServer):
         self.check_seconds: dict[str, float] = {}
         self.pending: dict[str, asyncio.TimerHandle] = {}
         self.converted: dict[str, tuple[Analysis, str, list[lsp.Diagnostic]]] = {}
-        # By URI: the diagnostics last published, as JSON-ready values, by what they were
-        # converted from (`_published_key`), for the next publish to take again.
-        self.published: dict[str, dict[Hashable, dict[str, Any]]] = {}
+        # By URI: the diagnostics last published, as JSON text, by what they were converted
+        # from (`_published_key`) and by identity, for the next publish to take again.
+        self.published: dict[str, dict[Hashable, str]] = {}
+        self.published_same: dict[str, dict[int, tuple[EditorDiagnostic, str, str]]] = {}
         # The text of each open document (by unquoted URI), kept here with the protocol's
         # line breaks (`positions.apply_change`) rather than by pygls' incremental sync.
         self.texts: dict[str, str] = {}
@@ -230,9 +274,11 @@ class MpLanguageServer(LanguageServer):
         others = {self.document_path(u).resolve(): self.open_text(u)
                   for u in self.analyses if u != uri and self.is_open(u)}
         path = self.document_path(uri)
+        opened = self.is_open(uri)
+        memo = self.memos.setdefault(uri, BuildMemo()) if opened else None
         analysis = analyse(path, text, context_for(path, self.overrides), others,
-                           self.statements)
-        if self.is_open(uri):
+                           self.statements, memo, self.analyses.get(uri) if opened else None)
+        if opened:
             self.analyses[uri] = analysis
             self.versions[uri] = self.version_of(uri)
             self.check_seconds[uri] = time.perf_counter() - started
@@ -309,36 +355,48 @@ class MpLanguageServer(LanguageServer):
         version = self.version_of(uri)
         if self.versions.get(uri, version) != version:
             return
-        params: dict[str, Any] = {"uri": uri, "diagnostics": self.json_diagnostics(uri,
-                                                                                   analysis)}
-        if version is not None:
-            params["version"] = version
-        # JSON-ready values: the C encoder writes them without a call back per object
-        self.protocol._send_data({"jsonrpc": "2.0", "params": params,
-                                  "method": lsp.TEXT_DOCUMENT_PUBLISH_DIAGNOSTICS})
+        head = {"uri": uri, "version": version} if version is not None else {"uri": uri}
+        diagnostics = ", ".join(self.json_diagnostics(uri, analysis))
+        # the diagnostics' JSON text is kept between publishes: the message is put together
+        # around it, never encoded whole again
+        self.protocol._send_data(EncodedMessage(
+            f'{{"jsonrpc": "2.0", "params": {json.dumps(head)[:-1]}, "diagnostics": '
+            f'[{diagnostics}]}}, "method": '
+            f'{json.dumps(lsp.TEXT_DOCUMENT_PUBLISH_DIAGNOSTICS)}}}'))
 
-    def json_diagnostics(self, uri: str, analysis: Analysis) -> list[dict[str, Any]]:
-        """The diagnostics to publish, as JSON values. One that was published last time
+    def json_diagnostics(self, uri: str, analysis: Analysis) -> list[str]:
+        """The diagnostics to publish, as JSON text. One that was published last time
         (the same diagnostic on the same line text, in the same encoding) is taken from then:
         after an edit, only the diagnostics it changed are converted; the thousands of a
         whole device's warnings are not."""
         before = self.published.get(uri, {})
-        now: dict[Hashable, dict[str, Any]] = {}
+        now: dict[Hashable, str] = {}
+        # first by identity: a diagnostic the analysis took from the last one (its line
+        # unchanged, `analysis._reuse_placed`) is the same object, with the same JSON
+        same_before = self.published_same.get(uri, {})
+        same_now: dict[int, tuple[EditorDiagnostic, str, str]] = {}
         found = []
         encoding = self.encoding
         for diagnostic in analysis.diagnostics:
+            same = same_before.get(id(diagnostic))
+            if same is not None and same[0] is diagnostic and same[1] == encoding:
+                same_now[id(diagnostic)] = same
+                found.append(same[2])
+                continue
             key = _published_key(diagnostic, analysis.lines, encoding)
             value = now.get(key) if key is not None else None
             if value is None and key is not None:
                 value = before.get(key)
             if value is None:
-                value = self.protocol._converter.unstructure(
-                    self.diagnostic(uri, analysis, diagnostic))
+                value = json.dumps(self.protocol._converter.unstructure(
+                    self.diagnostic(uri, analysis, diagnostic)))
             if key is not None:
                 now[key] = value
+                same_now[id(diagnostic)] = (diagnostic, encoding, value)
             found.append(value)
         if self.is_open(uri):
             self.published[uri] = now
+            self.published_same[uri] = same_now
         return found
 
     def client_diagnostics(self, uri: str, analysis: Analysis) -> list[lsp.Diagnostic]:
@@ -355,7 +413,8 @@ class MpLanguageServer(LanguageServer):
     def forget(self, uri: str) -> None:
         self.texts.pop(unquote(uri), None)
         self.cancel_pending(uri)
-        for kept in (self.versions, self.check_seconds, self.converted, self.published):
+        for kept in (self.versions, self.check_seconds, self.converted, self.published,
+                     self.published_same, self.memos):
             kept.pop(uri, None)
         closed = self.analyses.pop(uri, None)
         self.text_document_publish_diagnostics(lsp.PublishDiagnosticsParams(uri=uri,

@@ -225,6 +225,29 @@ async def test_a_diagnostic_kept_from_the_last_publish_follows_its_lines_text(
     assert after == [("E101", 1, len(line) + 1)]
 
 
+@ASYNC
+async def test_edits_publish_what_the_same_text_opened_afresh_publishes(
+        client: LanguageClient, project: Path) -> None:
+    """The server keeps each document's programs between checks (`mplang.ir.reuse`): after
+    edits of one program, of another, of a CONST every program reads, and a syntax error,
+    the diagnostics equal those of a new document opened with the same text."""
+    uri = (project / "kept.mp").as_uri()
+    lines = ["CONST FAST = 300000", "MP 36 first", "    SET_V X, FAST", "    VAR7 = VAR8",
+             "END MP", "MP 37 second", "    SET_ACC X, 123457", "END MP", ""]
+    await open_document(client, uri, "\n".join(lines))
+    edits = [(3, "    VAR7 = VAR9"), (6, "    SET_ACC X, 123458"), (0, "CONST FAST = 300001"),
+             (3, "    VAR7 = (1 +")]
+    for version, (row, new) in enumerate(edits, start=2):
+        client.text_document_did_change(change(uri, version, ((row, 0), (row, len(lines[row])),
+                                                              new)))
+        lines[row] = new
+        kept = await published(uri, version)
+        fresh = (project / f"fresh{version}.mp").as_uri()
+        await open_document(client, fresh, "\n".join(lines))
+        assert kept.diagnostics and \
+            kept.diagnostics == (await published(fresh, 1)).diagnostics
+
+
 def test_the_cycle_collector_waits_while_a_check_runs(tmp_path: Path) -> None:
     """A check of a 300-line program allocates far more than a collection's threshold; no
     collection runs until it is done, and the collector is on again after it."""

@@ -1,0 +1,130 @@
+"""What a build keeps for the next one, so that an edit re-does only the program it changed.
+
+A long-running caller (the language server) keeps one `BuildMemo` per document and passes
+it to every build of it. Parsing already reuses unchanged lines (`lang.linecache`); here
+the later passes do the same per program:
+
+- matching blocks (`lang.structure.BlockMemo`): a program whose statements are unchanged is
+  the same `ast.Program` object as last time, with the diagnostics it had;
+- lowering (`Lowerings`): a program lowers to the same macro lines and diagnostics when it is
+  unchanged (the same object, or equal: same statements at the same place) and so is all it
+  reads of the rest of the build, the `context`: the CONSTs' values, the ALIASes and
+  declared variables as placed, the names and kinds of the build's programs, the options
+  and the catalogue. A change of the context drops every lowering;
+- what a back end derives from one lowered program alone (the M8194H's W111 warnings and
+  frames) is kept beside it (`Lowered.derived_for`), for the last key (what else it read).
+
+Declarations, variable placement, interrupt wiring, triggers and linking are whole-build
+passes and run every time: they are cheap, and linking must see every program.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Hashable
+from dataclasses import dataclass, field
+
+from mplang.ir.macro import LoweredProgram
+from mplang.ir.scope import Scope
+from mplang.lang import ast
+from mplang.lang.diagnostics import Diagnostic, DiagnosticSink, Span
+from mplang.lang.structure import BlockMemo
+
+
+@dataclass
+class Lowered:
+    """One program's lowering as kept: None when a CONST it uses has no value (the program
+    is then left out of the build, as a fresh lowering leaves it out)."""
+
+    program: ast.Program
+    result: LoweredProgram | None
+    diagnostics: list[Diagnostic]
+    derived: dict[str, tuple[Hashable, object]] = field(default_factory=dict)
+
+    def derived_for(self, kind: str, key: Hashable, make: Callable[[], object]) -> object:
+        """What a back end derives from this lowering (`kind`: "W111", "frames", ...) for
+        `key`, what else it read: kept for the last key only, so that a program kept
+        through many edits of what it does not contain keeps one of each."""
+        kept = self.derived.get(kind)
+        if kept is not None and kept[0] == key:
+            return kept[1]
+        made = make()
+        self.derived[kind] = (key, made)
+        return made
+
+    def copy(self) -> LoweredProgram | None:
+        """The lowered program for one build: later passes add lines (interrupt wiring) and
+        set the slot (the linker), so each build gets its own lists and fields (every field
+        of `LoweredProgram`, written out: `dataclasses.replace` costs ten times as much)."""
+        kept = self.result
+        if kept is None:
+            return None
+        return LoweredProgram(kept.kind, kept.slot, kept.name, kept.source, kept.span,
+                              kept.end_span, list(kept.lines), list(kept.calls))
+
+
+Context = tuple[object, ...]
+
+
+def lowering_context(scope: Scope, names: dict[str, ast.Program], temps: range,
+                     target: str) -> Context:
+    """Everything a program's lowering reads besides the program: if it is equal, so is the
+    lowering of an unchanged program. Names are kept in order (hints list them)."""
+    return (scope.catalogue, temps, target, tuple(scope.const_exprs),
+            tuple(scope.const_values.items()), tuple(scope.aliases.items()),
+            frozenset(scope.declared_indices),
+            tuple((name, p.kind, p.slot) for name, p in names.items()))
+
+
+class Lowerings:
+    """Programs lowered in the last build, by the span of their header."""
+
+    def __init__(self) -> None:
+        self.context: Context | None = None
+        self._now: dict[Span, Lowered] = {}
+        self._before: dict[Span, Lowered] = {}
+        self.origin: dict[int, Lowered] = {}  # id of this build's copy -> its entry
+
+    def start(self, context: Context) -> None:
+        """A build begins: lowerings made under another context are dropped."""
+        if context != self.context:
+            self._before.clear()
+            self._now.clear()
+            self.context = context
+        self.origin = {}
+
+    def lower(self, program: ast.Program, scope: Scope, sink: DiagnosticSink,
+              lower: Callable[[], LoweredProgram | None]) -> LoweredProgram | None:
+        """The program's lowering for this build: kept, or made by `lower` with its
+        diagnostics caught on their way to `sink` and kept with it."""
+        kept = self._now.get(program.span) or self._before.get(program.span)
+        if kept is None or not (kept.program is program or kept.program == program):
+            own = DiagnosticSink()
+            shared, scope.sink = scope.sink, own
+            try:
+                result = lower()
+            finally:
+                scope.sink = shared
+            kept = Lowered(program, result, own.items)
+        self._now[program.span] = kept
+        sink.extend(kept.diagnostics)
+        copy = kept.copy()
+        if copy is not None:
+            self.origin[id(copy)] = kept
+        return copy
+
+    def entry(self, program: LoweredProgram) -> Lowered | None:
+        """The kept entry a lowered program of this build was copied from."""
+        return self.origin.get(id(program))
+
+    def finish(self) -> None:
+        """A build is over: what it did not use is forgotten."""
+        self._before, self._now = self._now, {}
+
+
+@dataclass
+class BuildMemo:
+    """What one document's builds keep for the next (see the module's docstring). Not
+    thread-safe: one per document of a server, used from its event loop."""
+
+    blocks: BlockMemo = field(default_factory=BlockMemo)
+    lowerings: Lowerings = field(default_factory=Lowerings)

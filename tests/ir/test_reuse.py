@@ -1,0 +1,96 @@
+"""Builds that keep what an edit left alone (mplang.ir.reuse, lang.structure.BlockMemo): after
+any sequence of edits, a build with a memo gives exactly what a build from scratch gives
+(diagnostics, frames, the image and its listing), and an edit of one program lowers that
+program alone. Reuse is told by object identity, never by time."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from hypothesis import example, given, settings
+from hypothesis import strategies as st
+from sourceedits import CHECKS, ROOT, SAMPLES, STEPS, changed
+
+from mplang.ir.reuse import BuildMemo
+from mplang.lang.linecache import StatementCache
+from mplang.m8194h.compiler import BuildResult, compile_paths
+
+
+def _seen(result: BuildResult) -> tuple[object, ...]:
+    """All a build gives: diagnostics, the image, frames with their lines, listing, map."""
+    image = result.render("json") if result.ok else None
+    listing = result.render("listing") if result.ok else None
+    frames = [(p.placement.slot, p.frames, [(f.line.span, f.first_slot_line) for f in p.lines])
+              for p in result.programs]
+    return (result.diagnostics, image, listing, frames, result.variables, result.aliases,
+            result.init.frames if result.init else None)
+
+
+def _build(path: Path, text: str, lines: StatementCache | None = None,
+           memo: BuildMemo | None = None) -> BuildResult:
+    return compile_paths([path], texts={path: text}, lines=lines, memo=memo)
+
+
+@settings(max_examples=50, deadline=None)
+@given(path=st.sampled_from(SAMPLES) | st.sampled_from(CHECKS), steps=STEPS)
+@example(path=ROOT / "samples" / "expressions.mp", steps=[(5, 0, 0), (5, 1, 1)])  # CONSTs
+@example(path=ROOT / "samples" / "pick_and_place.mp", steps=[(5, 2, 0), (0, 40, 1)])
+def test_random_edits_build_as_a_fresh_build_does(path: Path,
+                                                  steps: list[tuple[int, int, int]]) -> None:
+    lines, memo = StatementCache(), BuildMemo()
+    text = path.read_text(encoding="utf-8").split("\n")
+    assert _seen(_build(path, "\n".join(text), lines, memo)) == _seen(_build(path, "\n".join(text)))
+    for step in steps:
+        text = changed(text, step)
+        joined = "\n".join(text)
+        assert _seen(_build(path, joined, lines, memo)) == _seen(_build(path, joined))
+        # the same text again, everything kept: still the same
+        assert _seen(_build(path, joined, lines, memo)) == _seen(_build(path, joined))
+
+
+def test_an_edit_lowers_only_the_program_it_changed(tmp_path: Path) -> None:
+    path = tmp_path / "three.mp"
+    text = "\n".join(["CONST FAST = 2000", "MP 1 first", "  SET_V X, FAST", "END MP",
+                      "MP 2 second", "  VAR1 = 5", "  CALL first", "END MP",
+                      "MP 3 third", "  SET_V Y, 300", "END MP", ""])
+    lines, memo = StatementCache(), BuildMemo()
+
+    def entries(result: BuildResult) -> dict[str | None, object]:
+        return {p.placement.program.name: memo.lowerings.entry(p.placement.program)
+                for p in result.programs}
+
+    before = entries(_build(path, text, lines, memo))
+    after = entries(_build(path, text.replace("VAR1 = 5", "VAR1 = 6"), lines, memo))
+    assert all(before.values())
+    assert after["first"] is before["first"] and after["third"] is before["third"]
+    assert after["second"] is not before["second"]
+    # a CONST is read by every program: changing one lowers them all again
+    again = entries(_build(path, text.replace("2000", "2500"), lines, memo))
+    assert all(again[name] is not after[name] for name in after)
+
+
+def test_a_kept_program_is_its_own_copy_in_each_build(tmp_path: Path) -> None:
+    """The wiring adds lines to the setup program and the linker sets slots: a program
+    kept for the next build must not carry them over."""
+    path = tmp_path / "wired.mp"
+    text = "\n".join(["INTERRUPTS setup", "  ON X P>=C+ CALL ISR 3", "END INTERRUPTS",
+                      "MP setup", "  SET_V X, 100", "END MP", "ISR 3", "  SET_V Y, 5",
+                      "END ISR", ""])
+    lines, memo = StatementCache(), BuildMemo()
+    first = _build(path, text, lines, memo)
+    for _ in range(3):
+        assert _seen(_build(path, text, lines, memo)) == _seen(first)
+
+
+def test_w111_follows_the_max_v_a_kept_program_starts_from(tmp_path: Path) -> None:
+    """An unchanged program's W111 warnings are kept for the MAX_V values it starts from:
+    editing the INIT block's SET_MAX_V, and back, gives each time what a fresh build does."""
+    path = tmp_path / "maxv.mp"
+    text = "\n".join(["INIT", "  SET_MAX_V X, 200000", "END INIT", "MP 1 moves",
+                      "  SET_ACC X, 123457", "  SET_V X, 70001", "END MP", ""])
+    lines, memo = StatementCache(), BuildMemo()
+    for max_v in ("200000", "160000", "200000", "8000"):
+        edited = text.replace("200000", max_v)
+        kept = _build(path, edited, lines, memo)
+        assert any(d.code == "W111" for d in kept.diagnostics)
+        assert _seen(kept) == _seen(_build(path, edited))
