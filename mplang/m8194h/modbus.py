@@ -15,6 +15,7 @@ controller and aiohttp out of the commands that only talk to a device.
 from __future__ import annotations
 
 import asyncio
+import os
 import time
 from collections.abc import Awaitable, Callable
 
@@ -27,6 +28,8 @@ from pymodbus.pdu.register_message import (
     ReadInputRegistersRequest,
     WriteMultipleRegistersRequest,
 )
+from pymodbus.transport.serialtransport import SerialTransport
+from serial import SerialException  # type: ignore[import-untyped]  # pyserial ships no type hints
 
 from mplang.family.linkfail import connect_reason, serial_reason
 from mplang.m8194h.endpoint import MODBUS_EXCEPTIONS as MODBUS_EXCEPTIONS
@@ -48,6 +51,43 @@ def _expire(future: asyncio.Future[ModbusPDU]) -> None:
     """The answer's time is up: the request fails as pymodbus fails one it gave up on."""
     if not future.done():
         future.set_exception(ModbusIOException("no answer in time"))
+
+
+def lean_serial(transport: object) -> None:
+    """Read and write a serial port as a socket transport does: at once. pymodbus's serial
+    transport reads through pyserial (two selects and an object per read) and writes on the
+    loop's next turn (a writer registered and removed per frame). The bytes, their order,
+    and what a lost port does (the transport closes with a SerialException) stay pymodbus's.
+    Where pymodbus polls the port (Windows) it is left as it is."""
+    if not isinstance(transport, SerialTransport) or transport.force_poll:
+        return
+    loop, fd = transport.async_loop, transport.sync_serial.fileno()
+
+    def read_ready() -> None:
+        try:
+            data = os.read(fd, 1024)
+        except (BlockingIOError, InterruptedError):
+            return
+        except OSError as exc:
+            transport.close(exc=SerialException(f"read failed: {exc}"))
+            return
+        if not data:  # what pyserial says of a port that is ready and reads nothing
+            transport.close(exc=SerialException(
+                "device reports readiness to read but returned no data (device "
+                "disconnected or multiple access on port?)"))
+            return
+        transport.intern_protocol.data_received(data)  # type: ignore[attr-defined]
+
+    def write(data: bytes) -> None:
+        transport.intern_write_buffer.append(data)
+        if len(transport.intern_write_buffer) == 1:  # nothing waits for the port: now
+            transport.intern_write_ready()
+        if transport.intern_write_buffer and transport.sync_serial:  # the rest: when the
+            loop.add_writer(fd, transport.intern_write_ready)  # port takes it
+
+    loop.remove_reader(fd)
+    loop.add_reader(fd, read_ready)
+    transport.write = write  # type: ignore[method-assign]
 
 
 def crc16(data: bytes) -> bytes:
@@ -214,6 +254,7 @@ class DeviceLink:
             received(data)
 
         protocol.data_received = tee  # type: ignore[method-assign]
+        lean_serial(protocol.transport)
         self._client, self._lost, self._stale = client, lost, False
         self.opened = True
 
