@@ -15,6 +15,7 @@ controller and aiohttp out of the commands that only talk to a device.
 from __future__ import annotations
 
 import asyncio
+import logging
 import os
 import time
 from collections.abc import Awaitable, Callable
@@ -22,7 +23,7 @@ from collections.abc import Awaitable, Callable
 from pymodbus.client import AsyncModbusSerialClient, AsyncModbusTcpClient
 from pymodbus.exceptions import ConnectionException, ModbusException, ModbusIOException
 from pymodbus.framer import FramerRTU, FramerType
-from pymodbus.pdu import ModbusPDU
+from pymodbus.pdu import DecodePDU, ModbusPDU
 from pymodbus.pdu.register_message import (
     ReadHoldingRegistersRequest,
     ReadInputRegistersRequest,
@@ -45,12 +46,35 @@ from mplang.m8194h.openfail import recording
 READ_COILS, READ_DISCRETE, READ_HOLDING, READ_INPUT = 1, 2, 3, 4
 WRITE_COIL, WRITE_REGISTER, WRITE_COILS, WRITE_REGISTERS = 5, 6, 15, 16
 SUBFUNCTION_FIRST = 8000  # holding: the sub-function window (appendix table 20; sim.registers too)
+PYMODBUS_LOG = logging.getLogger("pymodbus.logging")  # the logger of pymodbus's `Log`
 
 
 def _expire(future: asyncio.Future[ModbusPDU]) -> None:
     """The answer's time is up: the request fails as pymodbus fails one it gave up on."""
     if not future.done():
         future.set_exception(ModbusIOException("no answer in time"))
+
+
+class QuietDecoder(DecodePDU):
+    """pymodbus's PDU decoder without the debug line it formats for every frame even with
+    debug logging off (the PDU as text, a few microseconds a frame, on both sides of every
+    request). With pymodbus's debug logging on, or for anything but a plain PDU of a
+    function code it knows (an exception answer, a sub-function, an unknown or broken
+    frame), pymodbus decodes it itself, its log lines and refusals included."""
+
+    def decode(self, frame: bytes) -> ModbusPDU | None:
+        if not frame or frame[0] & 0x80 or frame[0] in self.pdu_sub_table or \
+                PYMODBUS_LOG.isEnabledFor(logging.DEBUG):
+            return super().decode(frame)
+        kind = self.pdu_table.get(frame[0], (None, None))[self.pdu_inx]
+        if kind is None:
+            return super().decode(frame)
+        pdu = kind()
+        try:
+            pdu.decode(frame[1:])
+        except Exception:  # pymodbus's own decode says what is wrong with it
+            return super().decode(frame)
+        return pdu
 
 
 def lean_serial(transport: object) -> None:
@@ -255,6 +279,7 @@ class DeviceLink:
 
         protocol.data_received = tee  # type: ignore[method-assign]
         lean_serial(protocol.transport)
+        protocol.framer.decoder = QuietDecoder(False)
         self._client, self._lost, self._stale = client, lost, False
         self.opened = True
 

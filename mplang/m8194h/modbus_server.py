@@ -49,6 +49,7 @@ from mplang.m8194h.modbus import (
     WRITE_COILS,
     WRITE_REGISTER,
     WRITE_REGISTERS,
+    QuietDecoder,
 )
 from mplang.m8194h.openfail import OpenFailure, recording
 from mplang.m8194h.sim.controller import VirtualController
@@ -351,7 +352,7 @@ def malformed(frame: bytes, limits: dict[int, int], coil_values: frozenset[int])
     return ""
 
 
-class DeviceDecoder(DecodePDU):
+class DeviceDecoder(QuietDecoder):
     """pymodbus's request decoder limited to the function codes of the device profile
     (`[modbus] function_codes`: 1-6, 15, 16). Any other decodes to an `UnsupportedRequest`,
     so FC 7, 8, 11, 17, 43 ... are answered with exception 1 and register 102 = 1 (RS 11366)

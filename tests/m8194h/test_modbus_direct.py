@@ -5,7 +5,8 @@ directly; anything the direct path leaves alone goes through pymodbus's datastor
 request sequences go to two devices alike, one answered by `DirectServe` (falling back to the
 datastore where it returns None, as a connection does), the other by the datastore alone: the
 answers' bytes, the devices' request and refusal counts and their downloads must agree, and
-every request inside the device's register areas must take the direct path."""
+every request inside the device's register areas must take the direct path. Both sides decode
+frames with `QuietDecoder`, which must decode every frame as pymodbus's own decoder does."""
 
 from __future__ import annotations
 
@@ -14,9 +15,10 @@ import struct
 
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from pymodbus.pdu import ModbusPDU
+from pymodbus.pdu import DecodePDU, ModbusPDU
 from pymodbus.simulator.simcore import SimCore
 
+from mplang.m8194h.modbus import QuietDecoder
 from mplang.m8194h.modbus_server import DeviceDecoder, DeviceFace, DirectServe, SimClock
 from mplang.m8194h.sim.controller import VirtualController
 from mplang.m8194h.sim.registers import INPUT_SPAN, SUBFUNCTION_FIRST
@@ -117,3 +119,18 @@ def test_a_flashs_requests_take_the_direct_path() -> None:
     assert face.requests == len(requests)
     assert [line.frame for line in face.controller.tables[("mp", 156)].lines] == \
         [tuple(FRAMES[1])]
+
+
+@settings(max_examples=300, deadline=None, derandomize=True)
+@given(st.booleans(), st.one_of(
+    st.binary(max_size=12),
+    st.builds(lambda fc, rest: bytes([fc]) + rest,
+              st.sampled_from([1, 2, 3, 4, 5, 6, 8, 15, 16, 23, 43, 0x83, 0x90]),
+              st.binary(max_size=12)),
+    REQUESTS))
+def test_the_quiet_decoder_decodes_as_pymodbus_does(server: bool, frame: bytes) -> None:
+    """Requests (server side) and answers (client side), well-formed or not."""
+    ours, theirs = QuietDecoder(server).decode(frame), DecodePDU(server).decode(frame)
+    assert type(ours) is type(theirs)
+    if ours is not None and theirs is not None:  # every field (some do not encode again)
+        assert vars(ours) == vars(theirs)
