@@ -424,7 +424,6 @@ class DeviceLink:
             await self.fence()
         client = await self._ready()
         lost = self._lost
-        describe = self.endpoint.describe()
         self._waiting = True  # a lost connection now fails the request at once (`_lost_now`)
         task = asyncio.current_task()
         cancelling = task.cancelling() if task is not None else 0
@@ -435,12 +434,12 @@ class DeviceLink:
                 raise asyncio.CancelledError
         except ConnectionException as exc:
             self._unsettle(lost=True)
-            raise LinkLost(f"{describe}: connection lost ({exc})") from None
+            raise LinkLost(f"{self.endpoint.describe()}: connection lost ({exc})") from None
         except ModbusIOException:
-            raise self._no_answer(describe, lost) from None
+            raise self._no_answer(self.endpoint.describe(), lost) from None
         except (ModbusException, OSError) as exc:
             self._unsettle(lost=True)
-            raise LinkLost(f"{describe}: {exc}") from None
+            raise LinkLost(f"{self.endpoint.describe()}: {exc}") from None
         finally:
             self._waiting = False
         # an exception answer carries the function code (plus 0x80) but no address: a late
@@ -449,7 +448,8 @@ class DeviceLink:
                 (not reply.isError() and not matches(reply)):
             self._unsettle()
             self.foreign_answers += 1
-            raise LinkTimeout(f"{describe}: the answer belongs to another request")
+            raise LinkTimeout(f"{self.endpoint.describe()}: the answer belongs to another "
+                              "request")
         if reply.isError():
             raise DeviceException(reply.exception_code, function_code, address)
         return reply
@@ -511,9 +511,10 @@ class DeviceLink:
         if not 1 <= len(values) <= MAX_WRITE_REGISTERS:
             raise ValueError(f"an FC16 write takes 1..{MAX_WRITE_REGISTERS} registers, "
                              f"not {len(values)}")
-        if any(not 0 <= int(v) <= 0xFFFF for v in values):
+        registers = [int(v) for v in values]
+        if min(registers) < 0 or max(registers) > 0xFFFF:
             raise ValueError("register values are 16-bit: 0..65535")
-        return [int(v) for v in values]
+        return registers
 
     async def write_frame(self, frame: list[int] | tuple[int, ...]) -> None:
         """One sub-function frame, FC16 at holding register 8000. Never repeated here: an

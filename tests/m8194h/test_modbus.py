@@ -306,3 +306,32 @@ def test_a_device_link_over_rtu_sees_its_line_go_away() -> None:
             frames(PROGRAM)[1:-1]
 
     asyncio.run(scenario())
+
+
+FROZEN_PROBE = """
+import asyncio, gc, sys
+if sys.argv[1] == "mpc":
+    import mplang.cli  # what an mpc process has loaded
+from mplang.m8194h.modbus_server import DeviceFace, serve_tcp, stop
+from mplang.m8194h.sim.controller import VirtualController
+
+async def main() -> None:
+    face = DeviceFace(VirtualController())
+    walked = [any(o is face.controller for o in gc.get_objects())]
+    server, _port = await serve_tcp(face, "127.0.0.1", 0)
+    walked.append(any(o is face.controller for o in gc.get_objects()))
+    await stop(server)
+    print(*walked)
+
+asyncio.run(main())
+"""
+
+
+@pytest.mark.parametrize(("process", "after"), [("mpc", "False"), ("library", "True")])
+def test_an_mpc_process_serving_freezes_its_start_up_heap(process: str, after: str) -> None:
+    """In `mpc sim` the first server to start takes the controllers made at start-up out of
+    the cyclic collector's walks; a library user's objects stay collectable."""
+    done = subprocess.run([sys.executable, "-c", FROZEN_PROBE, process], capture_output=True,
+                          text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["True", after]
