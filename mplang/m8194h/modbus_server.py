@@ -245,8 +245,9 @@ class DirectServe:
     def __init__(self, face: DeviceFace, unit: int | None) -> None:
         self.face = face
         self.unit = unit  # RTU: the slave address; None over TCP, which answers every unit
-        self.spans = {READ_HOLDING: face.holding_spans(), WRITE_REGISTERS: face.holding_spans(),
-                      READ_INPUT: [range(0, INPUT_SPAN)]}
+        holding = tuple((span.start, span.stop) for span in face.holding_spans())
+        self.spans = {READ_HOLDING: holding, WRITE_REGISTERS: holding,
+                      READ_INPUT: ((0, INPUT_SPAN),)}
 
     def __call__(self, pdu: ModbusPDU) -> ModbusPDU | None:
         """The answer to `pdu`, or None: pymodbus's path serves it."""
@@ -263,9 +264,12 @@ class DirectServe:
         else:
             return None
         fc, address = pdu.function_code, pdu.address
-        if (self.unit is not None and pdu.dev_id != self.unit) or \
-                not any(address in span and address + count <= span.stop
-                        for span in self.spans[fc]):
+        if self.unit is not None and pdu.dev_id != self.unit:
+            return None
+        for start, stop in self.spans[fc]:
+            if start <= address and address + count <= stop:
+                break
+        else:
             return None
         current = [0] * count if values is None else []
         refused = self.face.act(fc, address, address, count, current, values)
