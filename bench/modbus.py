@@ -14,9 +14,9 @@ requests are a flash's: one download of `LINES` sub-function frames (FC16 at 800
 The server under test runs in a child process, so the CPU of each side is its own process's:
 - client: `DeviceLink.write_frame` against the raw server, this process's CPU per request,
   beside a raw asyncio client (a future per request, the frames' bytes made beforehand);
-- server: the virtual M8194H (`serve_tcp`, as `mpc sim` serves) driven by the raw client,
-  the child's CPU per request, beside the raw server (it echoes each request's first 12
-  bytes, the FC16 answer) driven alike.
+- server: the virtual M8194H (`serve_tcp` in a process with the CLI loaded, as `mpc sim`
+  serves) driven by the raw client, the child's CPU per request, beside the raw server (it
+  echoes each request's first 12 bytes, the FC16 answer) driven alike.
 The figures are medians over `CPU_ROUNDS` rounds taken in turns. No target is set for them;
 they say which side of a flash a change moved and how far each is from its floor.
 """
@@ -138,7 +138,9 @@ async def serve_child(kind: str) -> None:
     if kind == "raw":
         server = await loop.create_server(RawServer, "127.0.0.1", 0)
         port = server.sockets[0].getsockname()[1]
-    else:
+    else:  # as `mpc sim` serves: its process has the CLI loaded (which decides, among
+        import mplang.cli  # noqa: F401  other things, that its first server freezes the
+        # start-up heap out of the cyclic collector, `modbus_server._freeze_start_up`)
         _ours, port = await serve_tcp(DeviceFace(VirtualController()), "127.0.0.1", 0)
     done = loop.create_future()
 
