@@ -190,11 +190,43 @@ async def over_tcp(image: FlashImage) -> None:
 
 
 # ------------------------------------------------------------------------- 2: RTU wire
-def paced_line(baud: int) -> PtyLink:
+class TimedWire(Wire):
+    """The paced line's timing (`ptylink.Wire`), also noting each end's answers: how long
+    after the frame it answers was through (was due at the other end) it reached the line.
+    That time holds the end's own work and its wake-ups, and the relay thread's lateness in
+    handing the frame over; the line's silence before a frame hides the part up to it."""
+
+    def __init__(self, baudrate: int) -> None:
+        super().__init__(baudrate, BITS_PER_CHAR, GAP_CHARS)
+        self.first_sender = -1  # the client speaks first
+        self.answers: dict[str, list[float]] = {"client": [], "device": []}
+
+    def deliver_at(self, sender: int, size: int, now: float) -> float:
+        if self.first_sender < 0:
+            self.first_sender = sender
+        elif sender != self.last_sender:
+            end = "client" if sender == self.first_sender else "device"
+            self.answers[end].append(now - self.free_at)
+        return super().deliver_at(sender, size, now)
+
+
+def paced_line(baud: int) -> tuple[PtyLink, TimedWire]:
     """A pty link that passes every chunk on when it would be through an RTU wire
     (`BITS_PER_CHAR` bits per byte at `baud`, the 3.5-character silence before each frame):
     a serial line without hardware that takes as long as a real one (`ptylink.Wire`)."""
-    return PtyLink(Wire(baud, BITS_PER_CHAR, GAP_CHARS))
+    wire = TimedWire(baud)
+    return PtyLink(wire), wire
+
+
+def oversleep(seconds: float = 0.0015, samples: int = 200) -> float:
+    """The median time a thread's `time.sleep(seconds)` overshoots here now: the relay
+    hands each frame over that late, twice a request."""
+    late: list[float] = []
+    for _ in range(samples):
+        start = time.monotonic()
+        time.sleep(seconds)
+        late.append(time.monotonic() - start - seconds)
+    return statistics.median(late)
 
 
 def rtu_request_bytes(registers: int) -> int:
@@ -241,7 +273,9 @@ async def flash_over_rtu(image: FlashImage, line: PtyLink) -> Timed:
 
 async def over_rtu(image: FlashImage) -> None:
     own = await flash_over_rtu(image, PtyLink())
-    run = await flash_over_rtu(image, paced_line(BAUD))
+    late = oversleep()
+    line, wire = paced_line(BAUD)
+    run = await flash_over_rtu(image, line)
     limit, total_bytes = wire_seconds(image, BAUD)
     print(f"full-device image over Modbus RTU at {BAUD} baud 8N1 (paced pty pair): "
           f"{run.requests:,} requests in {run.seconds:.2f} s")
@@ -251,6 +285,17 @@ async def over_rtu(image: FlashImage) -> None:
     print(f"  of which software (client, device, pty; the same flash over an unpaced pty "
           f"pair): {own.seconds:.2f} s = {own.seconds / own.requests * 1e3:.2f} ms a request; "
           f"wire + software = {(limit + own.seconds) / limit:.2f}x the wire time")
+    gap = GAP_CHARS * BITS_PER_CHAR / BAUD
+    print(f"  on the paced line each end answered, after what it answers was through "
+          f"(the line's {gap * 1e6:.0f} us silence hides what is shorter):")
+    for end, times in wire.answers.items():
+        times.sort()
+        beyond = sum(max(0.0, t - gap) for t in times)
+        print(f"    {end}: median {statistics.median(times) * 1e6:.0f} us, p10 "
+              f"{times[len(times) // 10] * 1e6:.0f} us, p90 {times[len(times) * 9 // 10] * 1e6:.0f}"
+              f" us; beyond the silence {beyond:.2f} s in all")
+    print(f"  a thread's 1.5 ms sleep overshoots by {late * 1e6:.0f} us here now (median): the "
+          f"relay hands each frame over that late, {2 * run.requests * late:.2f} s a flash")
 
 
 # ---------------------------------------------------------------------------- 3: fleet

@@ -15,18 +15,22 @@ controller and aiohttp out of the commands that only talk to a device.
 from __future__ import annotations
 
 import asyncio
+import logging
+import os
 import time
 from collections.abc import Awaitable, Callable
 
 from pymodbus.client import AsyncModbusSerialClient, AsyncModbusTcpClient
 from pymodbus.exceptions import ConnectionException, ModbusException, ModbusIOException
 from pymodbus.framer import FramerRTU, FramerType
-from pymodbus.pdu import ModbusPDU
+from pymodbus.pdu import DecodePDU, ModbusPDU
 from pymodbus.pdu.register_message import (
     ReadHoldingRegistersRequest,
     ReadInputRegistersRequest,
     WriteMultipleRegistersRequest,
 )
+from pymodbus.transport.serialtransport import SerialTransport
+from serial import SerialException  # type: ignore[import-untyped]  # pyserial ships no type hints
 
 from mplang.family.linkfail import connect_reason, serial_reason
 from mplang.m8194h.endpoint import MODBUS_EXCEPTIONS as MODBUS_EXCEPTIONS
@@ -42,12 +46,72 @@ from mplang.m8194h.openfail import recording
 READ_COILS, READ_DISCRETE, READ_HOLDING, READ_INPUT = 1, 2, 3, 4
 WRITE_COIL, WRITE_REGISTER, WRITE_COILS, WRITE_REGISTERS = 5, 6, 15, 16
 SUBFUNCTION_FIRST = 8000  # holding: the sub-function window (appendix table 20; sim.registers too)
+PYMODBUS_LOG = logging.getLogger("pymodbus.logging")  # the logger of pymodbus's `Log`
 
 
 def _expire(future: asyncio.Future[ModbusPDU]) -> None:
     """The answer's time is up: the request fails as pymodbus fails one it gave up on."""
     if not future.done():
         future.set_exception(ModbusIOException("no answer in time"))
+
+
+class QuietDecoder(DecodePDU):
+    """pymodbus's PDU decoder without the debug line it formats for every frame even with
+    debug logging off (the PDU as text, a few microseconds a frame, on both sides of every
+    request). With pymodbus's debug logging on, or for anything but a plain PDU of a
+    function code it knows (an exception answer, a sub-function, an unknown or broken
+    frame), pymodbus decodes it itself, its log lines and refusals included."""
+
+    def decode(self, frame: bytes) -> ModbusPDU | None:
+        if not frame or frame[0] & 0x80 or frame[0] in self.pdu_sub_table or \
+                PYMODBUS_LOG.isEnabledFor(logging.DEBUG):
+            return super().decode(frame)
+        kind = self.pdu_table.get(frame[0], (None, None))[self.pdu_inx]
+        if kind is None:
+            return super().decode(frame)
+        pdu = kind()
+        try:
+            pdu.decode(frame[1:])
+        except Exception:  # pymodbus's own decode says what is wrong with it
+            return super().decode(frame)
+        return pdu
+
+
+def lean_serial(transport: object) -> None:
+    """Read and write a serial port as a socket transport does: at once. pymodbus's serial
+    transport reads through pyserial (two selects and an object per read) and writes on the
+    loop's next turn (a writer registered and removed per frame). The bytes, their order,
+    and what a lost port does (the transport closes with a SerialException) stay pymodbus's.
+    Where pymodbus polls the port (Windows) it is left as it is."""
+    if not isinstance(transport, SerialTransport) or transport.force_poll:
+        return
+    loop, fd = transport.async_loop, transport.sync_serial.fileno()
+
+    def read_ready() -> None:
+        try:
+            data = os.read(fd, 1024)
+        except (BlockingIOError, InterruptedError):
+            return
+        except OSError as exc:
+            transport.close(exc=SerialException(f"read failed: {exc}"))
+            return
+        if not data:  # what pyserial says of a port that is ready and reads nothing
+            transport.close(exc=SerialException(
+                "device reports readiness to read but returned no data (device "
+                "disconnected or multiple access on port?)"))
+            return
+        transport.intern_protocol.data_received(data)  # type: ignore[attr-defined]
+
+    def write(data: bytes) -> None:
+        transport.intern_write_buffer.append(data)
+        if len(transport.intern_write_buffer) == 1:  # nothing waits for the port: now
+            transport.intern_write_ready()
+        if transport.intern_write_buffer and transport.sync_serial:  # the rest: when the
+            loop.add_writer(fd, transport.intern_write_ready)  # port takes it
+
+    loop.remove_reader(fd)
+    loop.add_reader(fd, read_ready)
+    transport.write = write  # type: ignore[method-assign]
 
 
 def crc16(data: bytes) -> bytes:
@@ -214,6 +278,8 @@ class DeviceLink:
             received(data)
 
         protocol.data_received = tee  # type: ignore[method-assign]
+        lean_serial(protocol.transport)
+        protocol.framer.decoder = QuietDecoder(False)
         self._client, self._lost, self._stale = client, lost, False
         self.opened = True
 
@@ -358,7 +424,6 @@ class DeviceLink:
             await self.fence()
         client = await self._ready()
         lost = self._lost
-        describe = self.endpoint.describe()
         self._waiting = True  # a lost connection now fails the request at once (`_lost_now`)
         task = asyncio.current_task()
         cancelling = task.cancelling() if task is not None else 0
@@ -369,12 +434,12 @@ class DeviceLink:
                 raise asyncio.CancelledError
         except ConnectionException as exc:
             self._unsettle(lost=True)
-            raise LinkLost(f"{describe}: connection lost ({exc})") from None
+            raise LinkLost(f"{self.endpoint.describe()}: connection lost ({exc})") from None
         except ModbusIOException:
-            raise self._no_answer(describe, lost) from None
+            raise self._no_answer(self.endpoint.describe(), lost) from None
         except (ModbusException, OSError) as exc:
             self._unsettle(lost=True)
-            raise LinkLost(f"{describe}: {exc}") from None
+            raise LinkLost(f"{self.endpoint.describe()}: {exc}") from None
         finally:
             self._waiting = False
         # an exception answer carries the function code (plus 0x80) but no address: a late
@@ -383,7 +448,8 @@ class DeviceLink:
                 (not reply.isError() and not matches(reply)):
             self._unsettle()
             self.foreign_answers += 1
-            raise LinkTimeout(f"{describe}: the answer belongs to another request")
+            raise LinkTimeout(f"{self.endpoint.describe()}: the answer belongs to another "
+                              "request")
         if reply.isError():
             raise DeviceException(reply.exception_code, function_code, address)
         return reply
@@ -445,9 +511,10 @@ class DeviceLink:
         if not 1 <= len(values) <= MAX_WRITE_REGISTERS:
             raise ValueError(f"an FC16 write takes 1..{MAX_WRITE_REGISTERS} registers, "
                              f"not {len(values)}")
-        if any(not 0 <= int(v) <= 0xFFFF for v in values):
+        registers = [int(v) for v in values]
+        if min(registers) < 0 or max(registers) > 0xFFFF:
             raise ValueError("register values are 16-bit: 0..65535")
-        return [int(v) for v in values]
+        return registers
 
     async def write_frame(self, frame: list[int] | tuple[int, ...]) -> None:
         """One sub-function frame, FC16 at holding register 8000. Never repeated here: an

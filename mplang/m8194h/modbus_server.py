@@ -18,7 +18,9 @@ a server starts, so `mpc run` and the tests that build a face without serving it
 from __future__ import annotations
 
 import asyncio
+import gc
 import logging
+import sys
 import time
 from collections import deque
 from collections.abc import Callable
@@ -28,10 +30,19 @@ from typing import TYPE_CHECKING, TypeAlias
 from pymodbus.constants import ExcCodes
 from pymodbus.framer import FramerRTU, FramerType
 from pymodbus.pdu import DecodePDU, ExceptionResponse, ModbusPDU
+from pymodbus.pdu.register_message import (
+    ReadHoldingRegistersRequest,
+    ReadHoldingRegistersResponse,
+    ReadInputRegistersRequest,
+    ReadInputRegistersResponse,
+    WriteMultipleRegistersRequest,
+    WriteMultipleRegistersResponse,
+)
 from pymodbus.simulator import DataType, SimData, SimDevice
 
 from mplang.family.linkfail import listen_reason, serial_reason
 from mplang.m8194h.modbus import (
+    MAX_WRITE_REGISTERS,
     READ_COILS,
     READ_DISCRETE,
     READ_HOLDING,
@@ -40,6 +51,7 @@ from mplang.m8194h.modbus import (
     WRITE_COILS,
     WRITE_REGISTER,
     WRITE_REGISTERS,
+    QuietDecoder,
 )
 from mplang.m8194h.openfail import OpenFailure, recording
 from mplang.m8194h.sim.controller import VirtualController
@@ -139,6 +151,14 @@ class DeviceFace:
     async def action(self, function_code: int, start_address: int, address: int, count: int,
                      current: list[int], values: list[int] | list[bool] | None) -> ExcCodes | None:
         """pymodbus's hook, called before it answers a request from `current`."""
+        return self.act(function_code, start_address, address, count, current, values)
+
+    def act(self, function_code: int, start_address: int, address: int, count: int,
+            current: list[int], values: list[int] | list[bool] | None) -> ExcCodes | None:
+        """One request carried out: `current` (whose first element is register
+        `start_address`) gets what a read answers; the exception to answer, or None. Both
+        pymodbus's hook and `DirectServe` come here, so a request is served alike on
+        either path."""
         self.requests += 1
         version = self.controller.memory_version  # a program's MD writes count too
         self.catch_up()
@@ -195,23 +215,75 @@ class DeviceFace:
         else:
             raise regs.unsupported(fc)
 
+    def holding_spans(self) -> list[range]:
+        """The holding register areas the device has; any other address is refused
+        ILLEGAL ADDRESS before the request reaches the controller."""
+        regs = self.registers
+        return [range(0, HOLDING_SPAN), range(regs.md_first, regs.md_end),
+                range(SUBFUNCTION_FIRST, SUBFUNCTION_LAST + 1),
+                range(SIM_DI_FIRST, SIM_DI_LAST + 1)]
+
     def device(self, unit: int) -> SimDevice:
         """The pymodbus device: separate coil, discrete input, holding and input blocks."""
         coils = [SimData(0, values=[False] * COIL_SPAN, datatype=DataType.BITS)]
         discrete = [SimData(0, values=[False] * DISCRETE_SPAN, datatype=DataType.BITS)]
-        holding = [
-            SimData(0, count=HOLDING_SPAN, datatype=DataType.REGISTERS),
-            SimData(self.registers.md_first,
-                    count=self.registers.md_end - self.registers.md_first,
-                    datatype=DataType.REGISTERS),
-            SimData(SUBFUNCTION_FIRST, count=SUBFUNCTION_LAST - SUBFUNCTION_FIRST + 1,
-                    datatype=DataType.REGISTERS),
-            SimData(SIM_DI_FIRST, count=SIM_DI_LAST - SIM_DI_FIRST + 1,
-                    datatype=DataType.REGISTERS),
-        ]
+        holding = [SimData(span.start, count=len(span), datatype=DataType.REGISTERS)
+                   for span in self.holding_spans()]
         inputs = [SimData(0, count=INPUT_SPAN, datatype=DataType.REGISTERS)]
         return SimDevice(id=unit, simdata=(coils, discrete, holding, inputs),
                          action=self.action)
+
+
+class DirectServe:
+    """The register requests of a flash and of a status read (FC3, FC4, FC16), answered
+    from the `RegisterMap` directly instead of through pymodbus's datastore, which checks
+    every register's flags and awaits three coroutines per request: the same `act`, the
+    same answers. Anything else (coils, FC6, a broadcast, another unit, an address outside
+    the device's areas, which the datastore refuses before the controller sees it) returns
+    None and takes pymodbus's path."""
+
+    def __init__(self, face: DeviceFace, unit: int | None) -> None:
+        self.face = face
+        self.unit = unit  # RTU: the slave address; None over TCP, which answers every unit
+        holding = tuple((span.start, span.stop) for span in face.holding_spans())
+        self.spans = {READ_HOLDING: holding, WRITE_REGISTERS: holding,
+                      READ_INPUT: ((0, INPUT_SPAN),)}
+
+    def __call__(self, pdu: ModbusPDU) -> ModbusPDU | None:
+        """The answer to `pdu`, or None: pymodbus's path serves it."""
+        count = pdu.count
+        values: list[int] | None = None
+        if isinstance(pdu, WriteMultipleRegistersRequest):
+            values = list(pdu.registers)
+            if not 1 <= count <= MAX_WRITE_REGISTERS or len(values) != count or \
+                    pdu.byte_count != 2 * count or \
+                    getattr(pdu, "_payload_byte_count", None) != 2 * count:
+                return None  # pymodbus's own refusal
+        elif isinstance(pdu, (ReadHoldingRegistersRequest, ReadInputRegistersRequest)):
+            pass
+        else:
+            return None
+        fc, address = pdu.function_code, pdu.address
+        if self.unit is not None and pdu.dev_id != self.unit:
+            return None
+        for start, stop in self.spans[fc]:
+            if start <= address and address + count <= stop:
+                break
+        else:
+            return None
+        current = [0] * count if values is None else []
+        refused = self.face.act(fc, address, address, count, current, values)
+        answer: ModbusPDU
+        if refused:
+            answer = ExceptionResponse(fc, refused)
+        elif values is not None:
+            answer = WriteMultipleRegistersResponse(address=address, count=count)
+        elif fc == READ_INPUT:
+            answer = ReadInputRegistersResponse(registers=current)
+        else:
+            answer = ReadHoldingRegistersResponse(registers=current)
+        answer.dev_id, answer.transaction_id = pdu.dev_id, pdu.transaction_id
+        return answer
 
 
 def rtu_frame_size(data: bytes) -> int:
@@ -286,7 +358,7 @@ def malformed(frame: bytes, limits: dict[int, int], coil_values: frozenset[int])
     return ""
 
 
-class DeviceDecoder(DecodePDU):
+class DeviceDecoder(QuietDecoder):
     """pymodbus's request decoder limited to the function codes of the device profile
     (`[modbus] function_codes`: 1-6, 15, 16). Any other decodes to an `UnsupportedRequest`,
     so FC 7, 8, 11, 17, 43 ... are answered with exception 1 and register 102 = 1 (RS 11366)
@@ -341,8 +413,28 @@ class RtuSilence:
         return data
 
 
+_heap_frozen = False
+
+
+def _freeze_start_up() -> None:
+    """In an `mpc` process, the first server to start freezes what start-up made (the
+    virtual controllers, the catalogue, the modules) out of the cyclic collector, as the
+    first build does (`mplang.lang.heap`): its full passes walked all of it again every few
+    thousand requests, 50-75 ms a pass on a 2-core machine for one device, while every
+    client waited. Collected first, so no garbage is kept. A program that serves devices as
+    a library user (tests, benches) gets the pauses: freezing would keep for good any of its
+    objects that later became cyclic garbage."""
+    global _heap_frozen
+    if _heap_frozen or "mplang.cli" not in sys.modules:
+        return
+    _heap_frozen = True
+    gc.collect()
+    gc.freeze()
+
+
 async def _listen(server: Server, failures: list[BaseException], serial: bool) -> None:
     """Start a server; OpenFailure with the reason if it cannot listen."""
+    _freeze_start_up()
     try:
         await server.serve_forever(background=True)
     except (OSError, RuntimeError) as exc:
@@ -360,7 +452,7 @@ async def serve_tcp(face: DeviceFace, host: str, port: int,
     from mplang.m8194h.ordered import serve_in_order
 
     server = ModbusTcpServer(face.device(0), address=(host, port), trace_packet=trace_packet)
-    serve_in_order(server)
+    serve_in_order(server, DirectServe(face, None))
     server.decoder = DeviceDecoder(face)  # before any connection: each framer takes it
     face.registers.connections = lambda: len(server.active_connections)
     await _listen(server, recording(server), serial=False)
@@ -390,7 +482,7 @@ async def serve_rtu(face: DeviceFace, port: str, unit: int = 1, baudrate: int = 
     server = ModbusSerialServer(face.device(unit), framer=FramerType.RTU, port=port,
                                 baudrate=baudrate, parity=parity, stopbits=stopbits,
                                 bytesize=8, broadcast_enable=True, trace_packet=hook)
-    serve_in_order(server)
+    serve_in_order(server, DirectServe(face, unit))
     server.decoder = DeviceDecoder(face, unit)
     await _listen(server, recording(server), serial=True)
     return server

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import asyncio
 from collections import deque
+from collections.abc import Callable
 
 from pymodbus.constants import ExcCodes
 from pymodbus.exceptions import ModbusIOException, NoSuchIdException
@@ -24,7 +25,12 @@ from pymodbus.framer import FramerRTU
 from pymodbus.pdu import ExceptionResponse, ModbusPDU
 from pymodbus.server.requesthandler import ServerRequestHandler
 
+from mplang.m8194h.modbus import lean_serial
+
 Address = tuple[str, int] | None
+Direct = Callable[[ModbusPDU], "ModbusPDU | None"]
+"""Answers a request at once, without an await, or returns None when pymodbus's datastore
+must serve it (`modbus_server.DirectServe`)."""
 MAX_QUEUED = 256
 """Requests of one connection decoded and waiting to be served: past it, a client that sends
 without reading the answers has further frames dropped, as a device's full receive buffer
@@ -63,6 +69,11 @@ class OrderedRequestHandler(ServerRequestHandler):
         super().__init__(*args)  # type: ignore[no-untyped-call]
         self._queue: deque[tuple[ModbusPDU, Address]] = deque()
         self._worker: asyncio.Task[None] | None = None
+        self.direct: Direct | None = None
+
+    def connection_made(self, transport: asyncio.BaseTransport) -> None:
+        super().connection_made(transport)
+        lean_serial(transport)
 
     def send(self, data: bytes, addr: Address = None) -> None:
         kept = self.recv_buffer  # pymodbus empties it: it may hold the next request
@@ -86,17 +97,35 @@ class OrderedRequestHandler(ServerRequestHandler):
             used += cut
             if pdu is None:
                 break
-            if len(self._queue) < MAX_QUEUED:
-                self._queue.append((self.trace_pdu(False, pdu), addr))
+            pdu = self.trace_pdu(False, pdu)
+            busy = self._queue or (self._worker is not None and not self._worker.done())
+            if (busy or not self._answer_now(pdu, addr)) and len(self._queue) < MAX_QUEUED:
+                self._queue.append((pdu, addr))
         if self._queue and (self._worker is None or self._worker.done()):
             self._worker = asyncio.get_running_loop().create_task(self._serve_queue())
         # a packet hook that changed the bytes (a test's fault) had the whole read
         return used if seen == data else len(data)
 
+    def _answer_now(self, pdu: ModbusPDU, addr: Address) -> bool:
+        """Serve `pdu` without a task when `direct` can (nothing waits before it, so the
+        order holds); False: it goes through the queue and pymodbus's datastore."""
+        if self.direct is None or (self.server.broadcast_enable and not pdu.dev_id):
+            return False
+        try:
+            response = self.direct(pdu)
+        except Exception:  # the device never falls over: SLAVE DEVICE FAILURE
+            response = ExceptionResponse(pdu.function_code, ExcCodes.DEVICE_FAILURE)
+            response.transaction_id, response.dev_id = pdu.transaction_id, pdu.dev_id
+        if response is None:
+            return False
+        self.server_send(response, addr)  # type: ignore[no-untyped-call]
+        return True
+
     async def _serve_queue(self) -> None:
         while self._queue:
             pdu, addr = self._queue.popleft()
-            await self._serve(pdu, addr)
+            if not self._answer_now(pdu, addr):
+                await self._serve(pdu, addr)
 
     async def _serve(self, pdu: ModbusPDU, addr: Address) -> None:
         """pymodbus's `handle_request` for one queued request (it reads the request from
@@ -119,14 +148,16 @@ class OrderedRequestHandler(ServerRequestHandler):
         self.server_send(response, addr)  # type: ignore[no-untyped-call]
 
 
-def serve_in_order(server: object) -> None:
+def serve_in_order(server: object, direct: Direct | None = None) -> None:
     """Make `server` (a pymodbus TCP or serial server, not listening yet) hand every new
-    connection to an `OrderedRequestHandler`."""
+    connection to an `OrderedRequestHandler`, which answers through `direct` first."""
 
     def connection() -> OrderedRequestHandler:
-        return OrderedRequestHandler(server, server.trace_packet,  # type: ignore[attr-defined]
-                                     server.trace_pdu,  # type: ignore[attr-defined]
-                                     server.trace_connect)  # type: ignore[attr-defined]
+        handler = OrderedRequestHandler(
+            server, server.trace_packet, server.trace_pdu,  # type: ignore[attr-defined]
+            server.trace_connect)  # type: ignore[attr-defined]
+        handler.direct = direct
+        return handler
 
     server.callback_new_connection = connection  # type: ignore[attr-defined]
     if server.framer is FramerRTU:  # type: ignore[attr-defined]

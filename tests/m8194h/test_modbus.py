@@ -18,7 +18,7 @@ from simproc import start_sim
 
 from mplang.family.ptylink import PtyLink
 from mplang.m8194h.compiler import compile_source
-from mplang.m8194h.modbus import crc16
+from mplang.m8194h.modbus import DeviceLink, Endpoint, LinkLost, crc16
 from mplang.m8194h.modbus_server import (
     DeviceFace,
     SimClock,
@@ -275,3 +275,63 @@ def test_mpc_sim_rejects_bad_setups_with_distinct_exit_codes(tmp_path: Path) -> 
     assert missing.returncode == 6 and "cannot open serial port" in missing.stderr
     for result in (usage, memory, busy, missing):
         assert "Traceback" not in result.stderr + result.stdout
+
+
+def test_a_device_link_over_rtu_sees_its_line_go_away() -> None:
+    """The client reads and writes its port itself (`lean_serial`): a download goes through
+    whole, and a line that goes away while a request waits (the pty's other side closed, as
+    a USB adapter pulled out) fails that request as a lost connection at once, not as a
+    device that kept quiet for the whole timeout."""
+
+    async def scenario() -> None:
+        face = served()
+        line = PtyLink()
+        server = await serve_rtu(face, line.device_end, unit=1)
+        try:
+            async with DeviceLink(Endpoint(serial=line.client_end, unit=1, timeout=30.0,
+                                           retries=0)) as link:
+                for frame in frames(PROGRAM):
+                    await link.write_frame(frame)
+                assert await link.read_input(100, 1) == [0]
+            async with DeviceLink(Endpoint(serial=line.client_end, unit=2, timeout=30.0,
+                                           retries=0)) as link:
+                waiting = asyncio.create_task(link.read_input(100, 1))  # unit 2: no answer
+                await asyncio.sleep(0.2)
+                line.close()
+                with pytest.raises(LinkLost):
+                    await waiting
+        finally:
+            await stop(server)
+        assert [list(x.frame) for x in face.controller.tables[("mp", 21)].lines] == \
+            frames(PROGRAM)[1:-1]
+
+    asyncio.run(scenario())
+
+
+FROZEN_PROBE = """
+import asyncio, gc, sys
+if sys.argv[1] == "mpc":
+    import mplang.cli  # what an mpc process has loaded
+from mplang.m8194h.modbus_server import DeviceFace, serve_tcp, stop
+from mplang.m8194h.sim.controller import VirtualController
+
+async def main() -> None:
+    face = DeviceFace(VirtualController())
+    walked = [any(o is face.controller for o in gc.get_objects())]
+    server, _port = await serve_tcp(face, "127.0.0.1", 0)
+    walked.append(any(o is face.controller for o in gc.get_objects()))
+    await stop(server)
+    print(*walked)
+
+asyncio.run(main())
+"""
+
+
+@pytest.mark.parametrize(("process", "after"), [("mpc", "False"), ("library", "True")])
+def test_an_mpc_process_serving_freezes_its_start_up_heap(process: str, after: str) -> None:
+    """In `mpc sim` the first server to start takes the controllers made at start-up out of
+    the cyclic collector's walks; a library user's objects stay collectable."""
+    done = subprocess.run([sys.executable, "-c", FROZEN_PROBE, process], capture_output=True,
+                          text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["True", after]

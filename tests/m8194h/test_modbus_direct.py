@@ -1,0 +1,136 @@
+"""The virtual M8194H's direct path (`DirectServe`) answers as pymodbus's datastore path does.
+
+Every register request a flash or a status read makes is answered from the register map
+directly; anything the direct path leaves alone goes through pymodbus's datastore. Random
+request sequences go to two devices alike, one answered by `DirectServe` (falling back to the
+datastore where it returns None, as a connection does), the other by the datastore alone: the
+answers' bytes, the devices' request and refusal counts and their downloads must agree, and
+every request inside the device's register areas must take the direct path. Both sides decode
+frames with `QuietDecoder`, which must decode every frame as pymodbus's own decoder does."""
+
+from __future__ import annotations
+
+import asyncio
+import struct
+
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from pymodbus.pdu import DecodePDU, ModbusPDU
+from pymodbus.simulator.simcore import SimCore
+
+from mplang.m8194h.modbus import QuietDecoder
+from mplang.m8194h.modbus_server import DeviceDecoder, DeviceFace, DirectServe, SimClock
+from mplang.m8194h.sim.controller import VirtualController
+from mplang.m8194h.sim.registers import INPUT_SPAN, SUBFUNCTION_FIRST
+
+ENCODER = VirtualController().encoder
+# the sub-function frames of a download (create MP156, a line, close) and a refused one
+FRAMES = [ENCODER.create_frame("mp", 156), [0x0CD2, 0x7FFF, 2, 0, 5],
+          ENCODER.close_frame("mp"), [0xFFFF]]
+# the edges of the device's areas (holding 0..1323, MD 3000.., 8000..8100, 9008..9015;
+# input 0..199) and the registers a flash reads (14, 100..114)
+EDGES = [0, 1, 8, 14, 82, 100, 110, 119, 198, 199, 200, 1322, 1323, 1324, 2999, 3000, 3001,
+         7094, 7095, 7999, 8000, 8100, 8101, 9007, 9008, 9015, 9016, 65535]
+COUNTS = [1, 2, 3, 15, 20, 123, 124, 125]
+WORDS = st.lists(st.sampled_from([0, 1, 2, 0x7FFF, 0x8000, 0xFFFF]), min_size=1, max_size=4)
+
+
+def read(fc: int, address: int, count: int) -> bytes:
+    return struct.pack(">BHH", fc, address, count)
+
+
+def write(address: int, values: list[int]) -> bytes:
+    return struct.pack(f">BHHB{len(values)}H", 16, address, len(values), 2 * len(values),
+                       *values)
+
+
+REQUESTS = st.one_of(
+    st.builds(read, st.sampled_from([3, 4]), st.sampled_from(EDGES), st.sampled_from(COUNTS)),
+    st.builds(write, st.sampled_from(EDGES), WORDS),
+    st.builds(write, st.just(SUBFUNCTION_FIRST), st.sampled_from(FRAMES)),
+    st.builds(lambda n: write(8, [0] * n), st.sampled_from([123, 124])),  # FC16's limit
+)
+
+
+def still_face() -> DeviceFace:
+    """A device whose clock stands still: both devices see the same moment."""
+    return DeviceFace(VirtualController(), SimClock(speed=0.0))
+
+
+def encoded(answer: ModbusPDU) -> bytes:
+    return bytes([answer.function_code]) + answer.encode()
+
+
+def inside(face: DeviceFace, pdu: bytes) -> bool:
+    """A well-formed register request inside one of the device's areas."""
+    fc, address, count = pdu[0], *struct.unpack(">HH", pdu[1:5])
+    spans = [range(0, INPUT_SPAN)] if fc == 4 else face.holding_spans()
+    return count <= (123 if fc == 16 else 125) and \
+        any(address in span and address + count <= span.stop for span in spans)
+
+
+async def both_ways(requests: list[bytes]) -> None:
+    direct_face, store_face = still_face(), still_face()
+    direct = DirectServe(direct_face, None)
+    cores = {face: SimCore(face.device(0)) for face in (direct_face, store_face)}
+    for number, raw in enumerate(requests):
+        answers = []
+        for face in (direct_face, store_face):
+            pdu = DeviceDecoder(face).decode(raw)
+            assert pdu is not None
+            pdu.dev_id, pdu.transaction_id = 1, number + 1
+            answer = direct(pdu) if face is direct_face else None
+            if face is direct_face:
+                assert (answer is not None) == inside(face, raw), raw.hex()
+            if answer is None:
+                answer = await pdu.datastore_update(cores[face], pdu.dev_id)
+            answers.append(encoded(answer))
+        assert answers[0] == answers[1], raw.hex()
+    assert direct_face.requests == store_face.requests
+    assert [r.code for r in direct_face.refusals] == [r.code for r in store_face.refusals]
+    assert direct_face.controller.tables.keys() == store_face.controller.tables.keys()
+    for key, table in direct_face.controller.tables.items():
+        assert [line.frame for line in table.lines] == \
+            [line.frame for line in store_face.controller.tables[key].lines]
+
+
+@settings(max_examples=40, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.too_slow])
+@given(st.lists(REQUESTS, min_size=1, max_size=10))
+def test_direct_answers_are_the_datastores(requests: list[bytes]) -> None:
+    asyncio.run(both_ways(requests))
+
+
+def test_a_flashs_requests_take_the_direct_path() -> None:
+    """The word order (holding 14), the state (input 100..114), and a download."""
+    requests = [read(3, 14, 1), read(4, 100, 1), write(SUBFUNCTION_FIRST, FRAMES[0]),
+                write(SUBFUNCTION_FIRST, FRAMES[1]), write(SUBFUNCTION_FIRST, FRAMES[2]),
+                read(4, 100, 15)]
+    asyncio.run(both_ways(requests))
+    face = still_face()
+    direct = DirectServe(face, 1)
+    for raw in requests:
+        pdu = DeviceDecoder(face).decode(raw)
+        assert pdu is not None
+        pdu.dev_id = 1
+        assert direct(pdu) is not None
+        pdu.dev_id = 2  # another slave on the RTU line: pymodbus's path stays silent
+        assert direct(pdu) is None
+    assert face.requests == len(requests)
+    assert [line.frame for line in face.controller.tables[("mp", 156)].lines] == \
+        [tuple(FRAMES[1])]
+
+
+@settings(max_examples=300, deadline=None, derandomize=True)
+@given(st.booleans(), st.one_of(
+    st.binary(max_size=12),
+    st.builds(lambda fc, rest: bytes([fc]) + rest,
+              st.sampled_from([1, 2, 3, 4, 5, 6, 8, 15, 16, 23, 43, 0x83, 0x90]),
+              st.binary(max_size=12)),
+    REQUESTS))
+def test_the_quiet_decoder_decodes_as_pymodbus_does(server: bool, frame: bytes) -> None:
+    """Requests (server side) and answers (client side), well-formed or not."""
+    ours, theirs = QuietDecoder(server).decode(frame), DecodePDU(server).decode(frame)
+    assert type(ours) is type(theirs)
+    if ours is not None and theirs is not None:  # every field (some do not encode again)
+        assert vars(ours) == vars(theirs)
