@@ -46,6 +46,9 @@ FRAME_WINDOW = 8000
 # The client's answer timeout: a round trip takes about 1 ms here. TIMEOUT where a late
 # answer must land inside a time window, QUICK where any timeout will do.
 TIMEOUT, QUICK = 0.2, 0.1
+# where a test counts downloads exactly and a timeout only ends a wait the fault makes (not
+# a lost frame): long enough that a slow answer on a loaded machine is not taken for a lost one
+STEADY = 1.0
 LATE = 1.5 * TIMEOUT  # a late answer: after the client gave up, within twice its timeout
 # later than the quiet time a link keeps after a timeout, while the next request (sent when
 # that quiet time ends, its own answer queued behind the late one) still waits
@@ -571,7 +574,7 @@ def test_corrupted_rtu_crc_is_a_lost_frame_never_a_wrong_one(case: str) -> None:
 def test_connection_reset_mid_program_downloads_it_again(fault: str, frame: int) -> None:
     image = job_image()
     face = device()
-    run = flash_through("tcp", face, at_frame(frame, fault), image)
+    run = flash_through("tcp", face, at_frame(frame, fault), image, timeout=STEADY)
     assert run.faults.kinds() == [fault]
     assert run.report.ok, run.report.error
     assert downloads(run.report) == [1, 2, 1]
