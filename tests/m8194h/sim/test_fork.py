@@ -7,13 +7,14 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+from collections.abc import Callable
 
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from mplang.m8194h.sim.builders import QueueFull
 from mplang.m8194h.sim.chains import _Chain
-from mplang.m8194h.sim.fork import FORKED, fork
+from mplang.m8194h.sim.fork import FORKED, _alone, fork
 from mplang.m8194h.sim.io_state import _AxisConfig, _AxisStatus
 from mplang.m8194h.sim.motion import MotionModel
 from mplang.m8194h.sim.scripted import InputChange, TimedChange, Watch
@@ -183,3 +184,55 @@ def test_fork_runs_a_machine_script_ahead_without_touching_the_original() -> Non
             model.io.inpos_forced) == (before.io.script_next, before.io.watch_above,
                                        before.io.di_changes, before.io.inpos_forced)
     assert _run_ahead(copy.deepcopy(model), 0.0) == _run_ahead(copy.deepcopy(before), 0.0)
+
+
+@settings(max_examples=60, deadline=None, derandomize=True)
+@given(program)
+def test_a_fork_sharing_settings_and_status_runs_ahead_as_a_deep_copy_does(
+        commands: list[tuple[int, int, int, float]]) -> None:
+    """On a machine without sensors or a home search most forks are `_alone`: they share the
+    axis settings and the I/O status with the original. Running ahead on such a fork must
+    still be what a deep copy does, and leave the shared records as they were."""
+    model = MotionModel(queue_capacity=8)
+    model.set_v(15, 20_000)
+    model.set_a(15, 200_000)
+    model.set_vv(20_000)
+    model.set_va(200_000)
+    now = 0.0
+    for kind, a, b, pause in commands:
+        now += pause
+        if kind != 7:  # no home search: it would make every later fork a full copy
+            _command(model, kind, a, b, now)
+        before = copy.deepcopy(model)
+        ahead = fork(model)
+        assert (ahead.settings is model.settings) == _alone(model.io)
+        assert _run_ahead(ahead, now) == _run_ahead(copy.deepcopy(model), now)
+        assert _settings(model) == _settings(before)
+        assert _run_ahead(copy.deepcopy(model), now) == _run_ahead(copy.deepcopy(before), now)
+        assert model.idle_at(15, now) == copy.deepcopy(before).idle_at(15, now)
+
+
+def test_a_fork_shares_only_where_running_ahead_cannot_change_the_shared_state() -> None:
+    """A move queued behind another on a plain machine: the prediction's fork shares the
+    settings and the I/O status. An interrupt factor, a synchronous action, an enabled ALARM
+    or an EMG input can change them while running ahead: then they are copied."""
+    model = MotionModel(queue_capacity=8)
+    model.fixed_move(X, 5_000, 0.0)
+    model.fixed_move(X, -5_000, 0.0)
+    assert _alone(model.io)
+    ahead = fork(model)
+    assert ahead.settings is model.settings and ahead.io.status is model.io.status
+    assert ahead._ax[0] is not model._ax[0] and ahead._queue is not model._queue
+    end = model.idle_at(X, 0.0)
+    assert end is not None and end > model._ax[0].motion.end  # type: ignore[union-attr]
+    changes: list[Callable[[MotionModel], None]] = [
+        lambda m: m.io.enable_int(0.0),
+        lambda m: m.io.sync_action(X, Y, 0x20, 0, 0, 4, 0, 0, (0, 0, 0, 0), 0.0),
+        lambda m: m.io.set_alarm(Y, 1, 1, 0.0),
+        lambda m: m.io.set_emg_input(True, 0.0)]
+    for change in changes:
+        other = copy.deepcopy(model)
+        change(other)
+        assert not _alone(other.io)
+        ahead = fork(other)
+        assert ahead.settings is not other.settings and ahead.io.status is not other.io.status
