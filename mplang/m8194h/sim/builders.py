@@ -96,6 +96,13 @@ class _Cmd:
     vector: bool
     build: Callable[[MotionModel, float], _Motion | None]
 
+    def __init__(self, axes: tuple[int, ...], vector: bool,
+                 build: Callable[[MotionModel, float], _Motion | None]) -> None:
+        """As the generated one, written out: every motion command makes one."""
+        self.axes = axes
+        self.vector = vector
+        self.build = build
+
 
 class QueueFull(Exception):
     """The motion queue holds `queue_capacity` waiting commands: the new one is not taken

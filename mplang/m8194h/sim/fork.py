@@ -153,11 +153,22 @@ class _Forker:
         axes = []
         for ax in model._ax:
             copied = _blank(ax)
-            copied.motion = self.motion(ax.motion)
+            m = ax.motion
+            if m is not None and type(m.path) is _ChainPath:  # (as `motion` asks)
+                copied.motion = self.motion(m)
             axes.append(copied)
         new._ax = axes
         new._queue = list(model._queue)
         new._pending = list(model._pending)
+        if model._chains or model._open is not None:
+            self.chains(model, new)
+        else:
+            new._chains = {}
+        new.io = self.io(model.io, new, alone)
+        return new
+
+    def chains(self, model: MotionModel, new: MotionModel) -> None:
+        """The continuous interpolations: each chain copied once, the open one among them."""
         chains = {cid: self.chain(c) for cid, c in model._chains.items()}
         new._chains = chains
         by_identity: dict[int, Any] = {id(old): chains[cid] for cid, old in
@@ -165,8 +176,6 @@ class _Forker:
         opened = model._open
         new._open = None if opened is None else by_identity.get(id(opened)) or \
             self.chain(opened)
-        new.io = self.io(model.io, new, alone)
-        return new
 
 
 def _alone(io: AxisIO) -> bool:

@@ -87,6 +87,7 @@ Conventions and simplifications
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 from mplang.ir.catalogue import Profile
@@ -130,6 +131,8 @@ from mplang.m8194h.sim.profiles import (
 )
 
 _INF = math.inf
+_SINGLES = {mask: tuple((i,) for i in _mask_axes(mask)) for mask in range(1, 16)}
+"""Per axis mask, its axes one by one: the groups `_admit` checks for a single-axis move."""
 
 __all__ = ["MotionModel", "QueueFull"]
 
@@ -288,7 +291,7 @@ class MotionModel:
     def fixed_move(self, axis_mask: int, pulses: int, now: float) -> None:
         """FIXED_MOVE: every axis of the mask moves `pulses` relative to where it starts."""
         axes = _mask_axes(axis_mask)
-        self._admit([(i,) for i in axes], now)
+        self._admit(_SINGLES[axis_mask], now)
         pulses = int(pulses)
         for i in axes:
             self._issue(_single_cmd(i, pulses, False, self.plan(i)), now)
@@ -296,7 +299,7 @@ class MotionModel:
     def abs_move(self, axis_mask: int, position: int, now: float) -> None:
         """ABS_FIXED_MOVE: every axis of the mask moves to LP = `position`."""
         axes = _mask_axes(axis_mask)
-        self._admit([(i,) for i in axes], now)
+        self._admit(_SINGLES[axis_mask], now)
         position = int(position)
         for i in axes:
             self._issue(_single_cmd(i, position, True, self.plan(i)), now)
@@ -450,7 +453,7 @@ class MotionModel:
         """Motion commands that wait for their axes (queued behind busy axes or held)."""
         return len(self._queue) + len(self._pending)
 
-    def _admit(self, groups: list[tuple[int, ...]], now: float) -> None:
+    def _admit(self, groups: Sequence[tuple[int, ...]], now: float) -> None:
         """Raise `QueueFull` (before anything changes) if the commands for these groups of
         axes would wait beyond `queue_capacity`."""
         if self.queue_capacity is None:
