@@ -114,7 +114,7 @@ from mplang.m8194h.sim.chains import (
     _lay,
     _Seg,
 )
-from mplang.m8194h.sim.fork import fork
+from mplang.m8194h.sim.fork import _alone, fork
 from mplang.m8194h.sim.io_state import AxisReport
 from mplang.m8194h.sim.profiles import (
     VECTOR_KIND,
@@ -650,6 +650,8 @@ class MotionModel:
                 if m is not None and m.end > end:
                     end = m.end
             return None if end == _INF else end
+        if self._drains_alone():
+            return self._drain(axes, now)
         sim = fork(self)
         t = now
         while sim._busy(axes):
@@ -658,6 +660,55 @@ class MotionModel:
                 return None
             t = nxt
             sim.settle(t)
+        return t
+
+    def _drains_alone(self) -> bool:
+        """Running ahead would only finish motions and start queued commands: no I/O event,
+        interrupt, synchronous action, ALARM or EMG can come (`fork._alone`), no command is
+        held, no continuous-interpolation chain lives (its builder reads the chain, not
+        only positions) and no emergency drops commands. Off with `profiles.CHANGE_ONLY`."""
+        return profiles.CHANGE_ONLY and not self._pending and not self._chains and \
+            not self.io.emergency and _alone(self.io)
+
+    def _drain(self, axes: tuple[int, ...], now: float) -> float | None:
+        """`idle_at` where `_drains_alone`: what a fork's `settle` would do, on the axes'
+        positions only. Motions end in time order (LP = end + SET_LP shift) and the queued
+        commands start as `_dequeue` starts them, each built from a model that holds only
+        those positions (every builder but a chain's reads nothing else); no copy of the
+        model, no I/O. `tests/m8194h/sim/test_planning.py` compares it with the fork."""
+        state = [_AxisState(ax.pos, ax.shift, motion=ax.motion) for ax in self._ax]
+        ahead = object.__new__(MotionModel)
+        ahead._ax = state
+        queue = self._queue
+        wanted = set(axes)
+        t = now
+        while any(state[i].motion is not None for i in axes) or \
+                any(wanted & set(c.axes) for c in queue):
+            t = min((a.motion.end for a in state if a.motion is not None), default=_INF)
+            if t == _INF:
+                return None
+            for a in state:
+                m = a.motion
+                if m is not None and m.end <= t:
+                    for k, i in enumerate(m.axes):
+                        state[i].pos, state[i].shift = m.final[k] + state[i].shift, 0
+                        state[i].motion = None
+            blocked: set[int] = set()
+            keep: list[_Cmd] = []
+            for cmd in queue:
+                if blocked & set(cmd.axes) or any(state[i].motion is not None for i in cmd.axes):
+                    blocked |= set(cmd.axes)
+                    keep.append(cmd)
+                    continue
+                started = cmd.build(ahead, t)
+                if started is None:
+                    continue
+                for k, i in enumerate(started.axes):
+                    if started.end <= t:
+                        state[i].pos = started.final[k]
+                    else:
+                        state[i].motion = started
+            queue = keep
         return t
 
     def next_event(self, now: float) -> float | None:

@@ -236,3 +236,64 @@ def test_a_fork_shares_only_where_running_ahead_cannot_change_the_shared_state()
         assert not _alone(other.io)
         ahead = fork(other)
         assert ahead.settings is not other.settings and ahead.io.status is not other.io.status
+
+
+def _fork_idle_at(model: MotionModel, axes: tuple[int, ...], now: float) -> float | None:
+    """When the axes are idle, as a fork running ahead says (what `idle_at` asks of one)."""
+    model.settle(now)
+    ahead, t = fork(model), now
+    while ahead._busy(axes):
+        nxt = ahead.next_event(t)
+        if nxt is None:
+            return None
+        t = nxt
+        ahead.settle(t)
+    return t
+
+
+# moves, lines, arcs, continuous moves, stops, holds and starts close together: queues
+queued = st.lists(st.tuples(st.sampled_from([0, 0, 0, 1, 1, 2, 2, 5, 6, 9, 10]),
+                            st.integers(0, 40), st.integers(-30_000, 30_000),
+                            st.sampled_from([0.0, 0.0, 0.01, 0.05, 0.3])),
+                  min_size=1, max_size=14)
+
+
+@settings(max_examples=80, deadline=None, derandomize=True)
+@given(queued, st.sampled_from([X, Y, Z, U, X | Y, Z | U, 15]))
+def test_a_queue_drained_on_positions_alone_ends_when_a_fork_says(
+        commands: list[tuple[int, int, int, float]], mask: int) -> None:
+    """`MotionModel._drain` (STOP_WAIT's prediction where only motions end and queued
+    commands start) gives the time a fork running ahead gives, and changes nothing."""
+    model = MotionModel(queue_capacity=8)
+    model.set_v(15, 20_000)
+    model.set_a(15, 200_000)
+    model.set_vv(20_000)
+    model.set_va(200_000)
+    axes = tuple(i for i in range(4) if mask >> i & 1)
+    now = 0.0
+    for kind, a, b, pause in commands:
+        now += pause
+        if kind != 7:
+            _command(model, kind, a, b, now)
+        model.settle(now)
+        if not model._drains_alone():
+            continue  # (a synchronous action, say: `idle_at` asks a fork, as before)
+        expected = _fork_idle_at(copy.deepcopy(model), axes, now)
+        before = copy.deepcopy(model)
+        assert model.idle_at(mask, now) == expected
+        assert _run_ahead(copy.deepcopy(model), now) == _run_ahead(before, now)
+
+
+def test_a_queue_behind_a_line_is_drained_without_a_fork() -> None:
+    """The bench job's case: an arc queued behind a line on a plain machine. Its end is
+    worked out on the axes' positions (no fork), and is where the arc really ends."""
+    model = MotionModel(queue_capacity=8)
+    model.set_vv(20_000)
+    model.line((2_000, 1_000), 0.0)
+    model.arc((1_000, 0), (2_000, 0), True, 0.0)
+    assert model._queue and model._drains_alone()
+    end = model.idle_at(X, 0.0)
+    assert end is not None and end == _fork_idle_at(copy.deepcopy(model), (0,), 0.0)
+    model.settle(end)
+    assert model._ax[0].motion is None and not model._queue
+    assert (model.lp(X, end), model.lp(Y, end)) == (4_000, 1_000)
