@@ -652,6 +652,10 @@ class MotionModel:
             return None if end == _INF else end
         if self._drains_alone():
             return self._drain(axes, now)
+        return self._forked_idle_at(axes, now)
+
+    def _forked_idle_at(self, axes: tuple[int, ...], now: float) -> float | None:
+        """`idle_at` (settled at `now`) on a copy of the model running ahead."""
         sim = fork(self)
         t = now
         while sim._busy(axes):

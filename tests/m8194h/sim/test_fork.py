@@ -241,14 +241,7 @@ def test_a_fork_shares_only_where_running_ahead_cannot_change_the_shared_state()
 def _fork_idle_at(model: MotionModel, axes: tuple[int, ...], now: float) -> float | None:
     """When the axes are idle, as a fork running ahead says (what `idle_at` asks of one)."""
     model.settle(now)
-    ahead, t = fork(model), now
-    while ahead._busy(axes):
-        nxt = ahead.next_event(t)
-        if nxt is None:
-            return None
-        t = nxt
-        ahead.settle(t)
-    return t
+    return model._forked_idle_at(axes, now)
 
 
 # moves, lines, arcs, continuous moves, stops, holds and starts close together: queues
