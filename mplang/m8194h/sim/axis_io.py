@@ -295,30 +295,38 @@ class AxisIO(_Scripted):
             for i in axes:
                 self.status[i].errors |= ERR_EMERGENCY
             return True
-        alarmed = [i for i in axes if self._alarm_active(i)]
-        for i in alarmed:
-            self.status[i].errors |= ERR_ALARM
-        return bool(alarmed)
+        cfg = self.cfg
+        alarmed = False
+        for i in axes:
+            if cfg[i].alarm_enabled and self._alarm_signal(i):  # (`_alarm_active`, inline)
+                self.status[i].errors |= ERR_ALARM
+                alarmed = True
+        return alarmed
 
     def lp_moved(self, i: int, delta: int) -> None:
         """SET_LP moved the counter, not the axis: keep the machine frame where it was."""
         self.status[i].mach_off -= delta
 
     def started(self, m: _Motion, t: float) -> None:
-        """A drive starts: D-STA, and C-STA if it starts at constant speed."""
-        cruise_now = bool(m.prof.segs) and self._cruise(m.prof.segs[0])
+        """A drive starts: D-STA, and C-STA if it starts at constant speed (each asked
+        for only where a synchronous action or an interrupt could come of it)."""
+        cruise_now = self.int_enabled and bool(m.prof.segs) and self._cruise(m.prof.segs[0])
+        cfg = self.cfg
         for i in m.axes:
-            self._sync(i, SYNC_D_STA, t)
+            if cfg[i].sync_factors & SYNC_D_STA:
+                self._sync(i, SYNC_D_STA, t)
             if cruise_now:
                 self._interrupt(i, INT_C_STA, t)
 
     def ended(self, m: _Motion, t: float) -> None:
-        """A motion finished in `settle`: next home-search step, or D-END."""
+        """A motion finished in `settle`: next home-search step, or D-END (asked for only
+        where an interrupt or a synchronous action could come of it)."""
+        status, cfg = self.status, self.cfg
         for i in m.axes:
-            run = self.status[i].home
+            run = status[i].home
             if run is not None and run.motion is m:
                 self._home_motion_ended(run, t)
-            else:
+            elif self.int_enabled or cfg[i].sync_factors & SYNC_D_END:
                 self._drive_end(i, t)
 
     def stopping(self, m: _Motion, now: float, sudden: bool) -> None:
@@ -338,7 +346,12 @@ class AxisIO(_Scripted):
 
     def quiet(self) -> bool:
         """No I/O event ahead and no home search running: motion ends are the whole story."""
-        return self._next == _INF and all(st.home is None for st in self.status)
+        if self._next != _INF:
+            return False
+        for st in self.status:  # noqa: SIM110 - a loop: no generator, as every STOP_WAIT asks
+            if st.home is not None:
+                return False
+        return True
 
     # -------------------------------------------------------------------- scheduling
     def reschedule(self) -> float:
@@ -347,8 +360,15 @@ class AxisIO(_Scripted):
         if self._exempt:
             self._exempt = [m for m in self._exempt
                             if any(self.model._ax[i].motion is m for i in m.axes)]
+        calm = self._calm_known  # (`_calm`, inline: this runs after every change)
+        if calm is None or not profiles.CHANGE_ONLY:
+            calm = self._calm()
+        if calm and self.script_next >= len(self.script):  # nothing to plan
+            self._events = []
+            self._next = _INF
+            return _INF
         events: list[_Event] = []
-        if not self._calm():
+        if not calm:
             for m in self.model._motions():
                 self._plan(m, events)
         self._plan_script(events)
@@ -360,7 +380,10 @@ class AxisIO(_Scripted):
 
     def fire(self, t: float) -> None:
         """Handle, in order, the I/O events due at or before t (called by settle)."""
-        self.now = max(self.now, t)
+        if t > self.now:
+            self.now = t
+        if not self._events:
+            return
         for _ in range(10_000):
             if not self._events or self._events[0].time > t:
                 return

@@ -71,8 +71,19 @@ class _Motion:
     direction: int = 0  # single-axis continuous moves: +1 / -1
     end: float = field(init=False)
 
-    def __post_init__(self) -> None:
-        self.end = self.t0 + self.prof.duration
+    def __init__(self, axes: tuple[int, ...], t0: float, prof: _Profile, path: _Path,
+                 final: tuple[int, ...], plan: _Plan, vector: bool, direction: int = 0) -> None:
+        """The generated `__init__` and a `__post_init__` for `end`, in one call (every
+        move makes one)."""
+        self.axes = axes
+        self.t0 = t0
+        self.prof = prof
+        self.path = path
+        self.final = final
+        self.plan = plan
+        self.vector = vector
+        self.direction = direction
+        self.end = t0 + prof.duration
 
     @property
     def continuous(self) -> bool:
@@ -84,6 +95,13 @@ class _Cmd:
     axes: tuple[int, ...]
     vector: bool
     build: Callable[[MotionModel, float], _Motion | None]
+
+    def __init__(self, axes: tuple[int, ...], vector: bool,
+                 build: Callable[[MotionModel, float], _Motion | None]) -> None:
+        """As the generated one, written out: every motion command makes one."""
+        self.axes = axes
+        self.vector = vector
+        self.build = build
 
 
 class QueueFull(Exception):

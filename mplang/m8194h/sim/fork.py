@@ -15,6 +15,10 @@ and home search that drives along it, keeping the sharing the original has (a ch
 motion is its axes' motion). The copy's stop watchers are removed: what a prediction meets
 is not something the program did.
 
+Most forks are taken where running ahead cannot change any of that (`_alone`: a STOP_WAIT
+behind queued moves on a machine without sensors, interrupts or synchronous actions): only
+the motions and the queue move, so the axis settings and the I/O status are shared too.
+
 `FORKED` lists the attributes a fork knows for each class; a test keeps it equal to what the
 classes hold, so a new mutable attribute cannot slip past the copy.
 """
@@ -59,9 +63,10 @@ FORKED: dict[str, frozenset[str]] = {
 
 
 def _blank(obj: T) -> T:
-    """A shallow copy without `copy.copy`'s reduce protocol (a fork is on the hot path)."""
+    """A shallow copy without `copy.copy`'s reduce protocol (a fork is on the hot path;
+    a copied dict is quicker than filling the new object's own)."""
     new: T = object.__new__(type(obj))
-    new.__dict__.update(obj.__dict__)
+    new.__dict__ = obj.__dict__.copy()
     return new
 
 
@@ -82,7 +87,7 @@ class _Forker:
         return new
 
     def motion(self, m: _Motion | None) -> _Motion | None:
-        if m is None or not isinstance(m.path, _ChainPath):
+        if m is None or type(m.path) is not _ChainPath:  # (it has no subclass)
             return m
         new = self.motions.get(id(m))
         if new is None:
@@ -119,9 +124,11 @@ class _Forker:
         new.raised = None
         return new
 
-    def io(self, io: AxisIO, model: MotionModel) -> AxisIO:
+    def io(self, io: AxisIO, model: MotionModel, alone: bool) -> AxisIO:
         new = _blank(io)
         new.model = model
+        if alone:  # running ahead changes none of the lists and records below
+            return new
         # sensors and cfg are shared: only commands change them, and a fork runs none
         new.status = [self.status(s) for s in io.status]
         new.triggered = list(io.triggered)
@@ -138,17 +145,30 @@ class _Forker:
 
     def model(self, model: MotionModel) -> MotionModel:
         new = _blank(model)
-        # a synchronous action may change a speed while running ahead (SET_ACTION preset 4)
-        new.settings = [_blank(s) for s in model.settings]
-        new.vector = _blank(model.vector)
+        alone = _alone(model.io)
+        if not alone:
+            # a synchronous action may change a speed while running ahead (SET_ACTION preset 4)
+            new.settings = [_blank(s) for s in model.settings]
+            new.vector = _blank(model.vector)
         axes = []
         for ax in model._ax:
             copied = _blank(ax)
-            copied.motion = self.motion(ax.motion)
+            m = ax.motion
+            if m is not None and type(m.path) is _ChainPath:  # (as `motion` asks)
+                copied.motion = self.motion(m)
             axes.append(copied)
         new._ax = axes
         new._queue = list(model._queue)
         new._pending = list(model._pending)
+        if model._chains or model._open is not None:
+            self.chains(model, new)
+        else:
+            new._chains = {}
+        new.io = self.io(model.io, new, alone)
+        return new
+
+    def chains(self, model: MotionModel, new: MotionModel) -> None:
+        """The continuous interpolations: each chain copied once, the open one among them."""
         chains = {cid: self.chain(c) for cid, c in model._chains.items()}
         new._chains = chains
         by_identity: dict[int, Any] = {id(old): chains[cid] for cid, old in
@@ -156,8 +176,22 @@ class _Forker:
         opened = model._open
         new._open = None if opened is None else by_identity.get(id(opened)) or \
             self.chain(opened)
-        new.io = self.io(model.io, new)
-        return new
+
+
+def _alone(io: AxisIO) -> bool:
+    """Running ahead from here changes nothing but the motions, the queue and the I/O's
+    own schedule (its time, version, events and calm answer, which `_blank` copies): no I/O
+    event can come (calm, no event planned, no script, no motion exempt from limits), no
+    interrupt can be asked for, no synchronous action can act (a drive's start and end are
+    its only factors then), and a start cannot latch an error (no EMG input, no ALARM
+    enabled). A home search is not calm, so none runs either."""
+    if io.int_enabled or io.requests or io.emg_input or io.script or io.watches \
+            or io._events or io._exempt:
+        return False
+    for cfg in io.cfg:
+        if cfg.alarm_enabled or (cfg.sync_factors and cfg.sync_targets):
+            return False
+    return io._calm()
 
 
 def fork(model: MotionModel) -> MotionModel:

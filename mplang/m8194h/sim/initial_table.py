@@ -352,8 +352,13 @@ def _setting_handler(vc: VirtualController, name: str, live: Handler | None,
             raise ValueError(f"axis mask must be 1..15, got {mask}")
         stored = {k: v for k, v in update(values[1:]).items() if k in UNMODELLED}
         if stored:
+            made: dict[AxisColumn, AxisColumn] = {}  # equal records are replaced once
             for index in range(len(AXIS_NAMES)):
                 if mask >> index & 1:
-                    vc.unmodelled[index] = replace(vc.unmodelled[index], **stored)
+                    old = vc.unmodelled[index]
+                    new = made.get(old)
+                    if new is None:
+                        new = made[old] = replace(old, **stored)
+                    vc.unmodelled[index] = new
         return wait
     return run

@@ -87,10 +87,12 @@ Conventions and simplifications
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 from mplang.ir.catalogue import Profile
 from mplang.m8194h.chipvalues import ChipRules
+from mplang.m8194h.sim import profiles
 from mplang.m8194h.sim.axes import AXES, _axis_index, _mask_axes, _round
 from mplang.m8194h.sim.axis_io import AxisIO
 from mplang.m8194h.sim.builders import (
@@ -112,7 +114,7 @@ from mplang.m8194h.sim.chains import (
     _lay,
     _Seg,
 )
-from mplang.m8194h.sim.fork import fork
+from mplang.m8194h.sim.fork import _alone, fork
 from mplang.m8194h.sim.io_state import AxisReport
 from mplang.m8194h.sim.profiles import (
     VECTOR_KIND,
@@ -129,6 +131,8 @@ from mplang.m8194h.sim.profiles import (
 )
 
 _INF = math.inf
+_SINGLES = {mask: tuple((i,) for i in _mask_axes(mask)) for mask in range(1, 16)}
+"""Per axis mask, its axes one by one: the groups `_admit` checks for a single-axis move."""
 
 __all__ = ["MotionModel", "QueueFull"]
 
@@ -175,10 +179,15 @@ class MotionModel:
         return cls(profile.limit("motion_queue"), ChipRules.from_profile(profile.raw))
 
     def plan(self, axis: int) -> _Plan:
-        """The plan a single-axis drive of axis index `axis` latches now."""
+        """The plan a single-axis drive of axis index `axis` latches now (a kept one is
+        looked up here, before `_kept_plan`, as every move asks)."""
         st, rules = self.settings[axis], self.rules
-        return _kept_plan(self._plans, (st.max_v, st.mode, st.sv, st.v, st.a, st.d, st.k, st.l,
-                                        st.ao), lambda: _single_plan(st, rules))
+        key = (st.max_v, st.mode, st.sv, st.v, st.a, st.d, st.k, st.l, st.ao)
+        if profiles.CHANGE_ONLY:
+            kept = self._plans.get(key)
+            if kept is not None:
+                return kept
+        return _kept_plan(self._plans, key, lambda: _single_plan(st, rules))
 
     # ---------------------------------------------------------------- settings
     def _set(self, axis_mask: int, name: str, value: int) -> None:
@@ -281,16 +290,19 @@ class MotionModel:
     # ------------------------------------------------------------------ motion
     def fixed_move(self, axis_mask: int, pulses: int, now: float) -> None:
         """FIXED_MOVE: every axis of the mask moves `pulses` relative to where it starts."""
-        self._admit([(i,) for i in _mask_axes(axis_mask)], now)
-        for i in _mask_axes(axis_mask):
-            self._issue(_single_cmd(i, int(pulses), False, self.plan(i)), now)
+        axes = _mask_axes(axis_mask)
+        self._admit(_SINGLES[axis_mask], now)
+        pulses = int(pulses)
+        for i in axes:
+            self._issue(_single_cmd(i, pulses, False, self.plan(i)), now)
 
     def abs_move(self, axis_mask: int, position: int, now: float) -> None:
         """ABS_FIXED_MOVE: every axis of the mask moves to LP = `position`."""
-        self._admit([(i,) for i in _mask_axes(axis_mask)], now)
-        for i in _mask_axes(axis_mask):
-            self._issue(_single_cmd(i, int(position), True, self.plan(i)),
-                        now)
+        axes = _mask_axes(axis_mask)
+        self._admit(_SINGLES[axis_mask], now)
+        position = int(position)
+        for i in axes:
+            self._issue(_single_cmd(i, position, True, self.plan(i)), now)
 
     def continue_move(self, axis_mask: int, speed: int, now: float) -> None:
         """CONTINUE_MOVE: run at |speed| in the direction of its sign until stopped."""
@@ -441,12 +453,15 @@ class MotionModel:
         """Motion commands that wait for their axes (queued behind busy axes or held)."""
         return len(self._queue) + len(self._pending)
 
-    def _admit(self, groups: list[tuple[int, ...]], now: float) -> None:
+    def _admit(self, groups: Sequence[tuple[int, ...]], now: float) -> None:
         """Raise `QueueFull` (before anything changes) if the commands for these groups of
         axes would wait beyond `queue_capacity`."""
         if self.queue_capacity is None:
             return
-        self.settle(now)
+        if self._next_end <= now or now > self.io.now:  # (`settle`: it has work)
+            self.settle(now)
+        if not self._queue and not self._pending:
+            return  # an empty queue takes any one command
         ax = self._ax
         queued = [set(c.axes) for c in self._queue] if self._queue else []
         waits = 0
@@ -458,12 +473,13 @@ class MotionModel:
             else:
                 if queued and any(q & set(axes) for q in queued):
                     waits += 1
-        waiting = self.waiting_commands()
+        waiting = len(self._queue) + len(self._pending)  # `waiting_commands`
         if waits and waiting and waiting + waits > self.queue_capacity:
             raise QueueFull(needed=waits)  # (an empty queue takes any one command)
 
     def _issue(self, cmd: _Cmd, now: float) -> None:
-        self.settle(now)
+        if self._next_end <= now or now > self.io.now:  # (`settle`: it has work)
+            self.settle(now)
         ax = self._ax
         busy = False
         for i in cmd.axes:
@@ -492,6 +508,8 @@ class MotionModel:
         self.io.started(m, t)
 
     def _dequeue(self, t: float) -> None:
+        if not self._queue:
+            return
         blocked: set[int] = set()
         keep: list[_Cmd] = []
         for cmd in self._queue:
@@ -503,27 +521,32 @@ class MotionModel:
         self._queue = keep
 
     def settle(self, now: float) -> None:
-        """Finish, in time order, every motion that ended at or before `now`."""
+        """Finish, in time order, every motion that ended at or before `now`. It has no
+        work when nothing ends and the I/O's time is `now` already: the callers that ask
+        most test `_next_end <= now or now > io.now` before calling."""
         if self._next_end > now:  # nothing ends: only the I/O's present time moves
             io = self.io
             if now > io.now:  # (`AxisIO.advance`, inline: every query settles first)
                 io.now = now
             return
+        io, axes = self.io, self._ax
         while self._next_end <= now:
             t = self._next_end
-            self.io.fire(t)  # axis I/O events due at t (limits, home sensors, compare)
-            for ax in self._ax:
+            io.fire(t)  # axis I/O events due at t (limits, home sensors, compare)
+            for ax in axes:
                 m = ax.motion
                 if m is not None and m.end <= t:
                     for k, i in enumerate(m.axes):
-                        other = self._ax[i]
+                        other = axes[i]
                         other.pos = m.final[k] + other.shift
                         other.shift = 0
                         other.motion = None
-                    self.io.ended(m, t)  # D-END, or the next home-search step
-            self._dequeue(t)
+                    io.ended(m, t)  # D-END, or the next home-search step
+            if self._queue:
+                self._dequeue(t)
             self._recompute()
-        self.io.advance(now)
+        if now > io.now:  # (`AxisIO.advance`, inline)
+            io.now = now
 
     # ------------------------------------------------------------------- state
     def _lp(self, i: int, now: float) -> int:
@@ -589,11 +612,16 @@ class MotionModel:
         return math.floor(abs(a) / step + 0.5) * step * (1 if a >= 0 else -1)
 
     def _busy(self, axes: tuple[int, ...]) -> bool:
-        if any(self._ax[i].motion is not None for i in axes):
-            return True
+        ax = self._ax
+        for i in axes:
+            if ax[i].motion is not None:
+                return True
+        queue, pending = self._queue, self._pending
+        if not queue and not pending:
+            return False
         wanted = set(axes)
-        return any(wanted & set(c.axes) for c in self._queue) or any(
-            wanted & set(c.axes) for c in self._pending)
+        return any(wanted & set(c.axes) for c in queue) or any(
+            wanted & set(c.axes) for c in pending)
 
     def busy(self, axis_mask: int, now: float) -> bool:
         """True if an axis of the mask moves or has a queued or held command."""
@@ -605,17 +633,29 @@ class MotionModel:
     def idle_at(self, axis_mask: int, now: float) -> float | None:
         """When every axis of the mask will be idle; None if never without a command."""
         axes = _mask_axes(axis_mask)
-        self.settle(now)
-        wanted = set(axes)
-        if any(wanted & set(c.axes) for c in self._pending):
-            return None
-        if not any(wanted & set(c.axes) for c in self._queue) and self.io.quiet():
+        if self._next_end <= now or now > self.io.now:  # (`settle`: it has work)
+            self.settle(now)
+        queue, pending = self._queue, self._pending
+        if pending or queue:
+            wanted = set(axes)
+            if any(wanted & set(c.axes) for c in pending):
+                return None
+            waits = any(wanted & set(c.axes) for c in queue)
+        else:
+            waits = False
+        if not waits and self.io.quiet():
             end = now
             for i in axes:
                 m = self._ax[i].motion
-                if m is not None:
-                    end = max(end, m.end)
+                if m is not None and m.end > end:
+                    end = m.end
             return None if end == _INF else end
+        if self._drains_alone():
+            return self._drain(axes, now)
+        return self._forked_idle_at(axes, now)
+
+    def _forked_idle_at(self, axes: tuple[int, ...], now: float) -> float | None:
+        """`idle_at` (settled at `now`) on a copy of the model running ahead."""
         sim = fork(self)
         t = now
         while sim._busy(axes):
@@ -624,6 +664,55 @@ class MotionModel:
                 return None
             t = nxt
             sim.settle(t)
+        return t
+
+    def _drains_alone(self) -> bool:
+        """Running ahead would only finish motions and start queued commands: no I/O event,
+        interrupt, synchronous action, ALARM or EMG can come (`fork._alone`), no command is
+        held, no continuous-interpolation chain lives (its builder reads the chain, not
+        only positions) and no emergency drops commands. Off with `profiles.CHANGE_ONLY`."""
+        return profiles.CHANGE_ONLY and not self._pending and not self._chains and \
+            not self.io.emergency and _alone(self.io)
+
+    def _drain(self, axes: tuple[int, ...], now: float) -> float | None:
+        """`idle_at` where `_drains_alone`: what a fork's `settle` would do, on the axes'
+        positions only. Motions end in time order (LP = end + SET_LP shift) and the queued
+        commands start as `_dequeue` starts them, each built from a model that holds only
+        those positions (every builder but a chain's reads nothing else); no copy of the
+        model, no I/O. `tests/m8194h/sim/test_planning.py` compares it with the fork."""
+        state = [_AxisState(ax.pos, ax.shift, motion=ax.motion) for ax in self._ax]
+        ahead = object.__new__(MotionModel)
+        ahead._ax = state
+        queue = self._queue
+        wanted = set(axes)
+        t = now
+        while any(state[i].motion is not None for i in axes) or \
+                any(wanted & set(c.axes) for c in queue):
+            t = min((a.motion.end for a in state if a.motion is not None), default=_INF)
+            if t == _INF:
+                return None
+            for a in state:
+                m = a.motion
+                if m is not None and m.end <= t:
+                    for k, i in enumerate(m.axes):
+                        state[i].pos, state[i].shift = m.final[k] + state[i].shift, 0
+                        state[i].motion = None
+            blocked: set[int] = set()
+            keep: list[_Cmd] = []
+            for cmd in queue:
+                if blocked & set(cmd.axes) or any(state[i].motion is not None for i in cmd.axes):
+                    blocked |= set(cmd.axes)
+                    keep.append(cmd)
+                    continue
+                started = cmd.build(ahead, t)
+                if started is None:
+                    continue
+                for k, i in enumerate(started.axes):
+                    if started.end <= t:
+                        state[i].pos = started.final[k]
+                    else:
+                        state[i].motion = started
+            queue = keep
         return t
 
     def next_event(self, now: float) -> float | None:
@@ -639,8 +728,14 @@ class MotionModel:
 
     def next_interrupt(self, now: float) -> float | None:
         """Time of the earliest interrupt request, pending or still to come if nothing
-        changes (None if none will come)."""
-        return self.io.next_interrupt(now)
+        changes (None if none will come). The interpreter asks before every slice of lines:
+        with interrupts off and none pending the answer is None (`AxisIO.next_interrupt`)."""
+        io = self.io
+        if not io.int_enabled and not io.requests:
+            if self._next_end <= now or now > io.now:  # (`settle`: it has work)
+                self.settle(now)
+            return None
+        return io.next_interrupt(now)
 
     def take_interrupts(self, until: float) -> list[tuple[float, int]]:
         """Remove and return, in time order, the (time, ISR number) requests due at or

@@ -8,6 +8,9 @@ stores. Each source is a (list, index) pair read the same way: a variable's list
 (`vars` / `bvars`, which the controller never replaces) or a one-element list holding a
 constant.
 
+END_IF and LABEL do nothing when they run: their line gets no handler at all (the
+interpreter counts its time and moves on, as after a handler that returned nothing).
+
 Only the shapes whose outcome cannot differ are prepared: a constant operator code the
 profile knows, a VarRef destination, operands that are variables or numbers, an IF whose
 jump target is known. Anything else (an unknown operator, an operand of another kind, a
@@ -19,6 +22,7 @@ from __future__ import annotations
 
 import operator
 from collections.abc import Callable
+from types import FunctionType
 from typing import TYPE_CHECKING, Any
 
 from mplang.ir.macro import BVarRef, Operand, VarRef
@@ -99,6 +103,11 @@ def _calculate(vc: VirtualController, ops: tuple[Operand, ...]) -> Handler | Non
             result = (lsrc[li] - rsrc[ri]) & _MASK
             values[dest] = result - _SPAN if result & _SIGN else result
         return sub
+    if combine is operator.mul:
+        def mul(_f: Frame, _o: tuple[Operand, ...]) -> None:
+            result = (lsrc[li] * rsrc[ri]) & _MASK
+            values[dest] = result - _SPAN if result & _SIGN else result
+        return mul
 
     def calculate(_f: Frame, _o: tuple[Operand, ...]) -> None:
         result = combine(lsrc[li], rsrc[ri]) & _MASK
@@ -131,10 +140,24 @@ def _if(vc: VirtualController, table: MacroTable, pc: int,
     return if_
 
 
+_NOTHING = (lambda _f, _o: None).__code__
+"""The code of a handler that does nothing (the controller's END_IF and LABEL)."""
+
+
+def _does_nothing(handler: Handler | None) -> bool:
+    """A plain function whose code only returns None: calling it has no effect."""
+    code = getattr(handler, "__code__", None)
+    return isinstance(handler, FunctionType) and code is not None and \
+        code.co_code == _NOTHING.co_code and code.co_consts == _NOTHING.co_consts
+
+
 def prepare(vc: VirtualController, table: MacroTable, pc: int, name: str,
             handler: Handler | None) -> Handler | None:
     """The handler line `pc` of `table` runs with: a prepared one for the hot lines whose
-    handler is still the controller's own, else `handler` as it is."""
+    handler is still the controller's own, none for a line that does nothing, else
+    `handler` as it is."""
+    if name in ("END_IF", "LABEL") and _does_nothing(handler):
+        return None  # (both are pure lines: the interpreter does nothing else after them)
     ops = table.lines[pc].operands
     if name == "SET_VAR" and handler == vc._set_var:
         return _set_var(vc, ops) or handler

@@ -163,7 +163,10 @@ interpreter run on after a motion command when no event can come of it. Tests sw
 to compare with planning everything afresh (tests/m8194h/sim/test_planning.py)."""
 
 _MEMO_LIMIT = 4096  # distinct (distance, plan) pairs kept; a program with more starts over
-_P2P: dict[tuple[float, _Plan], _Profile] = {}
+_P2P: dict[tuple[float, int], tuple[_Plan, _Profile]] = {}
+"""Profiles by distance and plan object (the plans of equal settings are one object,
+`_kept_plan`). An entry holds its plan, so no other object can have that plan's id while
+the entry is there: a hit is the very plan, found without hashing its seven fields."""
 
 
 def _point_to_point(dist: float, plan: _Plan) -> _Profile:
@@ -171,13 +174,13 @@ def _point_to_point(dist: float, plan: _Plan) -> _Profile:
     see `CHANGE_ONLY`: the caller must not alter it)."""
     if not CHANGE_ONLY:
         return _plan_point_to_point(dist, plan)
-    key = (dist, plan)
-    prof = _P2P.get(key)
-    if prof is None:
+    key = (dist, id(plan))
+    kept = _P2P.get(key)
+    if kept is None:
         if len(_P2P) >= _MEMO_LIMIT:
             _P2P.clear()
-        prof = _P2P[key] = _plan_point_to_point(dist, plan)
-    return prof
+        kept = _P2P[key] = (plan, _plan_point_to_point(dist, plan))
+    return kept[1]
 
 
 def _plan_point_to_point(dist: float, plan: _Plan) -> _Profile:

@@ -153,8 +153,10 @@ class _SyncActions(_Interrupts, ABC):
         return ended
 
     def _drive_end(self, i: int, t: float) -> None:
-        self._interrupt(i, INT_D_END, t)
-        self._sync(i, SYNC_D_END, t)
+        if self.int_enabled:  # (each asked for only where something can come of it)
+            self._interrupt(i, INT_D_END, t)
+        if self.cfg[i].sync_factors & SYNC_D_END:
+            self._sync(i, SYNC_D_END, t)
 
     def _sync(self, i: int, bit: int, t: float) -> None:
         cfg = self.cfg[i]

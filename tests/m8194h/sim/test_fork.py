@@ -7,13 +7,14 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+from collections.abc import Callable
 
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from mplang.m8194h.sim.builders import QueueFull
 from mplang.m8194h.sim.chains import _Chain
-from mplang.m8194h.sim.fork import FORKED, fork
+from mplang.m8194h.sim.fork import FORKED, _alone, fork
 from mplang.m8194h.sim.io_state import _AxisConfig, _AxisStatus
 from mplang.m8194h.sim.motion import MotionModel
 from mplang.m8194h.sim.scripted import InputChange, TimedChange, Watch
@@ -183,3 +184,109 @@ def test_fork_runs_a_machine_script_ahead_without_touching_the_original() -> Non
             model.io.inpos_forced) == (before.io.script_next, before.io.watch_above,
                                        before.io.di_changes, before.io.inpos_forced)
     assert _run_ahead(copy.deepcopy(model), 0.0) == _run_ahead(copy.deepcopy(before), 0.0)
+
+
+@settings(max_examples=60, deadline=None, derandomize=True)
+@given(program)
+def test_a_fork_sharing_settings_and_status_runs_ahead_as_a_deep_copy_does(
+        commands: list[tuple[int, int, int, float]]) -> None:
+    """On a machine without sensors or a home search most forks are `_alone`: they share the
+    axis settings and the I/O status with the original. Running ahead on such a fork must
+    still be what a deep copy does, and leave the shared records as they were."""
+    model = MotionModel(queue_capacity=8)
+    model.set_v(15, 20_000)
+    model.set_a(15, 200_000)
+    model.set_vv(20_000)
+    model.set_va(200_000)
+    now = 0.0
+    for kind, a, b, pause in commands:
+        now += pause
+        if kind != 7:  # no home search: it would make every later fork a full copy
+            _command(model, kind, a, b, now)
+        before = copy.deepcopy(model)
+        ahead = fork(model)
+        assert (ahead.settings is model.settings) == _alone(model.io)
+        assert _run_ahead(ahead, now) == _run_ahead(copy.deepcopy(model), now)
+        assert _settings(model) == _settings(before)
+        assert _run_ahead(copy.deepcopy(model), now) == _run_ahead(copy.deepcopy(before), now)
+        assert model.idle_at(15, now) == copy.deepcopy(before).idle_at(15, now)
+
+
+def test_a_fork_shares_only_where_running_ahead_cannot_change_the_shared_state() -> None:
+    """A move queued behind another on a plain machine: the prediction's fork shares the
+    settings and the I/O status. An interrupt factor, a synchronous action, an enabled ALARM
+    or an EMG input can change them while running ahead: then they are copied."""
+    model = MotionModel(queue_capacity=8)
+    model.fixed_move(X, 5_000, 0.0)
+    model.fixed_move(X, -5_000, 0.0)
+    assert _alone(model.io)
+    ahead = fork(model)
+    assert ahead.settings is model.settings and ahead.io.status is model.io.status
+    assert ahead._ax[0] is not model._ax[0] and ahead._queue is not model._queue
+    end = model.idle_at(X, 0.0)
+    assert end is not None and end > model._ax[0].motion.end  # type: ignore[union-attr]
+    changes: list[Callable[[MotionModel], None]] = [
+        lambda m: m.io.enable_int(0.0),
+        lambda m: m.io.sync_action(X, Y, 0x20, 0, 0, 4, 0, 0, (0, 0, 0, 0), 0.0),
+        lambda m: m.io.set_alarm(Y, 1, 1, 0.0),
+        lambda m: m.io.set_emg_input(True, 0.0)]
+    for change in changes:
+        other = copy.deepcopy(model)
+        change(other)
+        assert not _alone(other.io)
+        ahead = fork(other)
+        assert ahead.settings is not other.settings and ahead.io.status is not other.io.status
+
+
+def _fork_idle_at(model: MotionModel, axes: tuple[int, ...], now: float) -> float | None:
+    """When the axes are idle, as a fork running ahead says (what `idle_at` asks of one)."""
+    model.settle(now)
+    return model._forked_idle_at(axes, now)
+
+
+# moves, lines, arcs, continuous moves, stops, holds and starts close together: queues
+queued = st.lists(st.tuples(st.sampled_from([0, 0, 0, 1, 1, 2, 2, 5, 6, 9, 10]),
+                            st.integers(0, 40), st.integers(-30_000, 30_000),
+                            st.sampled_from([0.0, 0.0, 0.01, 0.05, 0.3])),
+                  min_size=1, max_size=14)
+
+
+@settings(max_examples=80, deadline=None, derandomize=True)
+@given(queued, st.sampled_from([X, Y, Z, U, X | Y, Z | U, 15]))
+def test_a_queue_drained_on_positions_alone_ends_when_a_fork_says(
+        commands: list[tuple[int, int, int, float]], mask: int) -> None:
+    """`MotionModel._drain` (STOP_WAIT's prediction where only motions end and queued
+    commands start) gives the time a fork running ahead gives, and changes nothing."""
+    model = MotionModel(queue_capacity=8)
+    model.set_v(15, 20_000)
+    model.set_a(15, 200_000)
+    model.set_vv(20_000)
+    model.set_va(200_000)
+    axes = tuple(i for i in range(4) if mask >> i & 1)
+    now = 0.0
+    for kind, a, b, pause in commands:
+        now += pause
+        if kind != 7:
+            _command(model, kind, a, b, now)
+        model.settle(now)
+        if not model._drains_alone():
+            continue  # (a synchronous action, say: `idle_at` asks a fork, as before)
+        expected = _fork_idle_at(copy.deepcopy(model), axes, now)
+        before = copy.deepcopy(model)
+        assert model.idle_at(mask, now) == expected
+        assert _run_ahead(copy.deepcopy(model), now) == _run_ahead(before, now)
+
+
+def test_a_queue_behind_a_line_is_drained_without_a_fork() -> None:
+    """The bench job's case: an arc queued behind a line on a plain machine. Its end is
+    worked out on the axes' positions (no fork), and is where the arc really ends."""
+    model = MotionModel(queue_capacity=8)
+    model.set_vv(20_000)
+    model.line((2_000, 1_000), 0.0)
+    model.arc((1_000, 0), (2_000, 0), True, 0.0)
+    assert model._queue and model._drains_alone()
+    end = model.idle_at(X, 0.0)
+    assert end is not None and end == _fork_idle_at(copy.deepcopy(model), (0,), 0.0)
+    model.settle(end)
+    assert model._ax[0].motion is None and not model._queue
+    assert (model.lp(X, end), model.lp(Y, end)) == (4_000, 1_000)

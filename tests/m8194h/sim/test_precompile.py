@@ -66,3 +66,33 @@ def test_the_hot_lines_of_a_loop_are_prepared() -> None:
     assert hot and not any(handler in generic for handler in hot)
     vc.call(156)
     assert vc.run().finished and vc.vars[1:3] == [9, 18]
+
+
+def test_lines_that_do_nothing_get_no_handler() -> None:
+    """END_IF and LABEL only cost their line time: they get no handler (the interpreter
+    counts them and moves on), and a program with them runs as before: the same lines, the
+    same time. A handler put in their place (as a test or a debugger might) is kept."""
+    source = ("MP 156\n  FOR 4\n    IF VAR1 < 2\n      VAR1 = VAR1 + 1\n    END IF\n"
+              "  NEXT\n  LABEL 3\n  VAR2 = VAR2 + 1\n  IF VAR2 < 3\n    GOTO 3\n  END IF\n"
+              "END MP\n")
+    build = compile_source(source)
+    assert build.ok
+    vc = VirtualController()
+    preload(vc, build)
+    table = vc.tables[("mp", 156)]
+    names = [line.command.short_name for line in table.lines]
+    assert {"END_IF", "LABEL"} <= set(names)
+    for (handler, _ops, _motion), name in zip(vc._compiled(table), names, strict=True):
+        assert (handler is None) == (name in ("END_IF", "LABEL")), name
+    vc.call(156)
+    done = vc.run()
+    assert done.finished and vc.vars[1:3] == [2, 3]
+
+    seen: list[int] = []
+    other = VirtualController()
+    other.handlers["END_IF"] = lambda frame, _ops: seen.append(frame.pc) or None
+    preload(other, build)
+    other.call(156)
+    again = other.run()
+    assert (again.steps, again.time_s, other.vars[1:3]) == (done.steps, done.time_s, [2, 3])
+    assert seen
