@@ -17,13 +17,17 @@ import pytest
 
 from mplang.record import FrozenRecord, FrozenRecordError, Record
 
-CONVERTED = ("mplang.ir.macro", "mplang.family.hostview", "mplang.family.registry",
-             "mplang.m8194h.image", "mplang.tools.project")
+CONVERTED = ("mplang.ir.macro", "mplang.ir.configure", "mplang.ir.scope", "mplang.ir.interrupts",
+             "mplang.ir.lower", "mplang.lang.sources", "mplang.lang.rules",
+             "mplang.family.hostview", "mplang.family.registry", "mplang.m8194h.image",
+             "mplang.m8194h.link", "mplang.tools.project", "mplang.cli.common",
+             "mplang.cli.families")
 """Modules that no longer define a dataclass: importing them creates none."""
 
 PARTLY = {"mplang.ir.catalogue": {"Profile", "Catalogue"},
           "mplang.family.face": {"ServeRequest"},
-          "mplang.family.run_error": {"SourcePlace"}}
+          "mplang.family.run_error": {"SourcePlace"},
+          "mplang.ir.unit": {"Options"}}
 """Modules whose named classes stay dataclasses (code elsewhere calls `dataclasses.replace`
 on them)."""
 
@@ -62,12 +66,12 @@ def test_the_converted_modules_define_no_dataclass() -> None:
 
 
 def test_every_record_is_checked() -> None:
-    assert len(RECORDS) >= 27
+    assert len(RECORDS) >= 42
 
 
 @pytest.mark.parametrize("cls", RECORDS, ids=_name)
 def test_fields_annotations_and_init_agree(cls: type[Record]) -> None:
-    annotated = tuple(name for name in cls.__annotations__ if not name.startswith("_"))
+    annotated = tuple(cls.__annotations__)
     parameters = tuple(inspect.signature(cls.__init__).parameters)[1:]
     assert cls._fields == annotated == parameters
     assert cls.__match_args__ == cls._fields  # type: ignore[attr-defined]
