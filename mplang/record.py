@@ -10,11 +10,13 @@ the rest is shared, and behaves as the dataclass did.
 
 from __future__ import annotations
 
+from dataclasses import FrozenInstanceError
 from typing import Any, ClassVar, NoReturn, Self
 
 
-class FrozenRecordError(AttributeError):
-    """A field of a frozen record was assigned or deleted (`dataclasses.FrozenInstanceError`)."""
+class FrozenRecordError(FrozenInstanceError):
+    """A field of a frozen record was assigned or deleted: what a frozen dataclass raises
+    (`dataclasses` is loaded anyway by the classes that stay dataclasses)."""
 
 
 class Record:
