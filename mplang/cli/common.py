@@ -9,7 +9,7 @@ import glob
 import os
 import sys
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from functools import wraps
 from pathlib import Path
 from typing import Any, Protocol, TypeVar
@@ -28,6 +28,7 @@ from mplang.lang.diagnostics import (
     Span,
     without_ignored,
 )
+from mplang.record import FrozenRecord
 from mplang.tools import project as project_module
 
 EXIT_OK = 0
@@ -512,16 +513,23 @@ machine_option = click.option(
     "positions, inputs over time; docs/machine.md) [default: the project's [machine]].")
 
 
-@dataclass(frozen=True)
-class BuildSetup:
+class BuildSetup(FrozenRecord):
     """What to compile and how: the command line merged over the project file."""
 
     paths: list[Path]
     options: Options
     werror: bool
     project: project_module.Project | None
-    target_given: bool = False  # --target on the command line, or the project file's
-    word_order_given: bool = False  # --word-order on the command line (M8194H only)
+    target_given: bool  # --target on the command line, or the project file's
+    word_order_given: bool  # --word-order on the command line (M8194H only)
+    _fields = __match_args__ = ("paths", "options", "werror", "project", "target_given",
+                                "word_order_given")
+
+    def __init__(self, paths: list[Path], options: Options, werror: bool,
+                 project: project_module.Project | None, target_given: bool = False,
+                 word_order_given: bool = False) -> None:
+        self.__dict__.update(paths=paths, options=options, werror=werror, project=project,
+                             target_given=target_given, word_order_given=word_order_given)
 
     def settings(self) -> tuple[object, ...]:
         """What this build takes from its project file: builds that agree in it can be
@@ -658,7 +666,7 @@ def build_setup(ctx: click.Context, files: tuple[str, ...], project_file: Path |
                 "these files are one build but belong to projects with different settings: "
                 f"{_shown_project(first)} and {_shown_project(other)}; build each project on "
                 "its own, or name one for all with --project FILE (or --isolated for none)")
-    return replace(first, paths=[p for setup in setups for p in setup.paths])
+    return first.replace(paths=[p for setup in setups for p in setup.paths])
 
 
 def _setup(ctx: click.Context, paths: list[Path], project: project_module.Project | None,

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import sys
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -25,6 +24,7 @@ from mplang.family.face import CommandError, Family, FamilyBuild, FamilyRun
 from mplang.family.registry import families, family_of_path, family_of_target
 from mplang.family.watch import Watch
 from mplang.ir.unit import Options
+from mplang.record import FrozenRecord
 from mplang.tools import project as project_module
 
 if TYPE_CHECKING:  # every family package has the face the CLI uses
@@ -59,8 +59,7 @@ def _names(paths: Sequence[Path], limit: int = 4) -> str:
     return shown + (f" and {len(paths) - limit} more" if len(paths) > limit else "")
 
 
-@dataclass(frozen=True)
-class Selection:
+class Selection(FrozenRecord):
     """The family of one build and how to build it: native listings checked with the
     family's `check_native` (`target` narrows it, or None), or `.mp` sources compiled with
     its `compile_mp` for `target`."""
@@ -69,6 +68,11 @@ class Selection:
     target: str | None
     native: bool
     paths: list[Path]
+    _fields = __match_args__ = ("family", "target", "native", "paths")
+
+    def __init__(self, family: Family, target: str | None, native: bool,
+                 paths: list[Path]) -> None:
+        self.__dict__.update(family=family, target=target, native=native, paths=paths)
 
     def build(self, options: Options, texts: dict[Path, str] | None = None) -> FamilyBuild:
         """The build; `texts` (by resolved path) stand for files (`mpc lint -`): only

@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 
 from mplang.ir.unit import Options
 from mplang.lang.diagnostics import Diagnostic, Span
+from mplang.record import FrozenRecord
 
 if TYPE_CHECKING:  # named in signatures only: a lint or a build does not load the run,
     # debug and host sides (imported by the commands that use them)
@@ -159,8 +160,7 @@ class FlashTarget(Protocol):
     def address(self) -> str: ...
 
 
-@dataclass(frozen=True)
-class FlashJob:
+class FlashJob(FrozenRecord):
     """What `mpc flash` asks of a family: the devices (all of this family), what to build
     for them, and how. `timeout` and `retries` are the command line's when it gave them
     (None: each device's own, then the project's `[flash]`, then the defaults)."""
@@ -181,15 +181,36 @@ class FlashJob:
     settings_retries: int | None
     settings_set_word_order: bool
     fleet: bool  # --fleet: every device at once, a table at the end
-    stop_running: bool = False  # stop a running program before writing (else: refuse)
-    identity: str | bool | None = None  # where the build manifest goes: a range, False
+    stop_running: bool  # stop a running program before writing (else: refuse)
+    identity: str | bool | None  # where the build manifest goes: a range, False
     # (never), None (the family's default)
-    identity_where: str | None = None  # "FILE:LINE: [flash] identity" when it came from there
-    wait_lease: float = 0.0  # --wait-lease: seconds to wait for another client's lease
+    identity_where: str | None  # "FILE:LINE: [flash] identity" when it came from there
+    wait_lease: float  # --wait-lease: seconds to wait for another client's lease
+    _fields = __match_args__ = ("devices", "paths", "options", "werror", "word_order_fixed",
+                                "dry_run", "as_json", "force", "set_word_order", "record",
+                                "timeout", "retries", "settings_timeout", "settings_retries",
+                                "settings_set_word_order", "fleet", "stop_running", "identity",
+                                "identity_where", "wait_lease")
+
+    def __init__(self, devices: Sequence[FlashTarget], paths: list[Path], options: Options,
+                 werror: bool, word_order_fixed: bool, dry_run: bool, as_json: bool,
+                 force: bool, set_word_order: bool, record: Path | None, timeout: float | None,
+                 retries: int | None, settings_timeout: float | None,
+                 settings_retries: int | None, settings_set_word_order: bool, fleet: bool,
+                 stop_running: bool = False, identity: str | bool | None = None,
+                 identity_where: str | None = None, wait_lease: float = 0.0) -> None:
+        self.__dict__.update(devices=devices, paths=paths, options=options, werror=werror,
+                             word_order_fixed=word_order_fixed, dry_run=dry_run,
+                             as_json=as_json, force=force, set_word_order=set_word_order,
+                             record=record, timeout=timeout, retries=retries,
+                             settings_timeout=settings_timeout,
+                             settings_retries=settings_retries,
+                             settings_set_word_order=settings_set_word_order, fleet=fleet,
+                             stop_running=stop_running, identity=identity,
+                             identity_where=identity_where, wait_lease=wait_lease)
 
 
-@dataclass(frozen=True)
-class StatusJob:
+class StatusJob(FrozenRecord):
     """What `mpc status` asks of a family: one device, and optionally what would be flashed
     into it (FILE..., an image, or the project's sources) to compare with."""
 
@@ -200,11 +221,25 @@ class StatusJob:
     as_json: bool
     timeout: float
     retries: int
-    identity: str | bool | None = None  # as FlashJob.identity
-    identity_where: str | None = None
-    fleet: bool = False  # --fleet: every device of `devices`, a table at the end
-    devices: Sequence[FlashTarget] = ()  # the fleet (`device` is its first)
-    jobs: int = 8  # devices read at once in a fleet
+    identity: str | bool | None  # as FlashJob.identity
+    identity_where: str | None
+    fleet: bool  # --fleet: every device of `devices`, a table at the end
+    devices: Sequence[FlashTarget]  # the fleet (`device` is its first)
+    jobs: int  # devices read at once in a fleet
+    _fields = __match_args__ = ("device", "paths", "options", "word_order_fixed", "as_json",
+                                "timeout", "retries", "identity", "identity_where", "fleet",
+                                "devices", "jobs")
+
+    def __init__(self, device: FlashTarget, paths: list[Path], options: Options,
+                 word_order_fixed: bool, as_json: bool, timeout: float, retries: int,
+                 identity: str | bool | None = None, identity_where: str | None = None,
+                 fleet: bool = False, devices: Sequence[FlashTarget] = (),
+                 jobs: int = 8) -> None:
+        self.__dict__.update(device=device, paths=paths, options=options,
+                             word_order_fixed=word_order_fixed, as_json=as_json,
+                             timeout=timeout, retries=retries, identity=identity,
+                             identity_where=identity_where, fleet=fleet, devices=devices,
+                             jobs=jobs)
 
 
 class DeviceUnreachable(Exception):
@@ -212,8 +247,7 @@ class DeviceUnreachable(Exception):
     the watcher shows it and tries again."""
 
 
-@dataclass(frozen=True)
-class WatchJob:
+class WatchJob(FrozenRecord):
     """What `mpc monitor` (and `mpc sim --monitor`) asks of a family: one device to watch
     live, and the build it holds if the sources are known (for declared names and source
     lines)."""
@@ -222,6 +256,11 @@ class WatchJob:
     build: FamilyBuild | None
     timeout: float
     retries: int
+    _fields = __match_args__ = ("device", "build", "timeout", "retries")
+
+    def __init__(self, device: FlashTarget, build: FamilyBuild | None, timeout: float,
+                 retries: int) -> None:
+        self.__dict__.update(device=device, build=build, timeout=timeout, retries=retries)
 
 
 class LiveDevice(Protocol):

@@ -12,8 +12,9 @@ from __future__ import annotations
 
 import math
 import re
-from dataclasses import dataclass, field
 from typing import Any
+
+from mplang.record import FrozenRecord, Record
 
 VIEW_FORMAT = "mplang-host/1"
 TYPE_RANGES = {"int32": (-2**31, 2**31 - 1), "uint8": (0, 255), "uint16": (0, 0xFFFF)}
@@ -102,8 +103,7 @@ class UnknownName(HostError, KeyError):
         return str(self.args[0])
 
 
-@dataclass(frozen=True)
-class HostLine:
+class HostLine(FrozenRecord):
     """Where a device line of a program came from: `first`..`first + cost - 1` (0-based
     device lines) were compiled from `file:line:column`."""
 
@@ -112,30 +112,42 @@ class HostLine:
     file: str
     line: int
     column: int
+    _fields = __match_args__ = ("first", "cost", "file", "line", "column")
+
+    def __init__(self, first: int, cost: int, file: str, line: int, column: int) -> None:
+        self.__dict__.update(first=first, cost=cost, file=file, line=line, column=column)
 
 
-@dataclass(frozen=True)
-class HostProgram:
+class HostProgram(FrozenRecord):
     """A program as the host calls it: `register` takes `number` (FC16) to start it."""
 
     name: str
     kind: str  # "mp" or "isr"
     slot: int
     source: str  # file:line
-    register: int | None = None  # None: the host cannot start it (an ISR)
-    function: str = ""
-    writes: tuple[str, ...] = ()  # the declared variables it (or what it calls) writes
-    lines: tuple[HostLine, ...] = ()
-    end: tuple[str, int, int] | None = None  # its END line: where it returns
-    device: str = ""  # the device's own name for it where it is no `MPn` (a CSIM's `$LABEL`)
+    register: int | None  # None: the host cannot start it (an ISR)
+    function: str
+    writes: tuple[str, ...]  # the declared variables it (or what it calls) writes
+    lines: tuple[HostLine, ...]
+    end: tuple[str, int, int] | None  # its END line: where it returns
+    device: str  # the device's own name for it where it is no `MPn` (a CSIM's `$LABEL`)
+    _fields = __match_args__ = ("name", "kind", "slot", "source", "register", "function",
+                                "writes", "lines", "end", "device")
+
+    def __init__(self, name: str, kind: str, slot: int, source: str,
+                 register: int | None = None, function: str = "", writes: tuple[str, ...] = (),
+                 lines: tuple[HostLine, ...] = (), end: tuple[str, int, int] | None = None,
+                 device: str = "") -> None:
+        self.__dict__.update(name=name, kind=kind, slot=slot, source=source, register=register,
+                             function=function, writes=writes, lines=lines, end=end,
+                             device=device)
 
     @property
     def device_name(self) -> str:
         return self.device or f"{self.kind.upper()}{self.slot}"
 
 
-@dataclass(frozen=True)
-class HostVariable:
+class HostVariable(FrozenRecord):
     """A declared variable as the host reads and writes it: `words` registers from
     `register` (0-based, `function` names the Modbus functions), in `word_order`."""
 
@@ -150,6 +162,15 @@ class HostVariable:
     word_order: str  # "msw-first", "lsw-first", "" for one register
     access: str  # "read-write"
     source: str
+    _fields = __match_args__ = ("name", "kind", "device_name", "index", "register", "function",
+                                "words", "type", "word_order", "access", "source")
+
+    def __init__(self, name: str, kind: str, device_name: str, index: int, register: int,
+                 function: str, words: int, type: str, word_order: str, access: str,
+                 source: str) -> None:
+        self.__dict__.update(name=name, kind=kind, device_name=device_name, index=index,
+                             register=register, function=function, words=words, type=type,
+                             word_order=word_order, access=access, source=source)
 
     def check(self, value: HostValue) -> HostValue:
         """`value` if the variable's type holds it, else BadValue naming the range: a real
@@ -171,26 +192,44 @@ class HostVariable:
         return value
 
 
-@dataclass(frozen=True)
-class HostConst:
+class HostConst(FrozenRecord):
     name: str
     value: int
     source: str
+    _fields = __match_args__ = ("name", "value", "source")
+
+    def __init__(self, name: str, value: int, source: str) -> None:
+        self.__dict__.update(name=name, value=value, source=source)
 
 
-@dataclass
-class HostView:
+class HostView(Record):
     """Everything `mpc export` writes, and what `mpc call` / `mpc var` / `mplang.host` work
     from."""
 
     family: str
     build_id: str
     word_order: int
-    programs: list[HostProgram] = field(default_factory=list)
-    variables: list[HostVariable] = field(default_factory=list)
-    consts: list[HostConst] = field(default_factory=list)
-    protocol: str = "modbus"  # how a host reaches it: "modbus", or "rs232-ascii" (a CSIM)
-    listing: list[str] = field(default_factory=list)  # a CSIM: the program lines it holds
+    programs: list[HostProgram]
+    variables: list[HostVariable]
+    consts: list[HostConst]
+    protocol: str  # how a host reaches it: "modbus", or "rs232-ascii" (a CSIM)
+    listing: list[str]  # a CSIM: the program lines it holds
+    _fields = __match_args__ = ("family", "build_id", "word_order", "programs", "variables",
+                                "consts", "protocol", "listing")
+
+    def __init__(self, family: str, build_id: str, word_order: int,
+                 programs: list[HostProgram] | None = None,
+                 variables: list[HostVariable] | None = None,
+                 consts: list[HostConst] | None = None, protocol: str = "modbus",
+                 listing: list[str] | None = None) -> None:
+        self.family = family
+        self.build_id = build_id
+        self.word_order = word_order
+        self.programs = [] if programs is None else programs
+        self.variables = [] if variables is None else variables
+        self.consts = [] if consts is None else consts
+        self.protocol = protocol
+        self.listing = [] if listing is None else listing
 
     def program(self, name: str) -> HostProgram:
         """A program by declared name, `MPn` or `n`, or by its device name (a CSIM's

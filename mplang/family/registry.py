@@ -10,23 +10,29 @@ new package that satisfies `mplang.family.face.Family` and one line in `FAMILIES
 from __future__ import annotations
 
 import importlib
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, cast
+
+from mplang.record import FrozenRecord
 
 if TYPE_CHECKING:
     from mplang.family.face import Family
 
 
-@dataclass(frozen=True)
-class Registered:
+class Registered(FrozenRecord):
     """One family: its package, its `--target` names (the first is its default) with what
     each means in words, and the suffixes of its own listings."""
 
     package: str
     targets: tuple[str, ...]
-    suffixes: tuple[str, ...] = ()
-    target_titles: dict[str, str] = field(default_factory=dict)
+    suffixes: tuple[str, ...]
+    target_titles: dict[str, str]
+    _fields = __match_args__ = ("package", "targets", "suffixes", "target_titles")
+
+    def __init__(self, package: str, targets: tuple[str, ...], suffixes: tuple[str, ...] = (),
+                 target_titles: dict[str, str] | None = None) -> None:
+        self.__dict__.update(package=package, targets=targets, suffixes=suffixes,
+                             target_titles={} if target_titles is None else target_titles)
 
     def load(self) -> Family:
         return cast("Family", importlib.import_module(self.package))

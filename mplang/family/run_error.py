@@ -7,9 +7,10 @@ The `--json` shape is the same for every family; what a family does not know is 
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 from mplang.lang.runtime_rules import RUNTIME_RULES
+from mplang.record import FrozenRecord
 
 
 @dataclass(frozen=True)
@@ -32,18 +33,28 @@ class SourcePlace:
                 "program": self.program or None, "via": self.via}
 
 
-@dataclass(frozen=True)
-class RunError:
+class RunError(FrozenRecord):
     """Why a run failed (`code` from `mplang.lang.runtime_rules`), where, and when."""
 
     code: str
     message: str
-    where: SourcePlace = field(default_factory=lambda: SourcePlace(None))
-    slot: str | None = None  # the device's program: `MP131`, a FATEK table, a CSIM program
-    slot_line: int | None = None  # the device's own line (0-based slot line, step, line)
-    time_ms: float = 0.0
-    called_from: tuple[SourcePlace, ...] = ()  # innermost caller first
-    line_unit: str = "slot line"  # what `slot_line` counts: FATEK "step", CSIM "line"
+    where: SourcePlace
+    slot: str | None  # the device's program: `MP131`, a FATEK table, a CSIM program
+    slot_line: int | None  # the device's own line (0-based slot line, step, line)
+    time_ms: float
+    called_from: tuple[SourcePlace, ...]  # innermost caller first
+    line_unit: str  # what `slot_line` counts: FATEK "step", CSIM "line"
+    _fields = __match_args__ = ("code", "message", "where", "slot", "slot_line", "time_ms",
+                                "called_from", "line_unit")
+
+    def __init__(self, code: str, message: str, where: SourcePlace | None = None,
+                 slot: str | None = None, slot_line: int | None = None, time_ms: float = 0.0,
+                 called_from: tuple[SourcePlace, ...] = (),
+                 line_unit: str = "slot line") -> None:
+        self.__dict__.update(code=code, message=message,
+                             where=SourcePlace(None) if where is None else where, slot=slot,
+                             slot_line=slot_line, time_ms=time_ms, called_from=called_from,
+                             line_unit=line_unit)
 
     @property
     def severity(self) -> str:

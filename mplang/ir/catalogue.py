@@ -8,34 +8,44 @@ from __future__ import annotations
 
 import re
 import tomllib
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from functools import cache, cached_property
 from importlib import resources
 from typing import Any
 
 from mplang.lang import caches
+from mplang.record import FrozenRecord
 
 WIRE_BY_TYPE = {"BYTE": 1, "WORD": 1, "short": 1, "DWORD": 2, "long": 2, "float": 2}
 VENDOR_PREFIXES = ("RSM_", "ETM_")
 
 
-@dataclass(frozen=True)
-class Param:
+class Param(FrozenRecord):
     name: str
     type: str
     wire: int
     kind: str
-    var: bool = False
-    min: int | float | None = None
-    max: int | float | None = None
-    values: tuple[int, ...] = ()
-    symbols: dict[str, int] = field(default_factory=dict)
-    encoding: str | None = None
-    doc: str = ""
+    var: bool
+    min: int | float | None
+    max: int | float | None
+    values: tuple[int, ...]
+    symbols: dict[str, int]
+    encoding: str | None
+    doc: str
+    _fields = __match_args__ = ("name", "type", "wire", "kind", "var", "min", "max", "values",
+                                "symbols", "encoding", "doc")
+
+    def __init__(self, name: str, type: str, wire: int, kind: str, var: bool = False,
+                 min: int | float | None = None, max: int | float | None = None,
+                 values: tuple[int, ...] = (), symbols: dict[str, int] | None = None,
+                 encoding: str | None = None, doc: str = "") -> None:
+        self.__dict__.update(name=name, type=type, wire=wire, kind=kind, var=var, min=min,
+                             max=max, values=values,
+                             symbols={} if symbols is None else symbols, encoding=encoding,
+                             doc=doc)
 
 
-@dataclass(frozen=True)
-class Command:
+class Command(FrozenRecord):
     name: str  # RS vendor name, e.g. RSM_MACRO_FIXED_MOVE
     section: str
     code: int | None
@@ -45,9 +55,20 @@ class Command:
     returns: bool
     targets: frozenset[str]
     params: tuple[Param, ...]
-    summary: str = ""
-    lines: dict[str, int] = field(default_factory=dict)
-    choice: str = ""
+    summary: str
+    lines: dict[str, int]
+    choice: str
+    _fields = __match_args__ = ("name", "section", "code", "registers", "scope", "line_cost",
+                                "returns", "targets", "params", "summary", "lines", "choice")
+
+    def __init__(self, name: str, section: str, code: int | None, registers: int | None,
+                 scope: frozenset[str], line_cost: int, returns: bool, targets: frozenset[str],
+                 params: tuple[Param, ...], summary: str = "",
+                 lines: dict[str, int] | None = None, choice: str = "") -> None:
+        self.__dict__.update(name=name, section=section, code=code, registers=registers,
+                             scope=scope, line_cost=line_cost, returns=returns,
+                             targets=targets, params=params, summary=summary,
+                             lines={} if lines is None else lines, choice=choice)
 
     @cached_property
     def is_macro(self) -> bool:
@@ -73,12 +94,15 @@ def short_name(vendor: str) -> str:
     return name.replace("_MACRO_", "_", 1)
 
 
-@dataclass(frozen=True)
-class SlotRange:
+class SlotRange(FrozenRecord):
     kind: str  # "mp" or "isr"
     first: int
     last: int
     lines: int
+    _fields = __match_args__ = ("kind", "first", "last", "lines")
+
+    def __init__(self, kind: str, first: int, last: int, lines: int) -> None:
+        self.__dict__.update(kind=kind, first=first, last=last, lines=lines)
 
 
 @dataclass(frozen=True)

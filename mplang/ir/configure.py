@@ -11,7 +11,6 @@ download format for it (chapter 10), only the register that enables it (5.4).
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass, field
 from typing import Any
 
 from mplang.ir.catalogue import Catalogue, Command, Param
@@ -22,6 +21,7 @@ from mplang.ir.macro import LoweredProgram, MacroLine, Operand, ProgramRef
 from mplang.ir.scope import PROGRAM_RE, Scope, did_you_mean
 from mplang.lang import ast
 from mplang.lang.diagnostics import DiagnosticSink, Span
+from mplang.record import Record
 
 DI_RE = re.compile(r"DI\s*(\d+)\.(\d+)", re.IGNORECASE)
 SLMT_CLEARING = ("CLEAR_SLMT", "SET_COMPARE")  # SET_COMPARE disables the limits (RS 7666)
@@ -132,13 +132,20 @@ def slmt_enabled_axes(init: LoweredProgram | None) -> dict[int, int]:
 
 
 # ------------------------------------------------------------------------- interrupts
-@dataclass
-class InterruptWiring:
+class InterruptWiring(Record):
     """Every INTERRUPTS block of a build, checked and ready to inject."""
 
-    by_program: dict[int, list[Wire]] = field(default_factory=dict)  # id(LoweredProgram)
-    enable_spans: dict[int, Span] = field(default_factory=dict)
-    all_wires: list[Wire] = field(default_factory=list)
+    by_program: dict[int, list[Wire]]  # id(LoweredProgram)
+    enable_spans: dict[int, Span]
+    all_wires: list[Wire]
+    _fields = __match_args__ = ("by_program", "enable_spans", "all_wires")
+
+    def __init__(self, by_program: dict[int, list[Wire]] | None = None,
+                 enable_spans: dict[int, Span] | None = None,
+                 all_wires: list[Wire] | None = None) -> None:
+        self.by_program = {} if by_program is None else by_program
+        self.enable_spans = {} if enable_spans is None else enable_spans
+        self.all_wires = [] if all_wires is None else all_wires
 
 
 def _setup_program(block: ast.InterruptsBlock, lowered: list[LoweredProgram],
@@ -226,8 +233,7 @@ def wire_interrupts(blocks: list[ast.InterruptsBlock], lowered: list[LoweredProg
 
 
 # ---------------------------------------------------------------------- trigger table
-@dataclass
-class Trigger:
+class Trigger(Record):
     group: int
     channel: int
     condition: str  # source word: OFF, ON, ON_TO_OFF, OFF_TO_ON, CHANGE
@@ -235,6 +241,17 @@ class Trigger:
     mp: ProgramRef | None
     axes: int | None
     span: Span
+    _fields = __match_args__ = ("group", "channel", "condition", "event", "mp", "axes", "span")
+
+    def __init__(self, group: int, channel: int, condition: str, event: str,
+                 mp: ProgramRef | None, axes: int | None, span: Span) -> None:
+        self.group = group
+        self.channel = channel
+        self.condition = condition
+        self.event = event
+        self.mp = mp
+        self.axes = axes
+        self.span = span
 
     def to_json(self, slot: int | None) -> dict[str, Any]:
         entry: dict[str, Any] = {"group": self.group, "channel": self.channel,
@@ -248,11 +265,16 @@ class Trigger:
         return entry
 
 
-@dataclass
-class TriggerTable:
+class TriggerTable(Record):
     entries: list[Trigger]
     source: str
     span: Span
+    _fields = __match_args__ = ("entries", "source", "span")
+
+    def __init__(self, entries: list[Trigger], source: str, span: Span) -> None:
+        self.entries = entries
+        self.source = source
+        self.span = span
 
 
 def _trigger(node: ast.OnStmt, catalogue: Catalogue, sink: DiagnosticSink,

@@ -7,23 +7,28 @@ statement inside a program (`lower`), so they sit below both.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 from mplang.ir.catalogue import Catalogue
 from mplang.ir.macro import MacroLine, Operand, ProgramRef
 from mplang.ir.scope import PROGRAM_RE, did_you_mean
 from mplang.lang import ast
 from mplang.lang.diagnostics import DiagnosticSink, Span
+from mplang.record import Record
 
 
-@dataclass
-class Wire:
+class Wire(Record):
     """One axis and factor wired to an ISR."""
 
     axis: int  # one axis bit
     factor: int
     isr: Operand  # slot number or ProgramRef(name) of an ISR
     span: Span
+    _fields = __match_args__ = ("axis", "factor", "isr", "span")
+
+    def __init__(self, axis: int, factor: int, isr: Operand, span: Span) -> None:
+        self.axis = axis
+        self.factor = factor
+        self.isr = isr
+        self.span = span
 
 
 def factor_number(catalogue: Catalogue, node: ast.OnStmt, sink: DiagnosticSink) -> int | None:

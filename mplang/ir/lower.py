@@ -14,7 +14,6 @@ re-exported (`__all__`).
 from __future__ import annotations
 
 from collections.abc import Iterator
-from dataclasses import dataclass
 
 from mplang.ir.fold import apply_operator, wrap32
 from mplang.ir.interrupts import wire_lines, wires
@@ -34,6 +33,7 @@ from mplang.ir.scope import (
 )
 from mplang.lang import ast
 from mplang.lang.diagnostics import Span
+from mplang.record import Record
 
 __all__ = [
     "BVAR_RE",
@@ -55,10 +55,14 @@ __all__ = [
 CONTROL_COMMANDS = {"SET_VAR", "VAR_CALCULATE"}
 
 
-@dataclass
-class _Block:
+class _Block(Record):
     kind: str  # "for" | "if" | "while" (lowered to an IF)
-    emitted: bool = True  # its opening line was emitted (False after a reported error)
+    emitted: bool  # its opening line was emitted (False after a reported error)
+    _fields = __match_args__ = ("kind", "emitted")
+
+    def __init__(self, kind: str, emitted: bool = True) -> None:
+        self.kind = kind
+        self.emitted = emitted
 
 
 class ProgramLowerer(OperandLowerer):

@@ -1,61 +1,96 @@
-"""The small IR between the front end and the encoder: macro lines with resolved operands."""
+"""The small IR between the front end and the encoder: macro lines with resolved operands.
+
+Its classes are written out on `mplang.record` bases rather than made by `@dataclass`: every
+command imports this module (see that module for why)."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
 from mplang.ir.catalogue import Command
 from mplang.lang.diagnostics import Span
+from mplang.record import FrozenRecord, Record
 
 
-@dataclass(frozen=True)
-class VarRef:
+class VarRef(FrozenRecord):
     """Device variable VARn (sent as 0x7FFF0000 + n)."""
 
     index: int
+    _fields = __match_args__ = ("index",)
+
+    def __init__(self, index: int) -> None:
+        self.__dict__["index"] = index
 
 
-@dataclass(frozen=True)
-class BVarRef:
+class BVarRef(FrozenRecord):
     """Byte variable bVARn (sent as 0x80 + n)."""
 
     index: int
+    _fields = __match_args__ = ("index",)
+
+    def __init__(self, index: int) -> None:
+        self.__dict__["index"] = index
 
 
-@dataclass(frozen=True)
-class ProgramRef:
+class ProgramRef(FrozenRecord):
     """An MP named by slot or by name; the slot is known after linking."""
 
-    name: str | None = None
-    slot: int | None = None
+    name: str | None
+    slot: int | None
+    _fields = __match_args__ = ("name", "slot")
+
+    def __init__(self, name: str | None = None, slot: int | None = None) -> None:
+        fields = self.__dict__
+        fields["name"] = name
+        fields["slot"] = slot
 
 
 Operand = int | float | VarRef | BVarRef | ProgramRef
 
 
-@dataclass
-class MacroLine:
+class MacroLine(Record):
     command: Command
     operands: tuple[Operand, ...]
     span: Span
+    _fields = __match_args__ = ("command", "operands", "span")
+
+    def __init__(self, command: Command, operands: tuple[Operand, ...], span: Span) -> None:
+        self.command = command
+        self.operands = operands
+        self.span = span
 
 
-@dataclass
-class CallSite:
+class CallSite(Record):
     target: ProgramRef
     span: Span
+    _fields = __match_args__ = ("target", "span")
+
+    def __init__(self, target: ProgramRef, span: Span) -> None:
+        self.target = target
+        self.span = span
 
 
-@dataclass
-class LoweredProgram:
+class LoweredProgram(Record):
     kind: str  # "mp" | "isr"
     slot: int | None  # as written; the linker fills unnumbered ones
     name: str | None
     source: str
     span: Span
     end_span: Span
-    lines: list[MacroLine] = field(default_factory=list)
-    calls: list[CallSite] = field(default_factory=list)
+    lines: list[MacroLine]
+    calls: list[CallSite]
+    _fields = __match_args__ = ("kind", "slot", "name", "source", "span", "end_span", "lines",
+                                "calls")
+
+    def __init__(self, kind: str, slot: int | None, name: str | None, source: str, span: Span,
+                 end_span: Span, lines: list[MacroLine] | None = None,
+                 calls: list[CallSite] | None = None) -> None:
+        self.kind = kind
+        self.slot = slot
+        self.name = name
+        self.source = source
+        self.span = span
+        self.end_span = end_span
+        self.lines = [] if lines is None else lines
+        self.calls = [] if calls is None else calls
 
     def lines_used(self, close_counts: bool) -> int:
         return sum(line.command.line_cost for line in self.lines) + (1 if close_counts else 0)

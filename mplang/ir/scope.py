@@ -9,13 +9,13 @@ the share of the temporary pool an MP or an ISR computes in.
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass, field
 
 from mplang.ir.catalogue import Catalogue
 from mplang.ir.fold import apply_operator, walk_expr, wrap32
 from mplang.lang import ast
 from mplang.lang.diagnostics import DiagnosticSink, Span
 from mplang.lang.limits import MAX_EXPRESSION_DEPTH, expression_depth
+from mplang.record import FrozenRecord, Record
 
 VAR_RE = re.compile(r"VAR(\d+)", re.IGNORECASE)
 BVAR_RE = re.compile(r"BVAR(\d+)", re.IGNORECASE)
@@ -43,35 +43,66 @@ DEFAULT_VAR_POOL = range(400, 500)
 MAX_CONST_NESTING = 4 * MAX_EXPRESSION_DEPTH
 
 
-@dataclass(frozen=True)
-class Variable:
+class Variable(FrozenRecord):
     """A `VAR name` declaration as placed: the host finds it at holding register 300 + 2n."""
 
     name: str
     index: int
     pinned: bool
     span: Span
+    _fields = __match_args__ = ("name", "index", "pinned", "span")
+
+    def __init__(self, name: str, index: int, pinned: bool, span: Span) -> None:
+        self.__dict__.update(name=name, index=index, pinned=pinned, span=span)
 
 
-@dataclass
-class Scope:
+class Scope(Record):
     """Build-wide names: constants (evaluated lazily, cycles reported), aliases, and the
     declared variables (`VAR name [@ VARn]`), which become aliases once placed."""
 
     catalogue: Catalogue
     sink: DiagnosticSink
-    var_pool: range = DEFAULT_VAR_POOL
-    temps: range = range(0)
-    const_exprs: dict[str, ast.Const] = field(default_factory=dict)
-    const_values: dict[str, int | None] = field(default_factory=dict)
-    aliases: dict[str, int] = field(default_factory=dict)
-    alias_spans: dict[str, Span] = field(default_factory=dict)
-    variables: list[Variable] = field(default_factory=list)
-    alias_names: list[Variable] = field(default_factory=list)  # ALIASes, as written
-    declared_indices: set[int] = field(default_factory=set)
-    _evaluating: set[str] = field(default_factory=set)
-    _nesting: int = 0  # expression levels of the CONSTs being evaluated, one inside another
-    _wrapped: set[tuple[str, int, int]] = field(default_factory=set)  # W110 said here
+    var_pool: range
+    temps: range
+    const_exprs: dict[str, ast.Const]
+    const_values: dict[str, int | None]
+    aliases: dict[str, int]
+    alias_spans: dict[str, Span]
+    variables: list[Variable]
+    alias_names: list[Variable]  # ALIASes, as written
+    declared_indices: set[int]
+    _evaluating: set[str]
+    _nesting: int  # expression levels of the CONSTs being evaluated, one inside another
+    _wrapped: set[tuple[str, int, int]]  # W110 said here
+    _fields = __match_args__ = ("catalogue", "sink", "var_pool", "temps", "const_exprs",
+                                "const_values", "aliases", "alias_spans", "variables",
+                                "alias_names", "declared_indices", "_evaluating", "_nesting",
+                                "_wrapped")
+
+    def __init__(self, catalogue: Catalogue, sink: DiagnosticSink,
+                 var_pool: range = DEFAULT_VAR_POOL, temps: range = range(0),
+                 const_exprs: dict[str, ast.Const] | None = None,
+                 const_values: dict[str, int | None] | None = None,
+                 aliases: dict[str, int] | None = None,
+                 alias_spans: dict[str, Span] | None = None,
+                 variables: list[Variable] | None = None,
+                 alias_names: list[Variable] | None = None,
+                 declared_indices: set[int] | None = None, _evaluating: set[str] | None = None,
+                 _nesting: int = 0, _wrapped: set[tuple[str, int, int]] | None = None) -> None:
+        self.catalogue = catalogue
+        self.sink = sink
+        self.var_pool = var_pool
+        self.temps = temps
+        self.const_exprs = {} if const_exprs is None else const_exprs
+        self.const_values = {} if const_values is None else const_values
+        self.aliases = {} if aliases is None else aliases
+        self.alias_spans = {} if alias_spans is None else alias_spans
+        self.variables = [] if variables is None else variables
+        self.alias_names = [] if alias_names is None else alias_names
+        self.declared_indices = set() if declared_indices is None else declared_indices
+        self._evaluating = set() if _evaluating is None else _evaluating
+        self._nesting = _nesting
+        self._wrapped = set() if _wrapped is None else _wrapped
 
     @classmethod
     def declared(cls, unit: ast.Unit, catalogue: Catalogue, sink: DiagnosticSink,

@@ -23,18 +23,22 @@ from mplang.ir.macro import LoweredProgram
 from mplang.ir.reuse import Lowerings, lowering_context
 from mplang.lang import ast
 from mplang.lang.diagnostics import DiagnosticSink, Span
+from mplang.record import FrozenRecord, Record
 
 DEFAULT_TEMPS = range(500, 512)
 
 
-@dataclass(frozen=True)
-class SlotPin:
+class SlotPin(FrozenRecord):
     """`name = "MP3"` in a project's `[slots]` table; `span` is that line of mpc.toml."""
 
     name: str
     kind: str
     slot: int
     span: Span
+    _fields = __match_args__ = ("name", "kind", "slot", "span")
+
+    def __init__(self, name: str, kind: str, slot: int, span: Span) -> None:
+        self.__dict__.update(name=name, kind=kind, slot=slot, span=span)
 
 
 @dataclass(frozen=True)
@@ -68,8 +72,7 @@ def configuration_blocks(unit: ast.Unit) -> list[tuple[str, Span]]:
     return sorted(blocks, key=lambda item: (item[1].file, item[1].line))
 
 
-@dataclass
-class LoweredUnit:
+class LoweredUnit(Record):
     """A build lowered up to the linker: programs (interrupt wiring injected), the INIT
     block, the wiring and the trigger table."""
 
@@ -77,6 +80,14 @@ class LoweredUnit:
     init: LoweredProgram | None
     wiring: InterruptWiring
     triggers: TriggerTable | None
+    _fields = __match_args__ = ("programs", "init", "wiring", "triggers")
+
+    def __init__(self, programs: list[LoweredProgram], init: LoweredProgram | None,
+                 wiring: InterruptWiring, triggers: TriggerTable | None) -> None:
+        self.programs = programs
+        self.init = init
+        self.wiring = wiring
+        self.triggers = triggers
 
 
 def lower_unit(unit: ast.Unit, scope: Scope, sink: DiagnosticSink, options: Options,

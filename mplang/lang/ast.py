@@ -1,43 +1,16 @@
 """Typed syntax tree of `.mp` sources. Every node keeps the span it came from.
 
 The nodes are what `@dataclass` would make of them, written out: an `__init__` per class
-and value equality and repr shared through `_Record`. Every command imports this module,
-and creating its forty classes as dataclasses (each method generated as source text and
-compiled) was a fifth of what creating dataclasses costs a lint, on every start.
+and value equality, repr and `replace` shared through `mplang.record.Record`. Every command
+imports this module, and creating its forty classes as dataclasses (each method generated as
+source text and compiled) was a fifth of what creating dataclasses costs a lint, on every
+start.
 """
 
 from __future__ import annotations
 
-from typing import Any, ClassVar, Self
-
 from mplang.lang.diagnostics import Span
-
-
-class _Record:
-    """As a dataclass with `eq=True` behaves: equal when of the same class with equal
-    fields (compared as tuples, in `_fields` order), unhashable, shown as `Name(a=..)`."""
-
-    _fields: ClassVar[tuple[str, ...]] = ()
-    __hash__ = None  # type: ignore[assignment]  # compared by value and mutable
-
-    def __eq__(self, other: object) -> bool:
-        if other.__class__ is not self.__class__:
-            return NotImplemented
-        names = self._fields
-        return tuple(getattr(self, n) for n in names) == tuple(getattr(other, n) for n in names)
-
-    def __repr__(self) -> str:
-        shown = ", ".join(f"{name}={getattr(self, name)!r}" for name in self._fields)
-        return f"{type(self).__qualname__}({shown})"
-
-    def replace(self, **changes: Any) -> Self:
-        """A copy with `changes` (`dataclasses.replace`)."""
-        values = {name: getattr(self, name) for name in self._fields}
-        unknown = set(changes) - set(values)
-        if unknown:
-            raise TypeError(f"{type(self).__name__} has no field {sorted(unknown)[0]!r}")
-        values.update(changes)
-        return type(self)(**values)
+from mplang.record import Record as _Record
 
 # ---------------------------------------------------------------- expressions
 

@@ -13,20 +13,53 @@ from dataclasses import dataclass, field
 
 from mplang.lang.rules import RULES
 from mplang.lang.severity import Severity as Severity
+from mplang.record import FrozenRecord
 
 # `# mpc: ignore[W107]` (or `# mpc: ignore` for every warning) on a line silences warnings
 # reported on that line. Errors cannot be silenced: the device would reject the program.
 SUPPRESS = re.compile(r"mpc:\s*ignore(?:\[([A-Za-z0-9,\s]+)\])?")
 
 
-@dataclass(frozen=True, order=True)
-class Span:
-    """A place in a source file: 1-based line and column, end column exclusive."""
+class Span(FrozenRecord):
+    """A place in a source file: 1-based line and column, end column exclusive. Frozen,
+    hashable and ordered by its fields as `@dataclass(frozen=True, order=True)` made it,
+    written out (see `mplang.record`); compared and hashed by an explicit tuple, as the
+    front end keys caches by it."""
 
     file: str
     line: int
-    col: int = 1
-    end_col: int | None = None
+    col: int
+    end_col: int | None
+    _fields = __match_args__ = ("file", "line", "col", "end_col")
+
+    def __init__(self, file: str, line: int, col: int = 1, end_col: int | None = None) -> None:
+        self.__dict__.update(file=file, line=line, col=col, end_col=end_col)
+
+    def _key(self) -> tuple[str, int, int, int | None]:
+        return (self.file, self.line, self.col, self.end_col)
+
+    # Compared with a Span only (no subclass exists); ordered as the dataclass was, so two
+    # spans on one column, one with and one without an end column, do not order.
+    def __eq__(self, other: object) -> bool:
+        if isinstance(other, Span):  # spelt out: spans are compared and hashed wherever trees are
+            return (self.file == other.file and self.line == other.line and self.col == other.col
+                    and self.end_col == other.end_col)
+        return NotImplemented
+
+    def __hash__(self) -> int:  # type: ignore[override]  # Record's is None
+        return hash((self.file, self.line, self.col, self.end_col))
+
+    def __lt__(self, other: object) -> bool:
+        return self._key() < other._key() if isinstance(other, Span) else NotImplemented
+
+    def __le__(self, other: object) -> bool:
+        return self._key() <= other._key() if isinstance(other, Span) else NotImplemented
+
+    def __gt__(self, other: object) -> bool:
+        return self._key() > other._key() if isinstance(other, Span) else NotImplemented
+
+    def __ge__(self, other: object) -> bool:
+        return self._key() >= other._key() if isinstance(other, Span) else NotImplemented
 
     def __str__(self) -> str:
         return f"{self.file}:{self.line}:{self.col}"
@@ -36,9 +69,8 @@ _new = object.__new__
 
 
 def make_span(file: str, line: int, col: int = 1, end_col: int | None = None) -> Span:
-    """`Span(file, line, col, end_col)`, without the frozen dataclass's `__init__` (one
-    `object.__setattr__` per field): the parser makes one per token, the statement cache
-    one per moved span."""
+    """`Span(file, line, col, end_col)`, filled in without a call to `__init__`: the parser
+    makes one per token, the statement cache one per moved span."""
     made: Span = _new(Span)
     fields = made.__dict__
     fields["file"] = file

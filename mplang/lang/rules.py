@@ -7,23 +7,27 @@ controller's own download error or illegal-function cause the rule prevents, if 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 from mplang.lang.severity import Severity
+from mplang.record import FrozenRecord
 
 E = Severity.ERROR
 W = Severity.WARNING
 
 
-@dataclass(frozen=True)
-class Rule:
+class Rule(FrozenRecord):
     code: str
     name: str
     severity: Severity
     summary: str
     why: str
     fix: str
-    device: str = ""
+    device: str
+    _fields = __match_args__ = ("code", "name", "severity", "summary", "why", "fix", "device")
+
+    def __init__(self, code: str, name: str, severity: Severity, summary: str, why: str,
+                 fix: str, device: str = "") -> None:
+        self.__dict__.update(code=code, name=name, severity=severity, summary=summary, why=why,
+                             fix=fix, device=device)
 
 
 _RULES = [

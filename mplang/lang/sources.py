@@ -17,7 +17,6 @@ import errno
 import os
 import stat
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from importlib import resources
 from importlib.resources.abc import Traversable
 from pathlib import Path
@@ -25,14 +24,22 @@ from pathlib import Path
 from mplang.lang import ast, frontcache
 from mplang.lang.diagnostics import DiagnosticSink, Span
 from mplang.lang.linecache import StatementCache
+from mplang.record import Record
 
 
-@dataclass
-class SourceFile:
+class SourceFile(Record):
     path: Path
     display: str  # how the file is named in diagnostics and the image
     text: str
-    statements: list[ast.Statement] = field(default_factory=list)
+    statements: list[ast.Statement]
+    _fields = __match_args__ = ("path", "display", "text", "statements")
+
+    def __init__(self, path: Path, display: str, text: str,
+                 statements: list[ast.Statement] | None = None) -> None:
+        self.path = path
+        self.display = display
+        self.text = text
+        self.statements = [] if statements is None else statements
 
 
 LIBRARY_PREFIX = "std:"
@@ -103,11 +110,14 @@ def _display(path: Path) -> str:
         return str(path)
 
 
-@dataclass
-class SourceSet:
+class SourceSet(Record):
     """All files of one build in the order their declarations join it."""
 
-    files: list[SourceFile] = field(default_factory=list)
+    files: list[SourceFile]
+    _fields = __match_args__ = ("files",)
+
+    def __init__(self, files: list[SourceFile] | None = None) -> None:
+        self.files = [] if files is None else files
 
 
 def load_sources(paths: list[Path], sink: DiagnosticSink, *,

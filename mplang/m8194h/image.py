@@ -10,7 +10,6 @@ from __future__ import annotations
 import hashlib
 import json
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from json import dumps
 from typing import Any
 
@@ -19,6 +18,7 @@ from mplang.ir.lower import Variable
 from mplang.ir.macro import LoweredProgram, MacroLine
 from mplang.lang.diagnostics import Diagnostic, Severity, Span
 from mplang.m8194h.link import Placement
+from mplang.record import Record
 
 IMAGE_FORMAT = "mplang-image/1"
 FORMATS = ("json", "listing", "hex", "map", "vars", "vars-h", "vars-py", "triggers")
@@ -26,22 +26,35 @@ FORMATS = ("json", "listing", "hex", "map", "vars", "vars-h", "vars-py", "trigge
 DEFAULT_FORMAT = "json"
 
 
-@dataclass
-class LineFrames:
+class LineFrames(Record):
     """One macro line as downloaded: where it came from and where it sits in the slot."""
 
     line: MacroLine
     first_slot_line: int  # 0-based, as the device's wLineNo counts
     frame: list[int]
+    _fields = __match_args__ = ("line", "first_slot_line", "frame")
+
+    def __init__(self, line: MacroLine, first_slot_line: int, frame: list[int]) -> None:
+        self.line = line
+        self.first_slot_line = first_slot_line
+        self.frame = frame
 
 
-@dataclass
-class ProgramImage:
+class ProgramImage(Record):
     placement: Placement
     create: list[int]
     lines: list[LineFrames]
     close: list[int]
     close_span: Span
+    _fields = __match_args__ = ("placement", "create", "lines", "close", "close_span")
+
+    def __init__(self, placement: Placement, create: list[int], lines: list[LineFrames],
+                 close: list[int], close_span: Span) -> None:
+        self.placement = placement
+        self.create = create
+        self.lines = lines
+        self.close = close
+        self.close_span = close_span
 
     @property
     def program(self) -> LoweredProgram:
@@ -68,13 +81,17 @@ class ProgramImage:
         }
 
 
-@dataclass
-class InitImage:
+class InitImage(Record):
     """The INIT block as downloaded: real-time frames (INITIAL_* axis codes), LOAD_INITIAL
     last. Not a macro program: no slot, no budget."""
 
     program: LoweredProgram
     frames: list[list[int]]
+    _fields = __match_args__ = ("program", "frames")
+
+    def __init__(self, program: LoweredProgram, frames: list[list[int]]) -> None:
+        self.program = program
+        self.frames = frames
 
     def to_json(self) -> dict[str, object]:
         return {"source": self.program.source, "line": self.program.span.line,
@@ -82,32 +99,58 @@ class InitImage:
                 "frames": self.frames}
 
 
-@dataclass
-class TriggerImage:
+class TriggerImage(Record):
     """The stand-alone trigger table with program slots resolved (chapter 10)."""
 
     source: str
     line: int
     entries: list[dict[str, object]]
-    enabled: bool = True
+    enabled: bool
+    _fields = __match_args__ = ("source", "line", "entries", "enabled")
+
+    def __init__(self, source: str, line: int, entries: list[dict[str, object]],
+                 enabled: bool = True) -> None:
+        self.source = source
+        self.line = line
+        self.entries = entries
+        self.enabled = enabled
 
     def to_json(self) -> dict[str, object]:
         return {"enabled": self.enabled, "source": self.source, "line": self.line,
                 "entries": self.entries}
 
 
-@dataclass
-class BuildResult:
+class BuildResult(Record):
     diagnostics: list[Diagnostic]
-    programs: list[ProgramImage] = field(default_factory=list)
-    word_order: int = 0
-    target: str = "et"
-    sources: dict[str, list[str]] = field(default_factory=dict)  # display name -> lines
-    variables: list[Variable] = field(default_factory=list)  # `VAR name` declarations
-    aliases: list[Variable] = field(default_factory=list)  # `ALIAS name = VARn`, for run results
-    init: InitImage | None = None  # the INIT block
-    triggers: TriggerImage | None = None  # the TRIGGERS table
-    first_source: str | None = None  # display name of the first file given (`mpc run`'s default)
+    programs: list[ProgramImage]
+    word_order: int
+    target: str
+    sources: dict[str, list[str]]  # display name -> lines
+    variables: list[Variable]  # `VAR name` declarations
+    aliases: list[Variable]  # `ALIAS name = VARn`, for run results
+    init: InitImage | None  # the INIT block
+    triggers: TriggerImage | None  # the TRIGGERS table
+    first_source: str | None  # display name of the first file given (`mpc run`'s default)
+    _fields = __match_args__ = ("diagnostics", "programs", "word_order", "target", "sources",
+                                "variables", "aliases", "init", "triggers", "first_source")
+
+    def __init__(self, diagnostics: list[Diagnostic],
+                 programs: list[ProgramImage] | None = None, word_order: int = 0,
+                 target: str = "et", sources: dict[str, list[str]] | None = None,
+                 variables: list[Variable] | None = None,
+                 aliases: list[Variable] | None = None, init: InitImage | None = None,
+                 triggers: TriggerImage | None = None,
+                 first_source: str | None = None) -> None:
+        self.diagnostics = diagnostics
+        self.programs = [] if programs is None else programs
+        self.word_order = word_order
+        self.target = target
+        self.sources = {} if sources is None else sources
+        self.variables = [] if variables is None else variables
+        self.aliases = [] if aliases is None else aliases
+        self.init = init
+        self.triggers = triggers
+        self.first_source = first_source
 
     @property
     def ok(self) -> bool:

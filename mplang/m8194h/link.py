@@ -10,21 +10,29 @@ number), so the same sources always give the same placement.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
 
 from mplang.ir.catalogue import Profile
 from mplang.ir.macro import CallSite, LoweredProgram, ProgramRef
 from mplang.ir.unit import SlotPin
 from mplang.lang.diagnostics import DiagnosticSink
+from mplang.record import Record
 
 
-@dataclass
-class Placement:
+class Placement(Record):
     program: LoweredProgram
     slot: int
     lines_used: int
     budget: int
     auto: bool
+    _fields = __match_args__ = ("program", "slot", "lines_used", "budget", "auto")
+
+    def __init__(self, program: LoweredProgram, slot: int, lines_used: int, budget: int,
+                 auto: bool) -> None:
+        self.program = program
+        self.slot = slot
+        self.lines_used = lines_used
+        self.budget = budget
+        self.auto = auto
 
 
 def _range_text(profile: Profile, kind: str, lines: int) -> str:

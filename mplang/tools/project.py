@@ -15,7 +15,6 @@ import errno
 import os
 import re
 from collections.abc import Mapping
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -24,6 +23,7 @@ from mplang.ir.unit import SlotPin
 from mplang.lang.diagnostics import Span
 from mplang.lang.tomlfile import TomlFileError, TomlLines, read_toml
 from mplang.lang.userdirs import cache_home, state_home
+from mplang.record import FrozenRecord
 
 PROJECT_FILE = "mpc.toml"
 DEFAULT_RECORD = ".mpc/flash-record.json"
@@ -47,25 +47,38 @@ class ProjectError(ValueError):
     """A project or fleet file that cannot be used; the message starts with file:line."""
 
 
-@dataclass(frozen=True)
-class Target:
+class Target(FrozenRecord):
     """One device to flash: `[targets.NAME]`. Exactly one of `tcp` / `serial`."""
 
     name: str
-    host: str | None = None
-    port: int = 502
-    serial: str | None = None
-    unit: int = 1
-    baud: int = 115200
-    parity: str = "N"
-    stopbits: int = 1
-    timeout: float | None = None  # None: the command line's or [flash]'s
-    retries: int | None = None
-    sources: tuple[Path, ...] = ()  # this device's own program set, if not the project's
-    image: Path | None = None
-    word_order: int | None = None
-    span: Span | None = None
-    target: str | None = None  # the device's controller, if the table names it
+    host: str | None
+    port: int
+    serial: str | None
+    unit: int
+    baud: int
+    parity: str
+    stopbits: int
+    timeout: float | None  # None: the command line's or [flash]'s
+    retries: int | None
+    sources: tuple[Path, ...]  # this device's own program set, if not the project's
+    image: Path | None
+    word_order: int | None
+    span: Span | None
+    target: str | None  # the device's controller, if the table names it
+    _fields = __match_args__ = ("name", "host", "port", "serial", "unit", "baud", "parity",
+                                "stopbits", "timeout", "retries", "sources", "image",
+                                "word_order", "span", "target")
+
+    def __init__(self, name: str, host: str | None = None, port: int = 502,
+                 serial: str | None = None, unit: int = 1, baud: int = 115200,
+                 parity: str = "N", stopbits: int = 1, timeout: float | None = None,
+                 retries: int | None = None, sources: tuple[Path, ...] = (),
+                 image: Path | None = None, word_order: int | None = None,
+                 span: Span | None = None, target: str | None = None) -> None:
+        self.__dict__.update(name=name, host=host, port=port, serial=serial, unit=unit,
+                             baud=baud, parity=parity, stopbits=stopbits, timeout=timeout,
+                             retries=retries, sources=sources, image=image,
+                             word_order=word_order, span=span, target=target)
 
     def address(self) -> str:
         """Where the device is, as the incremental record keys it."""
@@ -74,21 +87,29 @@ class Target:
         return f"rtu://{self.serial}/{self.unit}"
 
 
-@dataclass(frozen=True)
-class FlashSettings:
+class FlashSettings(FrozenRecord):
     record: Path
-    timeout: float | None = None
-    retries: int | None = None
-    set_word_order: bool = False
-    identity: str | bool | None = None
+    timeout: float | None
+    retries: int | None
+    set_word_order: bool
+    identity: str | bool | None
     """The machine-data range of the build manifest ("MD960-MD1023"), False for none, None
     for the family's default; the family checks the range itself."""
-    identity_where: str = ""  # "FILE:LINE: [flash] identity" for messages about it
-    record_refusal: str | None = None
+    identity_where: str  # "FILE:LINE: [flash] identity" for messages about it
+    record_refusal: str | None
     """Why `record` may not be written ("FILE:LINE: [flash] record: ..."), None if it may.
     Only a command that writes the record refuses over it (`mpc flash`, `writable_record`):
     lint and build never touch it, so a `.mpc` folder leading out of the project is none
     of their business."""
+    _fields = __match_args__ = ("record", "timeout", "retries", "set_word_order", "identity",
+                                "identity_where", "record_refusal")
+
+    def __init__(self, record: Path, timeout: float | None = None, retries: int | None = None,
+                 set_word_order: bool = False, identity: str | bool | None = None,
+                 identity_where: str = "", record_refusal: str | None = None) -> None:
+        self.__dict__.update(record=record, timeout=timeout, retries=retries,
+                             set_word_order=set_word_order, identity=identity,
+                             identity_where=identity_where, record_refusal=record_refusal)
 
     def writable_record(self) -> Path:
         """The record, if mpc may write it on the project file's word; else ProjectError."""
@@ -97,26 +118,43 @@ class FlashSettings:
         return self.record
 
 
-@dataclass(frozen=True)
-class Project:
+class Project(FrozenRecord):
     path: Path  # the mpc.toml file
-    sources: tuple[Path, ...] = ()
-    target: str | None = None  # "et" / "rs", or a family target (known_targets())
-    word_order: int | None = None
-    temp_vars: range | None = None
-    var_pool: range | None = None
-    allow_outside_includes: bool | None = None
-    werror: bool | None = None
-    pins: tuple[SlotPin, ...] = ()
-    targets: dict[str, Target] = field(default_factory=dict)
-    flash: FlashSettings = field(default_factory=lambda: FlashSettings(Path(DEFAULT_RECORD)))
-    fmt: Mapping[str, Any] = field(default_factory=dict)
-    ignore: frozenset[str] = frozenset()
+    sources: tuple[Path, ...]
+    target: str | None  # "et" / "rs", or a family target (known_targets())
+    word_order: int | None
+    temp_vars: range | None
+    var_pool: range | None
+    allow_outside_includes: bool | None
+    werror: bool | None
+    pins: tuple[SlotPin, ...]
+    targets: dict[str, Target]
+    flash: FlashSettings
+    fmt: Mapping[str, Any]
+    ignore: frozenset[str]
     """`[lint] ignore`: warning codes silenced in every file of the project, as a
     `# mpc: ignore[CODE]` on each line would."""
-    machine: bool = False  # the file has a [machine] table (read by the family)
+    machine: bool  # the file has a [machine] table (read by the family)
 
-    sources_line: int = 1  # the line of [project] sources, for messages about them
+    sources_line: int  # the line of [project] sources, for messages about them
+    _fields = __match_args__ = ("path", "sources", "target", "word_order", "temp_vars",
+                                "var_pool", "allow_outside_includes", "werror", "pins",
+                                "targets", "flash", "fmt", "ignore", "machine", "sources_line")
+
+    def __init__(self, path: Path, sources: tuple[Path, ...] = (), target: str | None = None,
+                 word_order: int | None = None, temp_vars: range | None = None,
+                 var_pool: range | None = None, allow_outside_includes: bool | None = None,
+                 werror: bool | None = None, pins: tuple[SlotPin, ...] = (),
+                 targets: dict[str, Target] | None = None, flash: FlashSettings | None = None,
+                 fmt: Mapping[str, Any] | None = None, ignore: frozenset[str] = frozenset(),
+                 machine: bool = False, sources_line: int = 1) -> None:
+        self.__dict__.update(path=path, sources=sources, target=target, word_order=word_order,
+                             temp_vars=temp_vars, var_pool=var_pool,
+                             allow_outside_includes=allow_outside_includes, werror=werror,
+                             pins=pins, targets={} if targets is None else targets,
+                             flash=FlashSettings(Path(DEFAULT_RECORD)) if flash is None else flash,
+                             fmt={} if fmt is None else fmt, ignore=ignore, machine=machine,
+                             sources_line=sources_line)
 
     @property
     def root(self) -> Path:
