@@ -48,6 +48,7 @@ class _Shift:
 
     def __init__(self, file: str, first: int, last: int, offset: int) -> None:
         self.file, self.first, self.last, self.offset = file, first, last, offset
+        self.pairs: list[tuple[Diagnostic, Diagnostic]] = []  # (shifted, kept)
 
     def span(self, span: Span) -> Span:
         if span.file != self.file or not self.first <= span.line <= self.last:
@@ -58,8 +59,10 @@ class _Shift:
         texts = [item.message, item.hint, *(note for _, note in item.related)]
         if any(_NAMES_A_LINE.search(text) for text in texts):
             raise _Unmovable
-        return Diagnostic(item.code, item.severity, item.message, self.span(item.span),
+        made = Diagnostic(item.code, item.severity, item.message, self.span(item.span),
                           item.hint, tuple((self.span(s), note) for s, note in item.related))
+        self.pairs.append((made, item))
+        return made
 
     def derived(self, value: object) -> object:
         """A derived value as the moved program has it: a list of diagnostics is shifted;
@@ -91,10 +94,13 @@ class Lowered:
         self.derived[kind] = (key, made)
         return made
 
-    def moved(self, program: ast.Program, offset: int) -> Lowered | None:
+    def moved(self, program: ast.Program, offset: int,
+              shifted: dict[int, tuple[Diagnostic, Diagnostic, int]] | None = None
+              ) -> Lowered | None:
         """This lowering as `program`, the same program `offset` lines further down (up,
         below zero), has it: every kept span shifted. None when something kept does not
-        move with the program (a line number in a text, a place outside it)."""
+        move with the program (a line number in a text, a place outside it). `shifted`
+        receives each shifted diagnostic by id: (it, the kept one, the offset)."""
         old = self.program
         shift = _Shift(old.span.file, old.span.line, old.end_span.line, offset)
         try:
@@ -106,11 +112,15 @@ class Lowered:
                     [MacroLine(line.command, line.operands, shift.span(line.span))
                      for line in result.lines],
                     [CallSite(call.target, shift.span(call.span)) for call in result.calls])
-            return Lowered(program, result, [shift.diagnostic(d) for d in self.diagnostics],
+            made = Lowered(program, result, [shift.diagnostic(d) for d in self.diagnostics],
                            {kind: (key, shift.derived(value))
                             for kind, (key, value) in self.derived.items()})
         except _Unmovable:
             return None
+        if shifted is not None:
+            for new, kept in shift.pairs:
+                shifted[id(new)] = (new, kept, offset)
+        return made
 
     def copy(self) -> LoweredProgram | None:
         """The lowered program for one build: later passes add lines (interrupt wiring) and
@@ -145,6 +155,9 @@ class Lowerings:
         self._now: dict[Span, Lowered] = {}
         self._before: dict[Span, Lowered] = {}
         self.origin: dict[int, Lowered] = {}  # id of this build's copy -> its entry
+        # this build's diagnostics shifted from a kept one: id -> (it, the kept one, offset),
+        # so that an editor moves what it made of the kept one (`tools.lsp.analysis`)
+        self.shifted: dict[int, tuple[Diagnostic, Diagnostic, int]] = {}
 
     def start(self, context: Context) -> None:
         """A build begins: lowerings made under another context are dropped."""
@@ -153,6 +166,7 @@ class Lowerings:
             self._now.clear()
             self.context = context
         self.origin = {}
+        self.shifted = {}
 
     def lower(self, program: ast.Program, scope: Scope, sink: DiagnosticSink,
               lower: Callable[[], LoweredProgram | None]) -> LoweredProgram | None:
@@ -185,7 +199,7 @@ class Lowerings:
         for table in (self._before, self._now):
             kept = table.get(old.span)
             if kept is not None and kept.program is old:
-                return kept.moved(program, offset)
+                return kept.moved(program, offset, self.shifted)
         return None
 
     def entry(self, program: LoweredProgram) -> Lowered | None:
