@@ -200,6 +200,10 @@ class Analysis:
     # line's text then, and where it was placed (the next analysis takes what still holds)
     placed: dict[int, tuple[Diagnostic, str, EditorDiagnostic]] = field(
         default_factory=dict, repr=False, compare=False)
+    # Placements moved from the last analysis's (a program that only moved), by id: the
+    # placement, the one it was moved from and by how many lines (the server moves the JSON)
+    moved: dict[int, tuple[EditorDiagnostic, EditorDiagnostic, int]] = field(
+        default_factory=dict, repr=False, compare=False)
 
     @property
     def variables_used(self) -> set[int]:
@@ -596,6 +600,7 @@ def _reuse_placed(analysis: Analysis, diagnostic: Diagnostic,
             return None  # placed on another line than its own (never, as placed now)
         kept = (diagnostic, kept[1], replace(placed, range=line_range(
             span.line - 1, start.character, end.character)))
+        analysis.moved[id(kept[2])] = (kept[2], placed, offset)
     analysis.placed[id(diagnostic)] = kept
     return kept[2]
 
