@@ -12,7 +12,11 @@ the later passes do the same per program:
   declared variables as placed, the names and kinds of the build's programs, the options
   and the catalogue. A change of the context drops every lowering;
 - what a back end derives from one lowered program alone (the M8194H's W111 warnings and
-  frames) is kept beside it (`Lowered.derived_for`), for the last key (what else it read).
+  frames) is kept beside it (`Lowered.derived_for`), for the last key (what else it read);
+- a program that only moved (lines inserted or deleted above it: `BlockMemo.moved`) takes
+  what it kept with every line shifted (`Lowered.moved`): its macro lines' origins, its
+  diagnostics and derived diagnostics. Unless one of them names a line in its text
+  ("unreachable: line 12 ...") or a place outside the program: it is then lowered again.
 
 Declarations, variable placement, interrupt wiring, triggers and linking are whole-build
 passes and run every time: they are cheap, and linking must see every program.
@@ -20,14 +24,53 @@ passes and run every time: they are cheap, and linking must see every program.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable, Hashable
 from dataclasses import dataclass, field
 
-from mplang.ir.macro import LoweredProgram
+from mplang.ir.macro import CallSite, LoweredProgram, MacroLine
 from mplang.ir.scope import Scope
 from mplang.lang import ast
-from mplang.lang.diagnostics import Diagnostic, DiagnosticSink, Span
+from mplang.lang.diagnostics import Diagnostic, DiagnosticSink, Span, make_span
 from mplang.lang.structure import BlockMemo
+
+_NAMES_A_LINE = re.compile(r"\blines? \d|:\d")
+"""A line number in a diagnostic's text ("of line 12", "first at a.mp:12"): such a text
+is not shifted with its span, so its program is lowered again when it moves."""
+
+
+class _Unmovable(Exception):
+    """A kept lowering holds a place that does not move with its program."""
+
+
+class _Shift:
+    """Spans of one file's lines `first`..`last` moved by `offset` lines."""
+
+    def __init__(self, file: str, first: int, last: int, offset: int) -> None:
+        self.file, self.first, self.last, self.offset = file, first, last, offset
+        self.pairs: list[tuple[Diagnostic, Diagnostic]] = []  # (shifted, kept)
+
+    def span(self, span: Span) -> Span:
+        if span.file != self.file or not self.first <= span.line <= self.last:
+            raise _Unmovable
+        return make_span(span.file, span.line + self.offset, span.col, span.end_col)
+
+    def diagnostic(self, item: Diagnostic) -> Diagnostic:
+        texts = [item.message, item.hint, *(note for _, note in item.related)]
+        if any(_NAMES_A_LINE.search(text) for text in texts):
+            raise _Unmovable
+        made = Diagnostic(item.code, item.severity, item.message, self.span(item.span),
+                          item.hint, tuple((self.span(s), note) for s, note in item.related))
+        self.pairs.append((made, item))
+        return made
+
+    def derived(self, value: object) -> object:
+        """A derived value as the moved program has it: a list of diagnostics is shifted;
+        anything else holds no line (frames, the programs a program names)."""
+        if isinstance(value, list) and value and all(isinstance(d, Diagnostic)
+                                                     for d in value):
+            return [self.diagnostic(d) for d in value]
+        return value
 
 
 @dataclass
@@ -49,6 +92,34 @@ class Lowered:
             return kept[1]
         made = make()
         self.derived[kind] = (key, made)
+        return made
+
+    def moved(self, program: ast.Program, offset: int,
+              shifted: dict[int, tuple[Diagnostic, Diagnostic, int]] | None = None
+              ) -> Lowered | None:
+        """This lowering as `program`, the same program `offset` lines further down (up,
+        below zero), has it: every kept span shifted. None when something kept does not
+        move with the program (a line number in a text, a place outside it). `shifted`
+        receives each shifted diagnostic by id: (it, the kept one, the offset)."""
+        old = self.program
+        shift = _Shift(old.span.file, old.span.line, old.end_span.line, offset)
+        try:
+            result = self.result
+            if result is not None:
+                result = LoweredProgram(
+                    result.kind, result.slot, result.name, result.source,
+                    shift.span(result.span), shift.span(result.end_span),
+                    [MacroLine(line.command, line.operands, shift.span(line.span))
+                     for line in result.lines],
+                    [CallSite(call.target, shift.span(call.span)) for call in result.calls])
+            made = Lowered(program, result, [shift.diagnostic(d) for d in self.diagnostics],
+                           {kind: (key, shift.derived(value))
+                            for kind, (key, value) in self.derived.items()})
+        except _Unmovable:
+            return None
+        if shifted is not None:
+            for new, kept in shift.pairs:
+                shifted[id(new)] = (new, kept, offset)
         return made
 
     def copy(self) -> LoweredProgram | None:
@@ -78,11 +149,15 @@ def lowering_context(scope: Scope, names: dict[str, ast.Program], temps: range,
 class Lowerings:
     """Programs lowered in the last build, by the span of their header."""
 
-    def __init__(self) -> None:
+    def __init__(self, blocks: BlockMemo | None = None) -> None:
+        self.blocks = blocks  # tells the programs that only moved
         self.context: Context | None = None
         self._now: dict[Span, Lowered] = {}
         self._before: dict[Span, Lowered] = {}
         self.origin: dict[int, Lowered] = {}  # id of this build's copy -> its entry
+        # this build's diagnostics shifted from a kept one: id -> (it, the kept one, offset),
+        # so that an editor moves what it made of the kept one (`tools.lsp.analysis`)
+        self.shifted: dict[int, tuple[Diagnostic, Diagnostic, int]] = {}
 
     def start(self, context: Context) -> None:
         """A build begins: lowerings made under another context are dropped."""
@@ -91,6 +166,7 @@ class Lowerings:
             self._now.clear()
             self.context = context
         self.origin = {}
+        self.shifted = {}
 
     def lower(self, program: ast.Program, scope: Scope, sink: DiagnosticSink,
               lower: Callable[[], LoweredProgram | None]) -> LoweredProgram | None:
@@ -98,6 +174,8 @@ class Lowerings:
         diagnostics caught on their way to `sink` and kept with it."""
         kept = self._now.get(program.span) or self._before.get(program.span)
         if kept is None or not (kept.program is program or kept.program == program):
+            kept = self._moved(program)
+        if kept is None:
             own = DiagnosticSink()
             shared, scope.sink = scope.sink, own
             try:
@@ -111,6 +189,18 @@ class Lowerings:
         if copy is not None:
             self.origin[id(copy)] = kept
         return copy
+
+    def _moved(self, program: ast.Program) -> Lowered | None:
+        """The kept lowering of the program `program` was before it moved, shifted."""
+        found = self.blocks.moved.get(id(program)) if self.blocks is not None else None
+        if found is None or found[0] is not program:
+            return None
+        _, old, offset = found
+        for table in (self._before, self._now):
+            kept = table.get(old.span)
+            if kept is not None and kept.program is old:
+                return kept.moved(program, offset, self.shifted)
+        return None
 
     def entry(self, program: LoweredProgram) -> Lowered | None:
         """The kept entry a lowered program of this build was copied from."""
@@ -128,3 +218,7 @@ class BuildMemo:
 
     blocks: BlockMemo = field(default_factory=BlockMemo)
     lowerings: Lowerings = field(default_factory=Lowerings)
+
+    def __post_init__(self) -> None:
+        if self.lowerings.blocks is None:
+            self.lowerings.blocks = self.blocks

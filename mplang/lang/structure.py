@@ -8,6 +8,7 @@ that one run lists all of them. The raw command spellings of block commands (`EN
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 
 from mplang.lang import ast
@@ -22,6 +23,7 @@ BLOCK_WORD = {"mp": "END MP", "isr": "END ISR", "for": "NEXT", "if": "END IF",
 CONFIG_KINDS = ("init", "interrupts", "triggers")
 CONFIG_HEADERS = (ast.InitHeader, ast.InterruptsHeader, ast.TriggersHeader)
 STRAY_CLOSE = {"for": "E304", "if": "E308", "while": "E315", "repeat": "E315"}
+_LONE_CR = re.compile(r"\r(?!\n)")
 
 
 @dataclass
@@ -93,6 +95,7 @@ class _Built:
     statements: list[ast.Statement]
     program: ast.Program
     diagnostics: list[Diagnostic]
+    texts: list[str] = field(default_factory=list)  # its lines' texts, header to END
 
 
 class BlockMemo:
@@ -103,11 +106,21 @@ class BlockMemo:
     Only a program that starts at the top level and is closed by its own END is kept: its
     matching then depends on its statements alone. The same objects also tell the later
     passes (`mplang.ir.reuse`) what an edit left alone. Entries no build used last time are
-    dropped, so the memo holds about one build's programs."""
+    dropped, so the memo holds about one build's programs.
+
+    A program that only moved (lines inserted or deleted above it) is matched again, from
+    the statements the parse moved, and `moved` names the program it was last time and
+    by how many lines it moved: its lines' texts, header to END, are those of a kept
+    program, so its statements are the same but for their lines (a line's statements are
+    a function of its text: `lang.linecache`). The later passes shift what they kept."""
 
     def __init__(self) -> None:
         self._now: dict[Span, _Built] = {}
         self._before: dict[Span, _Built] = {}
+        self._texts_now: dict[tuple[str, str], _Built] = {}  # by file and header text
+        self._texts_before: dict[tuple[str, str], _Built] = {}
+        # this build's programs that only moved: id -> (the program, as kept, by lines)
+        self.moved: dict[int, tuple[ast.Program, ast.Program, int]] = {}
 
     def find(self, statements: list[ast.Statement], index: int) -> _Built | None:
         """The kept program whose header is `statements[index]`, if the statements that
@@ -120,14 +133,41 @@ class BlockMemo:
         if statements[index:index + count] != kept.statements:  # identity first, then value
             return None
         self._now[span] = kept
+        if kept.texts:
+            self._texts_now[(span.file, kept.texts[0])] = kept
         return kept
 
-    def keep(self, built: _Built) -> None:
-        self._now[built.statements[0].span] = built
+    def find_moved(self, file: str, texts: list[str], line: int) -> _Built | None:
+        """The kept program of `file` that stood elsewhere and whose lines' texts are those
+        from `line` (its header, 1-based) on."""
+        key = (file, texts[line - 1])
+        kept = self._texts_now.get(key) or self._texts_before.get(key)
+        if kept is None or not kept.texts or kept.statements[0].span.line == line or \
+                texts[line - 1:line - 1 + len(kept.texts)] != kept.texts:
+            return None
+        return kept
+
+    def keep(self, built: _Built, origin: _Built | None = None) -> None:
+        """Keep a program matched in this build; `origin`, the kept program whose lines it
+        has at another place (`find_moved`), is recorded in `moved` when the matching took
+        the same lines and statements (it does: a guard, not a choice)."""
+        header = built.statements[0].span
+        self._now[header] = built
+        if built.texts:
+            self._texts_now[(header.file, built.texts[0])] = built
+        if origin is not None and len(origin.statements) == len(built.statements) and \
+                origin.texts == built.texts:
+            self.moved[id(built.program)] = (
+                built.program, origin.program, header.line - origin.statements[0].span.line)
+
+    def start(self) -> None:
+        """A build begins: `moved` is about its programs only."""
+        self.moved = {}
 
     def turn(self) -> None:
         """A build is over: what it did not use is forgotten."""
         self._before, self._now = self._now, {}
+        self._texts_before, self._texts_now = self._texts_now, {}
 
 
 def build_unit(sources: SourceSet, sink: DiagnosticSink, memo: BlockMemo | None = None
@@ -135,20 +175,28 @@ def build_unit(sources: SourceSet, sink: DiagnosticSink, memo: BlockMemo | None 
     """The files' statements matched into programs and configuration blocks; `memo`, kept
     between builds, takes unchanged programs from the last one."""
     unit = ast.Unit()
+    if memo is not None:
+        memo.start()
     for source in sources.files:
-        _build_file(source.statements, source.display, unit, sink, memo)
+        # the lines' texts, as the parse numbers them (a lone carriage return: no texts)
+        texts = source.text.split("\n") if memo is not None and not (
+            "\r" in source.text and _LONE_CR.search(source.text)) else None
+        _build_file(source.statements, source.display, unit, sink, memo, texts)
     if memo is not None:
         memo.turn()
     return unit
 
 
 def _build_file(statements: list[ast.Statement], file: str, unit: ast.Unit,
-                sink: DiagnosticSink, memo: BlockMemo | None = None) -> None:
-    """One file's statements matched into blocks. One function: the nested helpers share
-    the stack of open blocks, and each rule reads as one case of the match."""
+                sink: DiagnosticSink, memo: BlockMemo | None = None,
+                texts: list[str] | None = None) -> None:
+    """One file's statements matched into blocks (`texts`, the file's lines, tell a kept
+    program that moved). One function: the nested helpers share the stack of open blocks,
+    and each rule reads as one case of the match."""
     stack: list[_Open] = []
     started: int | None = None  # where the program being matched began, when it can be kept
     mark = 0  # the sink's length then
+    origin: _Built | None = None  # the kept program it is, moved
 
     def close_program(end_span: Span) -> None:
         block = stack.pop()
@@ -277,6 +325,8 @@ def _build_file(statements: list[ast.Statement], file: str, unit: ast.Unit,
                 index += len(kept.statements)
                 continue
             started, mark = index, len(sink.items)
+            origin = memo.find_moved(file, texts, raw.span.line) if texts is not None and \
+                0 < raw.span.line <= len(texts) else None
         index += 1
         statement = normalise(raw)
         if stack and stack[0].kind in CONFIG_KINDS and config_line(statement):
@@ -346,8 +396,11 @@ def _build_file(statements: list[ast.Statement], file: str, unit: ast.Unit,
                              hint=f"write {BLOCK_WORD[stack[0].kind]}")
                 close_program(statement.span)
                 if memo is not None and started is not None:
+                    head, end = statements[started].span.line, statement.span.line
                     memo.keep(_Built(statements[started:index], unit.programs[-1],
-                                     sink.items[mark:]))
+                                     sink.items[mark:],
+                                     texts[head - 1:end] if texts is not None else []),
+                              origin)
                 started = None
             case ast.ForStmt():
                 if not in_program():

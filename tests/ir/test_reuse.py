@@ -35,6 +35,8 @@ def _build(path: Path, text: str, lines: StatementCache | None = None,
 @given(path=st.sampled_from(SAMPLES) | st.sampled_from(CHECKS), steps=STEPS)
 @example(path=ROOT / "samples" / "expressions.mp", steps=[(5, 0, 0), (5, 1, 1)])  # CONSTs
 @example(path=ROOT / "samples" / "pick_and_place.mp", steps=[(5, 2, 0), (0, 40, 1)])
+@example(path=ROOT / "samples" / "call_chain.mp", steps=[(2, 0, 0)])  # every program moves up
+@example(path=ROOT / "samples" / "pick_and_place.mp", steps=[(3, 0, 7), (3, 5, 9), (2, 1, 0)])
 def test_random_edits_build_as_a_fresh_build_does(path: Path,
                                                   steps: list[tuple[int, int, int]]) -> None:
     lines, memo = StatementCache(), BuildMemo()
@@ -94,3 +96,52 @@ def test_w111_follows_the_max_v_a_kept_program_starts_from(tmp_path: Path) -> No
         kept = _build(path, edited, lines, memo)
         assert any(d.code == "W111" for d in kept.diagnostics)
         assert _seen(kept) == _seen(_build(path, edited))
+
+
+def _frames_kept(memo: BuildMemo, result: BuildResult) -> dict[str | None, object]:
+    """Each program's kept frames, by name: the same object across builds only when the
+    program's lowering was kept (shifted or not), never made again."""
+    found: dict[str | None, object] = {}
+    for image in result.programs:
+        entry = memo.lowerings.entry(image.placement.program)
+        assert entry is not None
+        found[image.placement.program.name] = entry.derived["frames"][1]
+    return found
+
+
+THREE = ["MP 1 first", "  SET_V X, 2000", "END MP", "", "MP 2 second", "  VAR1 = 5",
+         "  SET_A X, 123457", "  CALL first", "END MP", "MP 3 third", "  SET_V Y, 70001",
+         "END MP", ""]
+
+
+def test_a_program_that_only_moved_is_shifted_not_lowered_again(tmp_path: Path) -> None:
+    """Lines inserted or deleted above a program move it: what it kept (macro lines, W111
+    warnings, frames) is shifted with it, and the build is what a fresh one gives."""
+    path = tmp_path / "three.mp"
+    lines, memo = StatementCache(), BuildMemo()
+    before = _frames_kept(memo, _build(path, "\n".join(THREE), lines, memo))
+    for edited in ([*THREE[:2], "  SET_V Y, 10", "  # two lines more", *THREE[2:]],
+                   THREE[:3] + THREE[4:], ["# a comment on top", *THREE]):
+        text = "\n".join(edited)
+        kept = _build(path, text, lines, memo)
+        assert _seen(kept) == _seen(_build(path, text))
+        assert any(d.code == "W111" and d.span.line == edited.index("  SET_A X, 123457") + 1
+                   for d in kept.diagnostics)
+        after = _frames_kept(memo, kept)
+        assert after["second"] is before["second"] and after["third"] is before["third"]
+        before = after
+
+
+def test_a_moved_program_whose_message_names_a_line_is_lowered_again(tmp_path: Path) -> None:
+    """W101 names the line of the jump in its text: the program is lowered again when it
+    moves, so the text names the line where the jump now is."""
+    path = tmp_path / "jumps.mp"
+    text = ["MP 1 first", "  SET_V X, 20", "END MP", "MP 2 second", "  GOTO done",
+            "  SET_V X, 10", "  LABEL done", "END MP", ""]
+    lines, memo = StatementCache(), BuildMemo()
+    _build(path, "\n".join(text), lines, memo)
+    edited = ["# a comment", "# another", *text]
+    result = _build(path, "\n".join(edited), lines, memo)
+    assert _seen(result) == _seen(_build(path, "\n".join(edited)))
+    assert [d.message for d in result.diagnostics if d.code == "W101"] == \
+        ["unreachable: line 7 always jumps away"]

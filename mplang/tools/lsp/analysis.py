@@ -200,6 +200,10 @@ class Analysis:
     # line's text then, and where it was placed (the next analysis takes what still holds)
     placed: dict[int, tuple[Diagnostic, str, EditorDiagnostic]] = field(
         default_factory=dict, repr=False, compare=False)
+    # Placements moved from the last analysis's (a program that only moved), by id: the
+    # placement, the one it was moved from and by how many lines (the server moves the JSON)
+    moved: dict[int, tuple[EditorDiagnostic, EditorDiagnostic, int]] = field(
+        default_factory=dict, repr=False, compare=False)
 
     @property
     def variables_used(self) -> set[int]:
@@ -343,8 +347,9 @@ def _analyse(path: Path, text: str, context: BuildContext, open_texts: Mapping[P
     before = previous.placed if previous is not None and previous.path == resolved else {}
     here = {display for display, entry in by_display.items() if id(entry) in own}
     analysis.diagnostics = []
+    shifted = memo.lowerings.shifted if memo is not None and lowering is not None else {}
     for diagnostic in diagnostics:
-        placed = _reuse_placed(analysis, diagnostic, before, here) if before else None
+        placed = _reuse_placed(analysis, diagnostic, before, here, shifted) if before else None
         if placed is None:
             placed = _place_diagnostic(analysis, diagnostic, by_display, graph, pages, own)
         if placed is not None:
@@ -563,19 +568,41 @@ def _reachable(start: Path, graph: dict[Path, list[Path]]) -> set[Path]:
 
 def _reuse_placed(analysis: Analysis, diagnostic: Diagnostic,
                   before: dict[int, tuple[Diagnostic, str, EditorDiagnostic]],
-                  here: set[str]) -> EditorDiagnostic | None:
+                  here: set[str],
+                  shifted: Mapping[int, tuple[Diagnostic, Diagnostic, int]]
+                  ) -> EditorDiagnostic | None:
     """The placement of the last analysis, for the same diagnostic object (a program the
     edit left alone: `mplang.ir.reuse`) on a line of this document (`here`: its names)
-    whose text is unchanged: a placement reads nothing else. None when it must be placed
-    afresh."""
+    whose text is unchanged: a placement reads nothing else. A diagnostic of a program that
+    only moved (`shifted`: it, the kept one, the offset) takes the kept one's placement on
+    a line moved as much. None when it must be placed afresh."""
     kept = before.get(id(diagnostic))
-    if kept is None or kept[0] is not diagnostic:
+    offset = 0
+    if kept is None:
+        moved = shifted.get(id(diagnostic))
+        if moved is None or moved[0] is not diagnostic:
+            return None
+        _, old, offset = moved
+        kept = before.get(id(old))
+        if kept is None or kept[0] is not old:
+            return None
+    elif kept[0] is not diagnostic:
         return None
     span = diagnostic.span
     lines = analysis.lines
     if span.file not in here or not 0 < span.line <= len(lines) or \
             lines[span.line - 1] != kept[1]:
         return None
+    if offset:
+        placed = kept[2]
+        start, end = placed.range.start, placed.range.end
+        if not start.line == end.line == span.line - 1 - offset:
+            return None  # placed on another line than its own (never, as placed now)
+        kept = (diagnostic, kept[1], EditorDiagnostic(  # written out: `replace` costs 3x
+            line_range(span.line - 1, start.character, end.character), placed.severity,
+            placed.code, placed.message, placed.hint, placed.related, placed.docs,
+            placed.elsewhere))
+        analysis.moved[id(kept[2])] = (kept[2], placed, offset)
     analysis.placed[id(diagnostic)] = kept
     return kept[2]
 

@@ -9,7 +9,8 @@ error and answers nothing: one bad input never takes the server down.
 
 Speed: each open document keeps a build memo (`mplang.ir.reuse`), so an edit re-checks only
 the programs it changed, and its diagnostics, placed and converted to JSON, are taken from
-the last check where they are the same objects on unchanged lines; a check's diagnostics
+the last check where they are the same objects on unchanged lines (or were shifted with a
+program that only moved: their ranges moved as much); a check's diagnostics
 are converted to the client's positions once (ASCII lines without counting), semantic
 tokens are kept per analysis (`handlers`), and a document whose last check took longer
 than `DEBOUNCE_ABOVE_S` is checked `DEBOUNCE_S` after the last change of a burst instead
@@ -33,6 +34,7 @@ import inspect
 import json
 import logging
 import os
+import re
 import sys
 import threading
 import time
@@ -383,6 +385,11 @@ class MpLanguageServer(LanguageServer):
                 same_now[id(diagnostic)] = same
                 found.append(same[2])
                 continue
+            shifted = _moved_json(analysis, diagnostic, same_before, encoding)
+            if shifted is not None:
+                same_now[id(diagnostic)] = (diagnostic, encoding, shifted)
+                found.append(shifted)
+                continue
             key = _published_key(diagnostic, analysis.lines, encoding)
             value = now.get(key) if key is not None else None
             if value is None and key is not None:
@@ -558,6 +565,35 @@ def _published_key(diagnostic: EditorDiagnostic, lines: list[str], encoding: str
             diagnostic.code, diagnostic.message, diagnostic.hint, diagnostic.elsewhere,
             encoding, lines[start.line] if 0 <= start.line < len(lines) else "",
             lines[end.line] if 0 <= end.line < len(lines) and end.line != start.line else "")
+
+
+_RANGE_JSON = re.compile(r'\{"range": \{"start": \{"line": (\d+), "character": (\d+)\}, '
+                         r'"end": \{"line": (\d+), "character": (\d+)\}\}')
+"""How a published diagnostic's JSON text begins: its range, in the client's units."""
+
+
+def _moved_json(analysis: Analysis, diagnostic: EditorDiagnostic,
+                published: dict[int, tuple[EditorDiagnostic, str, str]], encoding: str
+                ) -> str | None:
+    """The JSON text of a diagnostic the analysis moved from the last one's (a program that
+    only moved, `analysis.moved`): the one published for it then, its range's lines moved
+    (the line's text is unchanged, so are its characters). None when there is none, or
+    its text does not begin with the range on the kept lines."""
+    moved = analysis.moved.get(id(diagnostic))
+    if moved is None or moved[0] is not diagnostic:
+        return None
+    _, kept, offset = moved
+    same = published.get(id(kept))
+    if same is None or same[0] is not kept or same[1] != encoding:
+        return None
+    text = same[2]
+    found = _RANGE_JSON.match(text)
+    if found is None or int(found[1]) != kept.range.start.line or \
+            int(found[3]) != kept.range.end.line:
+        return None
+    return (f'{{"range": {{"start": {{"line": {int(found[1]) + offset}, "character": '
+            f'{found[2]}}}, "end": {{"line": {int(found[3]) + offset}, "character": '
+            f'{found[4]}}}}}' + text[found.end():])
 
 
 @functools.lru_cache(maxsize=256)

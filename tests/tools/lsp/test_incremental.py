@@ -27,6 +27,8 @@ def _seen(analysis: Analysis) -> tuple[object, ...]:
 @given(path=st.sampled_from(SAMPLES) | st.sampled_from(CHECKS), steps=STEPS)
 @example(path=ROOT / "samples" / "expressions.mp", steps=[(5, 0, 0), (5, 1, 1)])  # CONSTs
 @example(path=ROOT / "samples" / "pick_and_place.mp", steps=[(5, 2, 0), (0, 40, 1)])
+@example(path=ROOT / "samples" / "call_chain.mp", steps=[(2, 0, 0)])  # every program moves up
+@example(path=ROOT / "samples" / "pick_and_place.mp", steps=[(3, 0, 7), (3, 5, 9), (2, 1, 0)])
 def test_random_edits_analyse_as_a_fresh_analysis_does(path: Path,
                                                        steps: list[tuple[int, int, int]]
                                                        ) -> None:

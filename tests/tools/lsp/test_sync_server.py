@@ -268,3 +268,28 @@ def test_the_cycle_collector_waits_while_a_check_runs(tmp_path: Path) -> None:
     finally:
         gc.callbacks.remove(seen)
     assert phases == [] and gc.isenabled()
+
+
+@ASYNC
+async def test_programs_moved_by_inserted_and_deleted_lines_publish_as_a_fresh_open(
+        client: LanguageClient, project: Path) -> None:
+    """Lines inserted and deleted above programs move them: their diagnostics are moved
+    from the last publish (placement and JSON text), and equal, in full, those of the same
+    text opened whole."""
+    text = "".join(f"MP {n} moved{n}\n    SET_V X, 70001 # é\n    NOPE{n} X\nEND MP\n"
+                   for n in (41, 42, 43))
+    uri = (project / "moving.mp").as_uri()
+    await open_document(client, uri, text)
+    edits = (((0, 0), (0, 0), "# two lines\n# more\n"), ((0, 0), (1, 0), ""),
+             ((3, 0), (3, 0), "    VAR1 = 1\n"), ((0, 0), (1, 0), ""))
+    for version, (start, end, inserted) in enumerate(edits, start=2):
+        client.text_document_did_change(change(uri, version, (start, end, inserted)))
+        lines = text.split("\n")
+        lines[start[0]:end[0]] = inserted.split("\n")[:-1]
+        text = "\n".join(lines)
+        edited = await published(uri, version)
+        whole_uri = (project / f"moving-whole-{version}.mp").as_uri()
+        await open_document(client, whole_uri, text)
+        whole = await published(whole_uri, 1)
+        assert edited.diagnostics == whole.diagnostics
+        assert [d.code for d in edited.diagnostics].count("W111") == 3
