@@ -1,4 +1,4 @@
-"""The value classes written out on `mplang.record` instead of made by `@dataclass` must
+"""The value classes written out on `mplang.lang.record` instead of made by `@dataclass` must
 behave as the dataclasses did: fields named alike in annotations, `_fields`, `__match_args__`
 and `__init__` (or equality, repr and `replace` would silently skip one); equality by value;
 a frozen one hashable and refusing assignment, a mutable one unhashable; a default factory
@@ -15,7 +15,7 @@ from typing import Any
 
 import pytest
 
-from mplang.record import FrozenRecord, FrozenRecordError, Record
+from mplang.lang.record import FrozenRecord, FrozenRecordError, Record
 
 CONVERTED = ("mplang.ir.macro", "mplang.ir.configure", "mplang.ir.scope", "mplang.ir.interrupts",
              "mplang.ir.lower", "mplang.lang.sources", "mplang.lang.rules",

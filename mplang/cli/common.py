@@ -28,7 +28,7 @@ from mplang.lang.diagnostics import (
     Span,
     without_ignored,
 )
-from mplang.record import FrozenRecord
+from mplang.lang.record import FrozenRecord
 from mplang.tools import project as project_module
 
 EXIT_OK = 0

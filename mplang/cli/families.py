@@ -24,7 +24,7 @@ from mplang.family.face import CommandError, Family, FamilyBuild, FamilyRun
 from mplang.family.registry import families, family_of_path, family_of_target
 from mplang.family.watch import Watch
 from mplang.ir.unit import Options
-from mplang.record import FrozenRecord
+from mplang.lang.record import FrozenRecord
 from mplang.tools import project as project_module
 
 if TYPE_CHECKING:  # every family package has the face the CLI uses

@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 
 from mplang.ir.unit import Options
 from mplang.lang.diagnostics import Diagnostic, Span
-from mplang.record import FrozenRecord
+from mplang.lang.record import FrozenRecord
 
 if TYPE_CHECKING:  # named in signatures only: a lint or a build does not load the run,
     # debug and host sides (imported by the commands that use them)

@@ -14,7 +14,7 @@ import math
 import re
 from typing import Any
 
-from mplang.record import FrozenRecord, Record
+from mplang.lang.record import FrozenRecord, Record
 
 VIEW_FORMAT = "mplang-host/1"
 TYPE_RANGES = {"int32": (-2**31, 2**31 - 1), "uint8": (0, 255), "uint16": (0, 0xFFFF)}

@@ -13,7 +13,7 @@ import importlib
 from pathlib import Path
 from typing import TYPE_CHECKING, cast
 
-from mplang.record import FrozenRecord
+from mplang.lang.record import FrozenRecord
 
 if TYPE_CHECKING:
     from mplang.family.face import Family

@@ -9,8 +9,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from mplang.lang.record import FrozenRecord
 from mplang.lang.runtime_rules import RUNTIME_RULES
-from mplang.record import FrozenRecord
 
 
 @dataclass(frozen=True)

@@ -14,7 +14,7 @@ from importlib import resources
 from typing import Any
 
 from mplang.lang import caches
-from mplang.record import FrozenRecord
+from mplang.lang.record import FrozenRecord
 
 WIRE_BY_TYPE = {"BYTE": 1, "WORD": 1, "short": 1, "DWORD": 2, "long": 2, "float": 2}
 VENDOR_PREFIXES = ("RSM_", "ETM_")

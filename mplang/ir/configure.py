@@ -21,7 +21,7 @@ from mplang.ir.macro import LoweredProgram, MacroLine, Operand, ProgramRef
 from mplang.ir.scope import PROGRAM_RE, Scope, did_you_mean
 from mplang.lang import ast
 from mplang.lang.diagnostics import DiagnosticSink, Span
-from mplang.record import Record
+from mplang.lang.record import Record
 
 DI_RE = re.compile(r"DI\s*(\d+)\.(\d+)", re.IGNORECASE)
 SLMT_CLEARING = ("CLEAR_SLMT", "SET_COMPARE")  # SET_COMPARE disables the limits (RS 7666)

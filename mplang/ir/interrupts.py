@@ -12,7 +12,7 @@ from mplang.ir.macro import MacroLine, Operand, ProgramRef
 from mplang.ir.scope import PROGRAM_RE, did_you_mean
 from mplang.lang import ast
 from mplang.lang.diagnostics import DiagnosticSink, Span
-from mplang.record import Record
+from mplang.lang.record import Record
 
 
 class Wire(Record):

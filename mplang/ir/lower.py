@@ -33,7 +33,7 @@ from mplang.ir.scope import (
 )
 from mplang.lang import ast
 from mplang.lang.diagnostics import Span
-from mplang.record import Record
+from mplang.lang.record import Record
 
 __all__ = [
     "BVAR_RE",

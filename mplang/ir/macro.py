@@ -1,13 +1,13 @@
 """The small IR between the front end and the encoder: macro lines with resolved operands.
 
-Its classes are written out on `mplang.record` bases rather than made by `@dataclass`: every
+Its classes are written out on `mplang.lang.record` bases rather than made by `@dataclass`: every
 command imports this module (see that module for why)."""
 
 from __future__ import annotations
 
 from mplang.ir.catalogue import Command
 from mplang.lang.diagnostics import Span
-from mplang.record import FrozenRecord, Record
+from mplang.lang.record import FrozenRecord, Record
 
 
 class VarRef(FrozenRecord):

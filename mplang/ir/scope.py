@@ -15,7 +15,7 @@ from mplang.ir.fold import apply_operator, walk_expr, wrap32
 from mplang.lang import ast
 from mplang.lang.diagnostics import DiagnosticSink, Span
 from mplang.lang.limits import MAX_EXPRESSION_DEPTH, expression_depth
-from mplang.record import FrozenRecord, Record
+from mplang.lang.record import FrozenRecord, Record
 
 VAR_RE = re.compile(r"VAR(\d+)", re.IGNORECASE)
 BVAR_RE = re.compile(r"BVAR(\d+)", re.IGNORECASE)

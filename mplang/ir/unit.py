@@ -23,7 +23,7 @@ from mplang.ir.macro import LoweredProgram
 from mplang.ir.reuse import Lowerings, lowering_context
 from mplang.lang import ast
 from mplang.lang.diagnostics import DiagnosticSink, Span
-from mplang.record import FrozenRecord, Record
+from mplang.lang.record import FrozenRecord, Record
 
 DEFAULT_TEMPS = range(500, 512)
 

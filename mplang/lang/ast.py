@@ -1,7 +1,7 @@
 """Typed syntax tree of `.mp` sources. Every node keeps the span it came from.
 
 The nodes are what `@dataclass` would make of them, written out: an `__init__` per class
-and value equality, repr and `replace` shared through `mplang.record.Record`. Every command
+and value equality, repr and `replace` shared through `mplang.lang.record.Record`. Every command
 imports this module, and creating its forty classes as dataclasses (each method generated as
 source text and compiled) was a fifth of what creating dataclasses costs a lint, on every
 start.
@@ -10,7 +10,7 @@ start.
 from __future__ import annotations
 
 from mplang.lang.diagnostics import Span
-from mplang.record import Record as _Record
+from mplang.lang.record import Record as _Record
 
 # ---------------------------------------------------------------- expressions
 

@@ -11,9 +11,9 @@ import re
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 
+from mplang.lang.record import FrozenRecord
 from mplang.lang.rules import RULES
 from mplang.lang.severity import Severity as Severity
-from mplang.record import FrozenRecord
 
 # `# mpc: ignore[W107]` (or `# mpc: ignore` for every warning) on a line silences warnings
 # reported on that line. Errors cannot be silenced: the device would reject the program.
@@ -23,7 +23,7 @@ SUPPRESS = re.compile(r"mpc:\s*ignore(?:\[([A-Za-z0-9,\s]+)\])?")
 class Span(FrozenRecord):
     """A place in a source file: 1-based line and column, end column exclusive. Frozen,
     hashable and ordered by its fields as `@dataclass(frozen=True, order=True)` made it,
-    written out (see `mplang.record`); compared and hashed by an explicit tuple, as the
+    written out (see `mplang.lang.record`); compared and hashed by an explicit tuple, as the
     front end keys caches by it."""
 
     file: str

@@ -7,8 +7,8 @@ controller's own download error or illegal-function cause the rule prevents, if 
 
 from __future__ import annotations
 
+from mplang.lang.record import FrozenRecord
 from mplang.lang.severity import Severity
-from mplang.record import FrozenRecord
 
 E = Severity.ERROR
 W = Severity.WARNING

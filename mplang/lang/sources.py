@@ -24,7 +24,7 @@ from pathlib import Path
 from mplang.lang import ast, frontcache
 from mplang.lang.diagnostics import DiagnosticSink, Span
 from mplang.lang.linecache import StatementCache
-from mplang.record import Record
+from mplang.lang.record import Record
 
 
 class SourceFile(Record):

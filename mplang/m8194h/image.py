@@ -17,8 +17,8 @@ from mplang.ir import catalogue as catalogue_module
 from mplang.ir.lower import Variable
 from mplang.ir.macro import LoweredProgram, MacroLine
 from mplang.lang.diagnostics import Diagnostic, Severity, Span
+from mplang.lang.record import Record
 from mplang.m8194h.link import Placement
-from mplang.record import Record
 
 IMAGE_FORMAT = "mplang-image/1"
 FORMATS = ("json", "listing", "hex", "map", "vars", "vars-h", "vars-py", "triggers")

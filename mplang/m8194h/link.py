@@ -15,7 +15,7 @@ from mplang.ir.catalogue import Profile
 from mplang.ir.macro import CallSite, LoweredProgram, ProgramRef
 from mplang.ir.unit import SlotPin
 from mplang.lang.diagnostics import DiagnosticSink
-from mplang.record import Record
+from mplang.lang.record import Record
 
 
 class Placement(Record):

@@ -21,9 +21,9 @@ from typing import Any
 from mplang.family.registry import family_of_target, known_targets, target_title
 from mplang.ir.unit import SlotPin
 from mplang.lang.diagnostics import Span
+from mplang.lang.record import FrozenRecord
 from mplang.lang.tomlfile import TomlFileError, TomlLines, read_toml
 from mplang.lang.userdirs import cache_home, state_home
-from mplang.record import FrozenRecord
 
 PROJECT_FILE = "mpc.toml"
 DEFAULT_RECORD = ".mpc/flash-record.json"
