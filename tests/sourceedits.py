@@ -4,8 +4,11 @@ hypothesis."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -49,3 +52,21 @@ def changed(lines: list[str], step: tuple[int, int, int]) -> list[str]:
 
 STEPS = st.lists(st.tuples(st.integers(0, 5), st.integers(0, 5_000), st.integers(0, 5_000)),
                  min_size=1, max_size=6)
+
+
+def edit_sequences(test: Callable[..., None]) -> Callable[..., None]:
+    """`test(path, steps)` run on a sample or check file and a drawn sequence of edits, and
+    on the cases that once broke reuse: CONSTs that every program reads, a program that
+    only moved, lines inserted above every program."""
+    cases: list[tuple[str, list[tuple[int, int, int]]]] = [
+        ("expressions.mp", [(5, 0, 0), (5, 1, 1)]),  # CONSTs
+        ("pick_and_place.mp", [(5, 2, 0), (0, 40, 1)]),
+        ("call_chain.mp", [(2, 0, 0)]),  # every program moves up
+        ("pick_and_place.mp", [(3, 0, 7), (3, 5, 9), (2, 1, 0)]),
+    ]
+    wrapped: Any = test
+    for name, steps in reversed(cases):
+        wrapped = example(path=ROOT / "samples" / name, steps=steps)(wrapped)
+    wrapped = given(path=st.sampled_from(SAMPLES) | st.sampled_from(CHECKS), steps=STEPS)(wrapped)
+    decorated: Callable[..., None] = settings(max_examples=50, deadline=None)(wrapped)
+    return decorated

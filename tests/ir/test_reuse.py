@@ -7,9 +7,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from hypothesis import example, given, settings
-from hypothesis import strategies as st
-from sourceedits import CHECKS, ROOT, SAMPLES, STEPS, changed
+from sourceedits import changed, edit_sequences
 
 from mplang.ir.reuse import BuildMemo
 from mplang.lang.linecache import StatementCache
@@ -31,12 +29,7 @@ def _build(path: Path, text: str, lines: StatementCache | None = None,
     return compile_paths([path], texts={path: text}, lines=lines, memo=memo)
 
 
-@settings(max_examples=50, deadline=None)
-@given(path=st.sampled_from(SAMPLES) | st.sampled_from(CHECKS), steps=STEPS)
-@example(path=ROOT / "samples" / "expressions.mp", steps=[(5, 0, 0), (5, 1, 1)])  # CONSTs
-@example(path=ROOT / "samples" / "pick_and_place.mp", steps=[(5, 2, 0), (0, 40, 1)])
-@example(path=ROOT / "samples" / "call_chain.mp", steps=[(2, 0, 0)])  # every program moves up
-@example(path=ROOT / "samples" / "pick_and_place.mp", steps=[(3, 0, 7), (3, 5, 9), (2, 1, 0)])
+@edit_sequences
 def test_random_edits_build_as_a_fresh_build_does(path: Path,
                                                   steps: list[tuple[int, int, int]]) -> None:
     lines, memo = StatementCache(), BuildMemo()
