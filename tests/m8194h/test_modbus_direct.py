@@ -31,7 +31,7 @@ FRAMES = [ENCODER.create_frame("mp", 156), [0x0CD2, 0x7FFF, 2, 0, 5],
 # input 0..199) and the registers a flash reads (14, 100..114)
 EDGES = [0, 1, 8, 14, 82, 100, 110, 119, 198, 199, 200, 1322, 1323, 1324, 2999, 3000, 3001,
          7094, 7095, 7999, 8000, 8100, 8101, 9007, 9008, 9015, 9016, 65535]
-COUNTS = [1, 2, 3, 15, 20, 123, 124, 125]
+COUNTS = [0, 1, 2, 3, 15, 20, 123, 124, 125, 126, 2000]  # 0, 126+: refused
 WORDS = st.lists(st.sampled_from([0, 1, 2, 0x7FFF, 0x8000, 0xFFFF]), min_size=1, max_size=4)
 
 
@@ -65,7 +65,7 @@ def inside(face: DeviceFace, pdu: bytes) -> bool:
     """A well-formed register request inside one of the device's areas."""
     fc, address, count = pdu[0], *struct.unpack(">HH", pdu[1:5])
     spans = [range(0, INPUT_SPAN)] if fc == 4 else face.holding_spans()
-    return count <= (123 if fc == 16 else 125) and \
+    return 1 <= count <= (123 if fc == 16 else 125) and \
         any(address in span and address + count <= span.stop for span in spans)
 
 
@@ -99,6 +99,13 @@ async def both_ways(requests: list[bytes]) -> None:
 @given(st.lists(REQUESTS, min_size=1, max_size=10))
 def test_direct_answers_are_the_datastores(requests: list[bytes]) -> None:
     asyncio.run(both_ways(requests))
+
+
+def test_a_read_of_no_or_too_many_registers_is_refused_as_pymodbus_refuses_it() -> None:
+    """FC3 and FC4 read 1 to 125 registers: a request for 0, or for 126 and more (an answer
+    of over 250 bytes, more than a byte count can say), is refused by the decoder before the
+    direct path sees it, and answered as pymodbus answers it."""
+    asyncio.run(both_ways([read(fc, 0, count) for fc in (3, 4) for count in (0, 126, 2000)]))
 
 
 def test_a_flashs_requests_take_the_direct_path() -> None:
