@@ -4,7 +4,6 @@ the other [download] choices. Shared by the download and refusal tests."""
 
 from __future__ import annotations
 
-import dataclasses
 from typing import Any
 
 from mplang.ir import catalogue
@@ -44,5 +43,4 @@ def variant(**download: Any) -> VirtualController:
     """A controller whose profile makes the other [download] choice."""
     profile = CAT.profile
     raw = {**profile.raw, "download": {**profile.raw["download"], **download}}
-    return VirtualController(dataclasses.replace(CAT, profile=dataclasses.replace(profile,
-                                                                                 raw=raw)))
+    return VirtualController(CAT.replace(profile=profile.replace(raw=raw)))

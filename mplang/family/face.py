@@ -18,7 +18,6 @@ from __future__ import annotations
 
 from collections.abc import Awaitable, Callable, Mapping, Sequence
 from contextlib import AbstractAsyncContextManager
-from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 
@@ -88,8 +87,7 @@ given the host and port its Modbus TCP service listens on; raises `ServiceError`
 cannot start."""
 
 
-@dataclass(frozen=True)
-class ServeRequest:
+class ServeRequest(FrozenRecord):
     """What `mpc sim` asks of a family's virtual device. Options a family has no use for are
     refused before it is asked (`SERVE_OPTIONS`); the rest it checks itself."""
 
@@ -105,9 +103,22 @@ class ServeRequest:
     verbose: bool
     word_order: int | None
     describe: str  # the family (and target) in words, for messages
-    companion: Companion | None = None  # started once Modbus TCP listens (`mpc sim --monitor`)
-    machine: object | None = None  # what the family's `load_machine` returned, if given
-    devices: int = 1  # `mpc sim --devices N`: N devices from one process
+    companion: Companion | None  # started once Modbus TCP listens (`mpc sim --monitor`)
+    machine: object | None  # what the family's `load_machine` returned, if given
+    devices: int  # `mpc sim --devices N`: N devices from one process
+    _fields = __match_args__ = ("tcp", "serial", "unit", "baud", "parity", "stopbits", "speed",
+                                "memory", "duration", "verbose", "word_order", "describe",
+                                "companion", "machine", "devices")
+
+    def __init__(self, tcp: tuple[str, int] | None, serial: str | None, unit: int, baud: int,
+                 parity: str, stopbits: int, speed: float, memory: Path | None,
+                 duration: float | None, verbose: bool, word_order: int | None,
+                 describe: str, companion: Companion | None = None,
+                 machine: object | None = None, devices: int = 1) -> None:
+        self.__dict__.update(tcp=tcp, serial=serial, unit=unit, baud=baud, parity=parity,
+                             stopbits=stopbits, speed=speed, memory=memory, duration=duration,
+                             verbose=verbose, word_order=word_order, describe=describe,
+                             companion=companion, machine=machine, devices=devices)
 
 
 class CommandError(Exception):

@@ -7,21 +7,23 @@ The `--json` shape is the same for every family; what a family does not know is 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 from mplang.lang.record import FrozenRecord
 from mplang.lang.runtime_rules import RUNTIME_RULES
 
 
-@dataclass(frozen=True)
-class SourcePlace:
+class SourcePlace(FrozenRecord):
     """A source position (1-based line and column), with the program it belongs to."""
 
     file: str | None
-    line: int | None = None
-    column: int | None = None
-    program: str = ""  # `MP100 home_z`
-    via: str = "call"  # how the frame above came from here: "call", or "interrupt" (an ISR)
+    line: int | None
+    column: int | None
+    program: str  # `MP100 home_z`
+    via: str  # how the frame above came from here: "call", or "interrupt" (an ISR)
+    _fields = __match_args__ = ("file", "line", "column", "program", "via")
+
+    def __init__(self, file: str | None, line: int | None = None, column: int | None = None,
+                 program: str = "", via: str = "call") -> None:
+        self.__dict__.update(file=file, line=line, column=column, program=program, via=via)
 
     def prefix(self) -> str:
         """`file:line:col: `, as far as it is known ("" when nothing is)."""

@@ -8,12 +8,10 @@ from __future__ import annotations
 
 import re
 import tomllib
-from dataclasses import dataclass
 from functools import cache, cached_property
-from importlib import resources
 from typing import Any
 
-from mplang.lang import caches
+from mplang.lang import caches, packagedata
 from mplang.lang.record import FrozenRecord
 
 WIRE_BY_TYPE = {"BYTE": 1, "WORD": 1, "short": 1, "DWORD": 2, "long": 2, "float": 2}
@@ -105,9 +103,9 @@ class SlotRange(FrozenRecord):
         self.__dict__.update(kind=kind, first=first, last=last, lines=lines)
 
 
-@dataclass(frozen=True)
-class Profile:
-    """The device profile: budgets, limits and codes (stdlib/m8194h/device.toml)."""
+class Profile(FrozenRecord):
+    """The device profile: budgets, limits and codes (stdlib/m8194h/device.toml). Its dict
+    fields make it unhashable, as the frozen dataclass it was."""
 
     raw: dict[str, Any]
     slots: tuple[SlotRange, ...]
@@ -117,6 +115,17 @@ class Profile:
     cmp_symbols: dict[str, str]
     download_errors: dict[int, str]
     illegal_function_causes: dict[int, str]
+    _fields = __match_args__ = ("raw", "slots", "axes", "calc_ops", "cmp_ops", "cmp_symbols",
+                                "download_errors", "illegal_function_causes")
+
+    def __init__(self, raw: dict[str, Any], slots: tuple[SlotRange, ...], axes: dict[str, int],
+                 calc_ops: dict[str, int], cmp_ops: dict[str, int], cmp_symbols: dict[str, str],
+                 download_errors: dict[int, str],
+                 illegal_function_causes: dict[int, str]) -> None:
+        self.__dict__.update(raw=raw, slots=slots, axes=axes, calc_ops=calc_ops,
+                             cmp_ops=cmp_ops, cmp_symbols=cmp_symbols,
+                             download_errors=download_errors,
+                             illegal_function_causes=illegal_function_causes)
 
     @property
     def word_order_default(self) -> int:
@@ -196,14 +205,24 @@ class Profile:
         return letters or "0"
 
 
-@dataclass(frozen=True)
-class Catalogue:
+class Catalogue(FrozenRecord):
+    """The commands of a family, indexed, with its device profile."""
+
     commands: tuple[Command, ...]
     profile: Profile
     by_vendor: dict[str, Command]
     macro_by_short: dict[str, Command]
     rtc_by_short: dict[str, Command]
     by_code: dict[int, Command]
+    _fields = __match_args__ = ("commands", "profile", "by_vendor", "macro_by_short",
+                                "rtc_by_short", "by_code")
+
+    def __init__(self, commands: tuple[Command, ...], profile: Profile,
+                 by_vendor: dict[str, Command], macro_by_short: dict[str, Command],
+                 rtc_by_short: dict[str, Command], by_code: dict[int, Command]) -> None:
+        self.__dict__.update(commands=commands, profile=profile, by_vendor=by_vendor,
+                             macro_by_short=macro_by_short, rtc_by_short=rtc_by_short,
+                             by_code=by_code)
 
     def lookup(self, name: str) -> Command | None:
         """Find a command by mplang name or by full RS/ET vendor name (macro forms first)."""
@@ -274,10 +293,10 @@ def _profile(raw: dict[str, Any]) -> Profile:
 
 
 def _read_text(family: str, filename: str) -> str:
-    return resources.files("mplang.stdlib").joinpath(family, filename).read_text("utf-8")
+    return packagedata.read_text("mplang.stdlib", family, filename)
 
 
-CACHE_FORMAT = "catalogue 1"
+CACHE_FORMAT = "catalogue 2"
 """Part of the cache key: change it when the classes of this module change shape."""
 
 BUILDS: list[str] = []

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import re
 from dataclasses import dataclass
@@ -82,8 +81,8 @@ class RunReport:
             found.code, found.message, where,
             f"{found.place.kind.upper()}{found.place.slot}" if found.place else None,
             found.place.slot_line if found.place else None, round(found.time_s * 1000, 3),
-            tuple(dataclasses.replace(self.source_of(caller), via="interrupt" if callee is not
-                                      None and callee.kind == "isr" else "call")
+            tuple(self.source_of(caller).replace(via="interrupt" if callee is not None
+                                                 and callee.kind == "isr" else "call")
                   for caller, callee in zip(found.callers, (found.place, *found.callers),
                                             strict=False)))
 

@@ -3,7 +3,6 @@ over Modbus TCP and/or RTU, a CSIM on a serial line; a family without one says w
 
 from __future__ import annotations
 
-import dataclasses
 import sys
 from pathlib import Path
 
@@ -111,7 +110,7 @@ def command(ctx: click.Context, files: tuple[str, ...], tcp: tuple[str, int] | N
         if serial is not None and tcp is None:
             raise click.UsageError("--monitor watches the device over Modbus TCP: give --tcp "
                                    "as well as --serial")
-        request = dataclasses.replace(request, companion=dashboard(family, build, monitor_port))
+        request = request.replace(companion=dashboard(family, build, monitor_port))
     try:
         family.serve(build, request, lambda text: click.echo(f"mpc sim: {text}"))
     except ServiceError as exc:

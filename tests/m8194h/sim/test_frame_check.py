@@ -9,8 +9,6 @@ tests/m8194h/test_device_refusals.py."""
 
 from __future__ import annotations
 
-import dataclasses
-
 import pytest
 from deviceframes import CAT, CLOSE, CREATE, CREATE_ISR, ISR_CLOSE, macro, rtc
 
@@ -324,7 +322,7 @@ def test_an_operand_count_that_is_not_the_commands_is_an_error_not_a_pass() -> N
 def _with(section: str, **values: object) -> Catalogue:
     profile = CAT.profile
     raw = {**profile.raw, section: {**profile.raw[section], **values}}
-    return dataclasses.replace(CAT, profile=dataclasses.replace(profile, raw=raw))
+    return CAT.replace(profile=profile.replace(raw=raw))
 
 
 def test_the_limits_are_the_profiles() -> None:
@@ -351,8 +349,7 @@ def test_an_operator_the_profile_does_not_list_is_refused() -> None:
     profile = CAT.profile
     calc = {op: code for op, code in profile.calc_ops.items() if op != "|"}
     cmp = {op: code for op, code in profile.cmp_ops.items() if op != "!="}
-    other = dataclasses.replace(CAT, profile=dataclasses.replace(profile, calc_ops=calc,
-                                                                 cmp_ops=cmp))
+    other = CAT.replace(profile=profile.replace(calc_ops=calc, cmp_ops=cmp))
     assert refusal("RSM_MACRO_VAR_CALCULATE", 1, 0x7C, 2, VarRef(3), catalogue=other) == \
         f"Operator: {not_taken(0x7C)}"
     assert refusal("RSM_MACRO_VAR_CALCULATE", 1, 0x26, 2, VarRef(3), catalogue=other) is None
