@@ -31,13 +31,13 @@ from mplang.family.face import (
     StatusUI,
     WatchJob,
 )
-from mplang.family.hostview import ExecutionError, HostView
-from mplang.family.watch import Watch
 from mplang.ir.unit import Options
 from mplang.m8194h.compiler import compile_paths
 from mplang.m8194h.image import DEFAULT_FORMAT, FORMATS, BuildResult
 
-if TYPE_CHECKING:
+if TYPE_CHECKING:  # the host view and the watch only when a command uses them
+    from mplang.family.hostview import ExecutionError, HostView
+    from mplang.family.watch import Watch
     from mplang.m8194h.debugger import Session
     from mplang.m8194h.disasm import Disassembly
     from mplang.m8194h.live import Watcher
