@@ -7,7 +7,6 @@ files described in `stdlib/m8194h/FORMAT.md`; this module only gives them types 
 from __future__ import annotations
 
 import re
-import tomllib
 from functools import cache, cached_property
 from typing import Any
 
@@ -328,6 +327,8 @@ def load(family: str = "m8194h") -> Catalogue:
 def _build(family: str, commands_text: str, device_text: str) -> Catalogue:
     """The catalogue from the text of its two TOML files."""
     BUILDS.append(family)
+    import tomllib  # only when the cache misses: a run that hits never loads it
+
     commands = tuple(_command(c) for c in tomllib.loads(commands_text)["command"])
     profile = _profile(tomllib.loads(device_text))
     by_vendor = {c.name.upper(): c for c in commands}

@@ -10,7 +10,6 @@ table, for the messages the file's own checks write.
 from __future__ import annotations
 
 import re
-import tomllib
 from pathlib import Path
 from typing import Any
 
@@ -26,7 +25,10 @@ class TomlFileError(Exception):
 
 def read_toml(path: Path) -> tuple[dict[str, Any], str]:
     """The table and the text of a TOML file; TomlFileError, with the line where there is
-    one, for anything else."""
+    one, for anything else. tomllib is imported here: a run without such a file never
+    loads it."""
+    import tomllib
+
     try:
         text = read_regular_bytes(path).decode("utf-8")
     except OSError as exc:
