@@ -34,7 +34,6 @@ from __future__ import annotations
 
 import importlib
 import os
-import pkgutil
 import re
 import sys
 from pathlib import Path
@@ -114,12 +113,41 @@ def _tolerant_output() -> None:
             reconfigure(errors="backslashreplace")
 
 
+def _command_modules() -> list[str]:
+    """The modules of `mplang.cli.commands`, read from its directory (pkgutil only for a
+    package that is not one: a zip import), as pkgutil names them: a file of a module suffix,
+    or a directory with an `__init__`."""
+    from importlib.machinery import all_suffixes
+
+    directory = commands.__path__[0]
+    try:
+        entries = list(os.scandir(directory))
+    except OSError:
+        import pkgutil
+
+        return [info.name for info in pkgutil.iter_modules(commands.__path__)]
+    suffixes = sorted(all_suffixes(), key=len, reverse=True)
+    names = set()
+    for entry in entries:
+        if entry.is_dir():
+            if "." not in entry.name and any(os.path.isfile(os.path.join(entry.path,
+                                                                         "__init__" + suffix))
+                                             for suffix in suffixes):
+                names.add(entry.name)
+            continue
+        suffix = next((s for s in suffixes if entry.name.endswith(s)), None)
+        if suffix is not None and "." not in entry.name[:-len(suffix)]:
+            names.add(entry.name[:-len(suffix)])
+    names.discard("__init__")
+    return sorted(names)
+
+
 class CommandPackage(click.Group):
     """A click group whose commands are the modules of `mplang.cli.commands`."""
 
     def list_commands(self, ctx: click.Context) -> list[str]:
-        return sorted(info.name.rstrip("_") for info in pkgutil.iter_modules(commands.__path__)
-                      if not info.name.startswith("_"))
+        return sorted(name.rstrip("_") for name in _command_modules()
+                      if not name.startswith("_"))
 
     def get_command(self, ctx: click.Context, cmd_name: str) -> click.Command | None:
         if cmd_name not in self.list_commands(ctx):

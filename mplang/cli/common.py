@@ -5,7 +5,6 @@ expansion, and the compiler and serial-line options."""
 from __future__ import annotations
 
 import errno
-import glob
 import os
 import sys
 from collections.abc import Callable, Sequence
@@ -152,6 +151,8 @@ def expand_inputs(patterns: tuple[str, ...], skip_projects: bool = False) -> lis
         elif path.exists():
             paths.append(path)
         elif any(ch in pattern for ch in "*?["):
+            import glob  # for a file pattern only
+
             matches = sorted(Path(m) for m in glob.glob(pattern, recursive=True))
             if not matches:
                 raise InputError(f"no files match {pattern}")

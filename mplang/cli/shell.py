@@ -8,9 +8,11 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import click
-from click.shell_completion import CompletionItem
 
-if TYPE_CHECKING:  # loaded only when a completion asks for the project
+if TYPE_CHECKING:  # loaded only when a completion asks for them (every command names these
+    # functions, few runs call them)
+    from click.shell_completion import CompletionItem
+
     from mplang.tools.project import Project
 
 
@@ -19,6 +21,8 @@ def complete_paths(ctx: click.Context, param: click.Parameter,
     """Let the shell complete file and directory names. A shell_complete function rather
     than `type=click.Path()`, which would also stat every argument while parsing and so
     change what bad names report (and exit with)."""
+    from click.shell_completion import CompletionItem
+
     return [CompletionItem(incomplete, type="file")]
 
 
@@ -83,6 +87,8 @@ def program_names(paths: list[Path]) -> list[tuple[str, str]]:
 def complete_programs(ctx: click.Context, param: click.Parameter,
                       incomplete: str) -> list[CompletionItem]:
     """`--call`: the programs of the FILEs on the command line, else of the project."""
+    from click.shell_completion import CompletionItem
+
     wanted = incomplete.upper()
     return [CompletionItem(name, help=about)
             for name, about in program_names(_sources(ctx))
@@ -92,6 +98,8 @@ def complete_programs(ctx: click.Context, param: click.Parameter,
 def complete_targets(ctx: click.Context, param: click.Parameter,
                      incomplete: str) -> list[CompletionItem]:
     """`--to`: the [targets.NAME] devices of the project's mpc.toml."""
+    from click.shell_completion import CompletionItem
+
     project = _project()
     if project is None:
         return []

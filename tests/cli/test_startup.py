@@ -51,9 +51,18 @@ def test_lint_does_not_load_the_virtual_controller(tmp_path: Path) -> None:
 NEVER_FOR_A_BUILD = ("lark", "difflib", "pymodbus.server", "aiohttp", "mplang.cli.commands.monitor",
                      "mplang.tools.monitor.server", "mplang.m8194h.debugger",
                      "mplang.m8194h.run", "mplang.cli.commands.dap", "mplang.tools.dap",
-                     "mplang.family.debug", "mplang.family.trace")
+                     "mplang.family.debug", "mplang.family.trace", "mplang.family.hostview",
+                     "platformdirs", "pkgutil", "glob", "click.shell_completion",
+                     "mplang.tools.report")
 """What `mpc lint` and `mpc flash --dry-run` whose files all hit the front cache, and `mpc
-status`, never need."""
+status`, never need: the host view, platformdirs (the cache directory is worked out
+without it on Linux), pkgutil (the commands are listed from their directory), glob (for a
+file pattern only), click's shell completion (when the shell asks), the machine-read
+report formats."""
+
+NEVER_ON_A_HIT = ("tomllib",)
+"""What a run whose catalogue comes from the cache an earlier run filled, without an
+mpc.toml, never needs: tomllib (the TOML files are parsed on a miss only)."""
 
 
 def _loaded(modules: set[str], prefixes: tuple[str, ...]) -> list[str]:
@@ -77,8 +86,9 @@ def test_lint_parses_with_lark_on_a_miss_and_without_it_on_a_hit(tmp_path: Path)
     assert "lark" in first and "mplang.lang.parser" in first
     again = _modules_after("lint", str(source), cwd=tmp_path)
     assert "mplang.lang.frontcache" in again
-    assert _loaded(again, (*NEVER_FOR_A_BUILD, "mplang.lang.parser", "mplang.lang.tokenizer",
-                           "mplang.m8194h.sim", "pymodbus", "pygls")) == []
+    assert _loaded(again, (*NEVER_FOR_A_BUILD, *NEVER_ON_A_HIT, "mplang.lang.parser",
+                           "mplang.lang.tokenizer", "mplang.m8194h.sim", "pymodbus",
+                           "pygls")) == []
 
 
 NEVER_FOR_A_CLIENT = ("mplang.m8194h.modbus_server", "mplang.m8194h.ordered",
@@ -95,7 +105,7 @@ def test_dry_run_flash_loads_the_client_only(tmp_path: Path) -> None:
     _modules_after("flash", str(source), "--dry-run", cwd=tmp_path)
     loaded = _modules_after("flash", str(source), "--dry-run", cwd=tmp_path)
     assert {"mplang.m8194h.flash.flasher", "mplang.m8194h.modbus", "pymodbus.client"} <= loaded
-    assert _loaded(loaded, (*NEVER_FOR_A_BUILD, *NEVER_FOR_A_CLIENT)) == []
+    assert _loaded(loaded, (*NEVER_FOR_A_BUILD, *NEVER_ON_A_HIT, *NEVER_FOR_A_CLIENT)) == []
 
 
 def test_status_loads_no_server(tmp_path: Path) -> None:
@@ -126,3 +136,12 @@ def test_help_lists_each_command_as_click_would() -> None:
     listed = CliRunner().invoke(main, ["--help"]).output
     for name in main.list_commands(context):
         assert f"  {name} " in listed
+
+
+def test_the_commands_listed_are_the_modules_pkgutil_finds() -> None:
+    """The commands are listed from their package's directory, as pkgutil lists it."""
+    import pkgutil
+
+    from mplang.cli import _command_modules, commands
+    assert _command_modules() == sorted(info.name for info in
+                                        pkgutil.iter_modules(commands.__path__))

@@ -62,8 +62,6 @@ def command(ctx: click.Context, files: tuple[str, ...], fmt: str, output: str | 
     the nearest mpc.toml above it (files of one project together, as one build); '-' checks
     standard input (--stdin-filename PATH: as the file PATH). Exit 1 if any error is found
     (or a warning, where werror is set)."""
-    from mplang.tools import report as render
-
     if stdin_filename is not None and files != (STDIN,):
         raise click.UsageError("--stdin-filename names what '-' (standard input) stands for: "
                                "give it with '-' as the only FILE")
@@ -109,6 +107,8 @@ def command(ctx: click.Context, files: tuple[str, ...], fmt: str, output: str | 
     elif fmt == "text":
         _report_text(diagnostics, output, werror_failed, known)
     else:
+        from mplang.tools import report as render  # the machine-read formats only
+
         renderer = {"sarif": render.render_sarif, "github": render.render_github,
                     "gitlab": render.render_gitlab}.get(fmt)
         write_output(render.render_diagnostics_json(diagnostics) if renderer is None
