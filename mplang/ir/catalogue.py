@@ -7,6 +7,7 @@ files described in `stdlib/m8194h/FORMAT.md`; this module only gives them types 
 from __future__ import annotations
 
 import re
+import sys
 from functools import cache, cached_property
 from typing import Any
 
@@ -75,8 +76,9 @@ class Command(FrozenRecord):
     @cached_property
     def short_name(self) -> str:
         """The mplang name: vendor prefix and the MACRO marker removed (computed once: the
-        assembler, the device's validation and the interpreter all look it up)."""
-        return short_name(self.name)
+        assembler, the device's validation and the interpreter all look it up); interned, so
+        the catalogue's cache entry holds it once however many commands share it."""
+        return sys.intern(short_name(self.name))
 
 
 def short_name(vendor: str) -> str:
@@ -249,22 +251,43 @@ def _param(raw: dict[str, Any]) -> Param:
         min=raw.get("min"),
         max=raw.get("max"),
         values=tuple(raw.get("values", ())),
-        symbols={k.upper(): int(v) for k, v in raw.get("symbols", {}).items()},
+        symbols={sys.intern(k.upper()): int(v) for k, v in raw.get("symbols", {}).items()},
         encoding=raw.get("encoding"),
         doc=raw.get("doc", ""),
     )
 
 
-def _command(raw: dict[str, Any]) -> Command:
+def _frozen(items: Any, sets: dict[frozenset[str], frozenset[str]] | None) -> frozenset[str]:
+    """`frozenset(items)`, one object for equal sets when `sets` is given (`_share`)."""
+    made = frozenset(items)
+    return made if sets is None else sets.setdefault(made, made)
+
+
+def _share(value: Any) -> Any:
+    """`value` (what tomllib gives) with each string that occurs more than once one object
+    (interned): tomllib makes a new one at each occurrence ("BYTE" 331 times, "axis" 199,
+    the same doc line dozens), and the pickle the cache holds writes, and a run unpickles,
+    one object per distinct object; this halves the objects of the catalogue's entry."""
+    if isinstance(value, str):
+        return sys.intern(value)  # one with the field names too (the entry's state keys)
+    if isinstance(value, dict):
+        return {sys.intern(k): _share(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_share(item) for item in value]
+    return value
+
+
+def _command(raw: dict[str, Any],
+             sets: dict[frozenset[str], frozenset[str]] | None = None) -> Command:
     return Command(
         name=raw["name"],
         section=str(raw["section"]),
         code=raw.get("code"),
         registers=raw.get("registers"),
-        scope=frozenset(raw.get("scope", ())),
+        scope=_frozen(raw.get("scope", ()), sets),
         line_cost=int(raw.get("line_cost", 1)),
         returns=bool(raw.get("returns", False)),
-        targets=frozenset(raw.get("targets", ("rs", "et"))),
+        targets=_frozen(raw.get("targets", ("rs", "et")), sets),
         params=tuple(_param(p) for p in raw.get("param", ())),
         summary=raw.get("summary", ""),
         lines=dict(raw.get("lines", {})),
@@ -295,7 +318,7 @@ def _read_text(family: str, filename: str) -> str:
     return packagedata.read_text("mplang.stdlib", family, filename)
 
 
-CACHE_FORMAT = "catalogue 2"
+CACHE_FORMAT = "catalogue 3"
 """Part of the cache key: change it when the classes of this module change shape."""
 
 BUILDS: list[str] = []
@@ -329,9 +352,10 @@ def _build(family: str, commands_text: str, device_text: str) -> Catalogue:
     BUILDS.append(family)
     import tomllib  # only when the cache misses: a run that hits never loads it
 
-    commands = tuple(_command(c) for c in tomllib.loads(commands_text)["command"])
-    profile = _profile(tomllib.loads(device_text))
-    by_vendor = {c.name.upper(): c for c in commands}
+    sets: dict[frozenset[str], frozenset[str]] = {}
+    commands = tuple(_command(_share(c), sets) for c in tomllib.loads(commands_text)["command"])
+    profile = _profile(_share(tomllib.loads(device_text)))
+    by_vendor = {sys.intern(c.name.upper()): c for c in commands}
     macro_by_short: dict[str, Command] = {}
     rtc_by_short: dict[str, Command] = {}
     for cmd in commands:
