@@ -15,8 +15,10 @@ from typing import Any
 
 from mplang.lang.sources import read_regular_bytes
 
-TABLE_LINE = re.compile(r"^\s*\[+\s*([^\]]+?)\s*\]+")
-KEY_LINE = re.compile(r"^\s*(\"[^\"]*\"|'[^']*'|[A-Za-z0-9_-]+)\s*=")
+TABLE_LINE = r"^\s*\[+\s*([^\]]+?)\s*\]+"
+KEY_LINE = r"^\s*(\"[^\"]*\"|'[^']*'|[A-Za-z0-9_-]+)\s*="
+"""The patterns of a `[table]` line and a `key =` line, compiled (by `re`'s own cache) when
+a message first needs a line: a run without a bad TOML file never compiles them."""
 
 
 class TomlFileError(Exception):
@@ -62,7 +64,7 @@ class TomlLines:
         current, found, key_line = "", 1, 0
         for number, raw in enumerate(self.lines, start=1):
             text = raw.split("#", 1)[0] if not raw.lstrip().startswith(("\"", "'")) else raw
-            header = TABLE_LINE.match(text)
+            header = re.match(TABLE_LINE, text)
             if header:
                 current = ".".join(part.strip().strip("\"'") for part in
                                    header.group(1).split("."))
@@ -73,7 +75,7 @@ class TomlLines:
                 continue
             if current != table:
                 continue
-            match = KEY_LINE.match(text)
+            match = re.match(KEY_LINE, text)
             if match and key is not None and match.group(1).strip("\"'") == key:
                 found = key_line = number
                 if needle is None:
