@@ -123,40 +123,45 @@ _SEVERITY_COLOR = {Severity.ERROR: "red", Severity.WARNING: "yellow"}
 
 def render_diagnostic(diagnostic: Diagnostic, sources: SourceLines, color: bool) -> str:
     """The gcc-style first line, then (rustc/ruff style) the source line with a caret range
-    under the span, related notes and the hint."""
+    under the span, related notes and the hint. Built as one string, painted only with
+    `color`: a whole device's check renders thousands."""
     span = diagnostic.span
     tint = _SEVERITY_COLOR.get(diagnostic.severity, "cyan")
-    lines = [f"{_paint(str(span), color, bold=True)}: "
-             f"{_paint(f'{diagnostic.severity.value}[{diagnostic.code}]', color, tint, True)}"
-             f": {diagnostic.message}"]
-    lines += _excerpt(span.file, span.line, span.col, span.end_col, sources, color, tint)
+    where, label = str(span), f"{diagnostic.severity.value}[{diagnostic.code}]"
+    if color:
+        where, label = _paint(where, color, bold=True), _paint(label, color, tint, True)
+    out = f"{where}: {label}: {diagnostic.message}" + _excerpt(
+        span.file, span.line, span.col, span.end_col, sources, color, tint)
     for related, note in diagnostic.related:
-        lines.append(f"{_paint(str(related), color, bold=True)}: "
-                     f"{_paint('note', color, 'cyan', True)}: {note}")
-        lines += _excerpt(related.file, related.line, related.col, related.end_col, sources,
-                          color, "cyan")
+        out += (f"\n{_paint(str(related), color, bold=True)}: "
+                f"{_paint('note', color, 'cyan', True)}: {note}")
+        out += _excerpt(related.file, related.line, related.col, related.end_col, sources,
+                        color, "cyan")
     if diagnostic.hint:
-        lines.append(f"    {_paint('hint', color, 'cyan', True)}: {diagnostic.hint}")
-    return "\n".join(lines)
+        out += f"\n    {_paint('hint', color, 'cyan', True)}: {diagnostic.hint}"
+    return out
 
 
 def _excerpt(file: str, number: int, col: int, end_col: int | None, sources: SourceLines,
-             color: bool, tint: str) -> list[str]:
+             color: bool, tint: str) -> str:
+    """The three lines under a diagnostic's first one (each after a line break): the source
+    line and carets under the span; "" without a line to show."""
     text = sources.line(file, number)
     if text is None:
-        return []
+        return ""
     text = text.expandtabs(1).rstrip()  # one column a character, as spans count them
     if len(text) > 200:
-        return []  # a generated line: the excerpt would help no one
-    start = max(1, col)
+        return ""  # a generated line: the excerpt would help no one
+    start = col if col > 1 else 1
     end = end_col if end_col is not None and end_col > start else start + 1
     end = min(end, max(len(text) + 1, start + 1))
-    gutter = " " * len(str(number))
-    bar = _paint("|", color, "blue", True)
-    carets = _paint("^" * (end - start), color, tint, True)
-    return [f" {gutter} {bar}",
-            f" {_paint(str(number), color, 'blue', True)} {bar} {text}",
-            f" {gutter} {bar} {' ' * (start - 1)}{carets}"]
+    shown = str(number)
+    gutter = " " * len(shown)
+    bar, carets = "|", "^" * (end - start)
+    if color:
+        bar, shown = _paint(bar, color, "blue", True), _paint(shown, color, "blue", True)
+        carets = _paint(carets, color, tint, True)
+    return f"\n {gutter} {bar}\n {shown} {bar} {text}\n {gutter} {bar} {' ' * (start - 1)}{carets}"
 
 
 WERROR_REASON = "failed: warnings are errors here (--werror, or werror = true in mpc.toml)"
