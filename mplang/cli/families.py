@@ -22,7 +22,6 @@ from mplang.cli import style
 from mplang.cli.common import EXIT_RUN_FAILED, BuildSetup, report
 from mplang.family.face import CommandError, Family, FamilyBuild, FamilyRun
 from mplang.family.registry import families, family_of_path, family_of_target
-from mplang.family.watch import Watch
 from mplang.ir.unit import Options
 from mplang.lang.record import FrozenRecord
 from mplang.tools import project as project_module
@@ -32,6 +31,7 @@ if TYPE_CHECKING:  # every family package has the face the CLI uses
     import mplang.fatek
     import mplang.m8194h
     from mplang.cli.runwatch import RunWatch
+    from mplang.family.watch import Watch  # a run's only
 
     _M8194H: Family = mplang.m8194h
     _FATEK: Family = mplang.fatek
