@@ -38,7 +38,7 @@ def _home(variable: str) -> Path | None:
 def _platform_dir(variable: str) -> str:
     """The platform's directory for `variable` (platformdirs' `user_state_dir` or
     `user_cache_dir`); RuntimeError or KeyError when there is no home to build it from."""
-    if sys.platform in ("win32", "darwin"):
+    if sys.platform == "win32" or sys.platform == "darwin":  # spelt so for mypy's platforms
         import platformdirs
 
         found: str = (platformdirs.user_state_dir() if variable == "XDG_STATE_HOME"
@@ -52,7 +52,7 @@ def _expand_home(path: str) -> str:
     counts as unset (the password entry's home is taken); a home that is still not absolute
     is a RuntimeError."""
     home = os.environ.get("HOME")
-    if home is not None and not os.path.isabs(home):
+    if sys.platform != "win32" and home is not None and not os.path.isabs(home):
         import pwd
 
         expanded = pwd.getpwuid(os.getuid()).pw_dir.rstrip("/") + path[1:] or "/"
