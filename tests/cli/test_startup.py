@@ -52,12 +52,11 @@ NEVER_FOR_A_BUILD = ("lark", "difflib", "pymodbus.server", "aiohttp", "mplang.cl
                      "mplang.tools.monitor.server", "mplang.m8194h.debugger",
                      "mplang.m8194h.run", "mplang.cli.commands.dap", "mplang.tools.dap",
                      "mplang.family.debug", "mplang.family.trace", "mplang.family.hostview",
-                     "mplang.family.watch", "mplang.family.run_error", "platformdirs",
-                     "pkgutil", "glob", "click.shell_completion", "mplang.tools.report")
+                     "mplang.family.watch", "mplang.family.run_error", "pkgutil", "glob",
+                     "click.shell_completion", "mplang.tools.report")
 """What `mpc lint` and `mpc flash --dry-run` whose files all hit the front cache, and `mpc
-status`, never need: the host view, platformdirs (the cache directory is worked out
-without it on Linux), pkgutil (the commands are listed from their directory), glob (for a
-file pattern only), click's shell completion (when the shell asks), the machine-read
+status`, never need: the host view, pkgutil (the commands are listed from their
+directory), glob (for a file pattern only), click's shell completion (when the shell asks), the machine-read
 report formats."""
 
 NEVER_ON_A_HIT = ("tomllib",)

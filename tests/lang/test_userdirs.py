@@ -27,23 +27,3 @@ def test_an_absolute_xdg_variable_is_honoured_and_a_relative_one_not(
     expected = Path(platformdirs.user_state_dir())
     monkeypatch.setenv("XDG_STATE_HOME", "relative/state")
     assert userdirs.state_home() == expected
-
-
-@pytest.mark.parametrize("home", ["/home/someone", "/home/someone/", "relative/home", None])
-def test_a_home_of_any_form_gives_what_platformdirs_gives(
-        home: str | None, monkeypatch: pytest.MonkeyPatch) -> None:
-    """The directories are worked out without platformdirs on XDG systems: an absolute HOME,
-    a relative one (the password entry's home is taken) and none give its answer."""
-    monkeypatch.delenv("XDG_STATE_HOME", raising=False)
-    monkeypatch.delenv("XDG_CACHE_HOME", raising=False)
-    if home is None:
-        monkeypatch.delenv("HOME", raising=False)
-    else:
-        monkeypatch.setenv("HOME", home)
-    for ours, theirs in ((userdirs.state_home, platformdirs.user_state_dir),
-                         (userdirs.cache_home, platformdirs.user_cache_dir)):
-        try:
-            expected: Path | None = Path(theirs())
-        except RuntimeError:
-            expected = None
-        assert ours() == expected
