@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import cache
 from pathlib import Path
 
 from mplang.ir import catalogue as catalogue_module
@@ -14,9 +15,10 @@ from mplang.ir.catalogue import Catalogue
 from mplang.ir.configure import TriggerTable, Wire
 from mplang.ir.lower import Scope
 from mplang.ir.macro import LoweredProgram, ProgramRef
+from mplang.ir.persist import StoredLowerings, code_key
 from mplang.ir.reuse import BuildMemo, Lowerings
 from mplang.ir.unit import DEFAULT_TEMPS, Options, lower_unit
-from mplang.lang import ast
+from mplang.lang import ast, caches
 from mplang.lang.diagnostics import DiagnosticSink, suppressed
 from mplang.lang.followon import settle_includes
 from mplang.lang.heap import collection_paused
@@ -72,10 +74,12 @@ def compile_sources(paths: list[Path], sources: SourceSet, sink: DiagnosticSink,
     `sink`); `lowering`, when given, receives the scope, lowered programs and placements.
     `encode=False` checks only (an editor's diagnostics): the result holds no image."""
     catalogue = catalogue_module.load()
+    kept = memo.lowerings if memo is not None else _stored(sources)
     with collection_paused():
         unit = build_unit(sources, sink, memo.blocks if memo is not None else None)
-        result = _finish(unit, catalogue, sink, options, lowering,
-                         memo.lowerings if memo is not None else None, encode)
+        result = _finish(unit, catalogue, sink, options, lowering, kept, encode)
+    if isinstance(kept, StoredLowerings):
+        kept.save()
     result.sources = {f.display: f.text.splitlines() for f in sources.files}
     if paths:
         first = paths[0].resolve()
@@ -88,6 +92,27 @@ def compile_sources(paths: list[Path], sources: SourceSet, sink: DiagnosticSink,
         [d for d in result.diagnostics
          if d.span.file not in marked or not suppressed(d, result.sources)], result.sources)
     return result
+
+
+def _stored(sources: SourceSet) -> StoredLowerings | None:
+    """The lowerings of a build without a memo (a command's one build): kept on disk
+    between runs (`mplang.ir.persist`), unless caching is off."""
+    directory = caches.user_cache_dir()
+    if directory is None:
+        return None
+    return StoredLowerings(directory, {f.display: f.text.split("\n") for f in sources.files},
+                           _salt())
+
+
+@cache
+def _salt() -> str:
+    """What a stored lowering depends on besides its program and context: the code that
+    lowers, warns (W111) and encodes, and the catalogue it reads."""
+    from importlib import import_module
+
+    return code_key(Path(path) for name in ("mplang.ir", "mplang.lang", "mplang.m8194h",
+                                            "mplang.stdlib.m8194h")
+                    for path in import_module(name).__path__)
 
 
 def compile_source(text: str, name: str = "<input>.mp", options: Options = Options()
