@@ -8,7 +8,9 @@ its header to its end, by number and file name) and the build's context
 (`reuse.lowering_context`: CONST values, ALIASes, placement, the programs' names, the
 options), with the caller's `salt` (the catalogue, the code that lowers, encodes and warns)
 and mpc's and Python's version (`caches.STAMP`). The key names the entry's file and heads it,
-and is compared before the entry is unpickled (`caches.load`). Entries live in the user
+and is compared before the entry is unpickled (`caches.load`). An entry is held flat
+(tuples of numbers and strings, each catalogue command as its index) and made into records
+again when read: that unpickles several times faster. Entries live in the user
 cache dir (`lowered/`), written under a fresh name and renamed into place, so builds side
 by side never read half of one; a damaged, truncated or foreign entry is a miss, lowered
 again and replaced. `--no-cache` and `MPLANG_CACHE=off` turn the store off with the other
@@ -19,20 +21,28 @@ they were written) that this build did not use are deleted.
 from __future__ import annotations
 
 import contextlib
-import io
 import os
 import pickle
 from collections.abc import Callable, Hashable, Iterable
 from pathlib import Path
+from typing import Any
 
 from mplang.ir.catalogue import Catalogue, Command
-from mplang.ir.macro import LoweredProgram
+from mplang.ir.macro import (
+    BVarRef,
+    CallSite,
+    LoweredProgram,
+    MacroLine,
+    Operand,
+    ProgramRef,
+    VarRef,
+)
 from mplang.ir.reuse import Context, Lowered, Lowerings
 from mplang.ir.scope import Scope
 from mplang.lang import ast, caches
-from mplang.lang.diagnostics import DiagnosticSink
+from mplang.lang.diagnostics import Diagnostic, DiagnosticSink, Severity, Span, make_span
 
-FORMAT = "lowered 1"
+FORMAT = "lowered 3"
 """Part of every key: change it when what an entry holds changes shape."""
 
 LIMIT = 4096
@@ -70,29 +80,124 @@ def _stable(value: object) -> str:
     return repr(value)
 
 
-class _Pickler(pickle.Pickler):
-    """Pickles an entry with each catalogue command as its index (an entry is read back
-    only with the same catalogue: the salt), so the commands are not copied into it."""
-
-    def __init__(self, stream: io.BytesIO, index: dict[int, int]) -> None:
-        super().__init__(stream, protocol=pickle.HIGHEST_PROTOCOL)
-        self.index = index
-
-    def persistent_id(self, obj: object) -> int | None:
-        if type(obj) is Command:
-            return self.index[id(obj)]
-        return None
+class _Unstorable(Exception):
+    """A value an entry cannot hold in its flat form: that program is not stored."""
 
 
-class _Unpickler(pickle.Unpickler):
-    def __init__(self, stream: io.BytesIO, commands: tuple[Command, ...]) -> None:
-        super().__init__(stream)
-        self.commands = commands
+SpanTuple = tuple[str, int, int, int | None]
 
-    def persistent_load(self, pid: object) -> Command:
-        if type(pid) is not int or not 0 <= pid < len(self.commands):
-            raise pickle.UnpicklingError("no such command")
-        return self.commands[pid]
+
+def _span_out(span: Span) -> SpanTuple:
+    return (span.file, span.line, span.col, span.end_col)
+
+
+def _operand_out(operand: object) -> object:
+    """An operand as an entry holds it: numbers as they are, references as tagged tuples
+    (an operand is never a tuple)."""
+    kind = type(operand)
+    if kind is int or kind is float:
+        return operand
+    if kind is VarRef:
+        return ("V", operand.index)  # type: ignore[attr-defined]
+    if kind is BVarRef:
+        return ("B", operand.index)  # type: ignore[attr-defined]
+    if kind is ProgramRef:
+        return ("P", operand.name, operand.slot)  # type: ignore[attr-defined]
+    raise _Unstorable
+
+
+def _operands_out(operands: tuple[Operand, ...]) -> tuple[Operand, ...] | list[object]:
+    """A line's operands: the tuple itself when all are numbers (most lines), else a list
+    of each as `_operand_out` holds it (a list: `_entry_in` tells the two apart)."""
+    if all(type(o) is int or type(o) is float for o in operands):
+        return operands
+    return [_operand_out(o) for o in operands]
+
+
+def _operand_in(held: Any) -> Operand:
+    if type(held) is not tuple:
+        number: int | float = held
+        return number
+    if held[0] == "V":
+        return VarRef(held[1])
+    if held[0] == "B":
+        return BVarRef(held[1])
+    return ProgramRef(held[1], held[2])
+
+
+def _diagnostic_out(item: Diagnostic) -> tuple[object, ...]:
+    return (item.code, item.severity.value, item.message, _span_out(item.span), item.hint,
+            tuple((_span_out(span), note) for span, note in item.related))
+
+
+_SEVERITIES = {severity.value: severity for severity in Severity}
+
+
+def _diagnostic_in(held: tuple[Any, ...]) -> Diagnostic:
+    """A diagnostic as `Diagnostic(...)` makes it, its fields filled in directly (the
+    frozen dataclass's `__init__` sets each through `object.__setattr__`: most of the cost
+    of reading an entry back)."""
+    code, severity, message, span, hint, related = held
+    made: Diagnostic = object.__new__(Diagnostic)
+    fields = made.__dict__
+    fields["code"] = code
+    fields["severity"] = _SEVERITIES[severity]
+    fields["message"] = message
+    fields["span"] = make_span(*span)
+    fields["hint"] = hint
+    fields["related"] = tuple((make_span(*at), note) for at, note in related) if related \
+        else ()
+    return made
+
+
+def _entry_out(entry: Lowered, index: dict[int, int]) -> tuple[object, ...]:
+    """An entry in its flat form: tuples of numbers and strings, which unpickle several
+    times faster than the records they stand for (each made again in `_entry_in`)."""
+    result = entry.result
+    program = None if result is None else (
+        result.kind, result.slot, result.name, result.source, _span_out(result.span),
+        _span_out(result.end_span),
+        [(index[id(line.command)], _operands_out(line.operands), _span_out(line.span))
+         for line in result.lines],
+        [(("P", call.target.name, call.target.slot), _span_out(call.span))
+         for call in result.calls])
+    derived = {kind: (pickle.dumps(key, pickle.HIGHEST_PROTOCOL), _value_out(value))
+               for kind, (key, value) in entry.derived.items()}
+    return (program, [_diagnostic_out(d) for d in entry.diagnostics], derived)
+
+
+def _value_out(value: object) -> tuple[str, object]:
+    """A derived value: a list of diagnostics flat, anything else (frames, the programs
+    a program names) as it is."""
+    if isinstance(value, list) and value and all(type(d) is Diagnostic for d in value):
+        return ("D", [_diagnostic_out(d) for d in value])
+    return ("O", value)
+
+
+def _entry_in(held: Any, program: ast.Program, commands: tuple[Command, ...],
+              keys: dict[bytes, Hashable]) -> Lowered:
+    """The entry `_entry_out` made, as `program`'s lowering (any damage raises). A derived
+    value's key is held pickled, and read once per build however many entries hold it
+    (`keys`): the W111 key holds the device's chip rules, the same for every program."""
+    flat, diagnostics, derived = held
+    result = None
+    if flat is not None:
+        kind, slot, name, source, span, end_span, lines, calls = flat
+        result = LoweredProgram(
+            kind, slot, name, source, make_span(*span), make_span(*end_span),
+            [MacroLine(commands[command], operands if type(operands) is tuple
+                       else tuple(map(_operand_in, operands)), make_span(*at))
+             for command, operands, at in lines],
+            [CallSite(ProgramRef(target[1], target[2]), make_span(*at))
+             for target, at in calls])
+    kept: dict[str, tuple[Hashable, object]] = {}
+    for kind_name, (pickled, (tag, value)) in derived.items():
+        if pickled in keys:
+            key = keys[pickled]
+        else:
+            key = keys[pickled] = pickle.loads(pickled)
+        kept[kind_name] = (key, [_diagnostic_in(d) for d in value] if tag == "D" else value)
+    return Lowered(program, result, [_diagnostic_in(d) for d in diagnostics], kept)
 
 
 class StoredLowerings(Lowerings):
@@ -108,6 +213,7 @@ class StoredLowerings(Lowerings):
         self.salt = salt
         self._build_key: str | None = None
         self._commands: tuple[Command, ...] = ()
+        self._keys: dict[bytes, Hashable] = {}  # derived values' keys, by their pickle
         self._used: list[tuple[str, Lowered, dict[str, Hashable] | None]] = []
 
     def start(self, context: Context) -> None:
@@ -151,15 +257,10 @@ class StoredLowerings(Lowerings):
         """The entry stored under `key`, as `program`'s lowering; None when absent or
         unreadable."""
         found = caches.load(self.directory / f"{key}.pickle", key)
-        if type(found) is not bytes:
+        if found is None:
             return None
         try:
-            entry = _Unpickler(io.BytesIO(found), self._commands).load()
-            result, diagnostics, derived = entry
-            if not (result is None or type(result) is LoweredProgram) or \
-                    type(diagnostics) is not list or type(derived) is not dict:
-                return None
-            return Lowered(program, result, diagnostics, derived)
+            return _entry_in(found, program, self._commands, self._keys)
         except Exception:  # a damaged entry of the right key: lowered again
             return None
 
@@ -172,12 +273,11 @@ class StoredLowerings(Lowerings):
         for key, entry, loaded in self._used:
             if loaded is not None and loaded == _derived_keys(entry):
                 continue
-            stream = io.BytesIO()
             try:
-                _Pickler(stream, index).dump((entry.result, entry.diagnostics, entry.derived))
-            except Exception:  # something unpicklable: this program is lowered next time
+                flat = _entry_out(entry, index)
+            except (_Unstorable, KeyError):  # an operand or command of another kind
                 continue
-            caches.store(self.directory / f"{key}.pickle", key, stream.getvalue())
+            caches.store(self.directory / f"{key}.pickle", key, flat)
             wrote = True
         if wrote:
             self._evict({f"{key}.pickle" for key, _, _ in self._used})

@@ -112,7 +112,9 @@ def test_a_damaged_entry_is_ignored_and_made_again(tmp_path: Path, cache_dir: Pa
         elif damage == "shape":  # the right key over a value of another shape
             caches.store(entry, head.decode(), {"not": "an entry"})
         else:  # a catalogue command that does not exist
-            caches.store(entry, head.decode(), b"\x80\x05K\xff\x8c\x03999\x94Q.")
+            at = ("three.mp", 2, 1, None)
+            caches.store(entry, head.decode(), (("mp", 1, "first", "three.mp", at, at,
+                                                 [(99_999, (), at)], []), [], {}))
     damaged = {p.name: p.read_bytes() for p in (cache_dir / "lowered").iterdir()}
     assert seen(_stored(path, THREE)) == expected
     remade = {p.name: p.read_bytes() for p in (cache_dir / "lowered").iterdir()}
