@@ -284,11 +284,12 @@ class StoredLowerings(Lowerings):
 
     def _evict(self, used: set[str]) -> None:
         """Past `LIMIT` entries, delete the oldest this build did not use, down to three
-        quarters of it (so that not every build past the limit deletes)."""
+        quarters of it (so that not every build past the limit deletes). The scratch files
+        of writers that never renamed theirs (killed) count as entries: they go as old."""
         try:
             with os.scandir(self.directory) as found:
                 entries = [(e.stat().st_mtime_ns, e.name) for e in found
-                           if e.name.endswith(".pickle")]
+                           if e.name.endswith((".pickle", ".tmp"))]
         except OSError:
             return
         if len(entries) <= LIMIT:

@@ -128,10 +128,15 @@ def test_the_store_stays_bounded(tmp_path: Path, cache_dir: Path,
                                  monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(persist, "LIMIT", 8)
     path = tmp_path / "three.mp"
+    (cache_dir / "lowered").mkdir(parents=True)
+    for number in range(6):  # left by writers killed before they renamed them
+        (cache_dir / "lowered" / f".left{number}.tmp").write_bytes(b"half")
+        os.utime(cache_dir / "lowered" / f".left{number}.tmp", (1, 1))
     for number in range(12):
         text = THREE.replace("VAR1 = 5", f"VAR1 = {number}").replace("300", f"3{number}")
         assert seen(_stored(path, text)) == seen(_fresh(path, text))
         assert len(_entries(cache_dir)) <= 8
+    assert not list((cache_dir / "lowered").glob("*.tmp"))
     # what the last build used is kept: building it again writes nothing
     kept = _entries(cache_dir)
     _stored(path, text)
