@@ -164,8 +164,11 @@ def test_mpc_build_with_the_store_gives_what_no_cache_gives(tmp_path: Path) -> N
         for fmt in ("json", "listing") if number == len(edits) - 1 else ("json",):
             stored = _mpc(tmp_path, cache, "build", "pp.mp", "--format", fmt, "-o", "a.out")
             image = (tmp_path / "a.out").read_bytes() if stored.returncode == 0 else b""
+            kept = {p.name: p.stat().st_mtime_ns for p in (cache / "lowered").iterdir()}
             fresh = _mpc(tmp_path, cache, "build", "--no-cache", "pp.mp", "--format", fmt,
                          "-o", "a.out")
+            # --no-cache writes no entry (nor changes one)
+            assert {p.name: p.stat().st_mtime_ns for p in (cache / "lowered").iterdir()} == kept
             assert b"Traceback" not in stored.stderr
             assert (stored.returncode, stored.stderr) == (fresh.returncode, fresh.stderr)
             if fresh.returncode == 0:
