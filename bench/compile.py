@@ -8,7 +8,8 @@ it; never asserted, and never a test.
    the same image with every line made distinct (a comment numbering it) is built too;
 2. `mpc build` of that image as a process, beyond `mpc --version` (target <= 120 ms): right
    after a one-number edit of the source (the front cache holds the text before it), with
-   the front-end cache warm (a re-build) and with --no-cache (every file parsed);
+   the caches warm (a re-build: the front end's and the programs' lowerings, kept on disk by
+   `mplang.ir.persist`) and with --no-cache (every file parsed, every program lowered);
 3. `mpc lint` of one 512-line file as a process, against `python -c pass` measured in the
    same run (target <= 4x);
 4. `mpc --version` against `python -c pass` (target <= 2.5x);
@@ -217,7 +218,7 @@ def main() -> None:
         edits = iter(range(1, 1_000_000))
         _, lsp = best_of(runs * 2, lambda: analyse(edited, mp512.replace(
             "VAR1 = 0", f"VAR1 = {next(edits)}")))
-        compile_source(source, "full.mp")  # fills the front-end cache
+        compile_source(source, "full.mp")  # fills the front-end cache and the lowerings
         _, cached = best_of(runs, lambda: compile_source(source, "full.mp"))
 
         # 2.-4. processes
@@ -249,7 +250,8 @@ def main() -> None:
           f"{source.count(chr(10))} source lines (medians of {runs} runs)")
     lines = source.split("\n")
     print(f"1. build in process, warm: {ms(build)} (target <= 100 ms: {verdict(build <= 0.1)}); "
-          f"parse {ms(parse)} = {parse / build:.0%}; with the front-end cache {ms(cached)}")
+          f"parse {ms(parse)} = {parse / build:.0%}; with the caches (front end, lowerings) "
+          f"{ms(cached)}")
     print(f"   its {len(set(lines))} distinct lines are {len(set(lines)) / len(lines):.1%} of "
           f"{len(lines)}, each parsed once (the whole text through lark, every line parsed: "
           f"{ms(whole)}); every line made distinct: build {ms(build_distinct)}, parse "

@@ -6,10 +6,13 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
+
+if TYPE_CHECKING:
+    from mplang.m8194h.compiler import BuildResult
 
 ROOT = Path(__file__).resolve().parents[1]
 SAMPLES = sorted((ROOT / "samples").glob("*.mp"))
@@ -19,6 +22,17 @@ POOL = sorted({line for path in FILES for line in path.read_text(encoding="utf-8
               | {"CONST SPEED = 7", "CONST SPEED = 2147483647 * 4", "VAR spare",
                  "ALIAS hits = VAR9", "  VAR450 = 1", "  CALL missing", "MP 9 extra",
                  "END MP", "  IF X >", "  NEXT"})
+
+
+def seen(result: BuildResult) -> tuple[object, ...]:
+    """All a build gives, to compare two builds: diagnostics, the image, frames with their
+    lines, listing, map."""
+    image = result.render("json") if result.ok else None
+    listing = result.render("listing") if result.ok else None
+    frames = [(p.placement.slot, p.frames, [(f.line.span, f.first_slot_line) for f in p.lines])
+              for p in result.programs]
+    return (result.diagnostics, image, listing, frames, result.variables, result.aliases,
+            result.init.frames if result.init else None)
 
 
 def changed(lines: list[str], step: tuple[int, int, int]) -> list[str]:

@@ -202,6 +202,15 @@ class Lowerings:
                 return kept.moved(program, offset, self.shifted)
         return None
 
+    def recall(self, span: Span) -> Lowered | None:
+        """What this build keeps for the program headed at `span`, if anything yet."""
+        return self._now.get(span)
+
+    def keep(self, lowered: Lowered) -> None:
+        """Give this build a lowering kept elsewhere (on disk: `mplang.ir.persist`): `lower`
+        takes it for its program, as one it kept itself."""
+        self._now[lowered.program.span] = lowered
+
     def entry(self, program: LoweredProgram) -> Lowered | None:
         """The kept entry a lowered program of this build was copied from."""
         return self.origin.get(id(program))

@@ -5,8 +5,11 @@ encoding macro lines as Modbus frames (`encode`)."""
 
 from __future__ import annotations
 
+import gc
+import sys
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import cache
 from pathlib import Path
 
 from mplang.ir import catalogue as catalogue_module
@@ -14,9 +17,10 @@ from mplang.ir.catalogue import Catalogue
 from mplang.ir.configure import TriggerTable, Wire
 from mplang.ir.lower import Scope
 from mplang.ir.macro import LoweredProgram, ProgramRef
+from mplang.ir.persist import StoredLowerings, code_key
 from mplang.ir.reuse import BuildMemo, Lowerings
 from mplang.ir.unit import DEFAULT_TEMPS, Options, lower_unit
-from mplang.lang import ast
+from mplang.lang import ast, caches
 from mplang.lang.diagnostics import DiagnosticSink, suppressed
 from mplang.lang.followon import settle_includes
 from mplang.lang.heap import collection_paused
@@ -62,7 +66,26 @@ def compile_paths(paths: list[Path], options: Options = Options(), *,
         sink = DiagnosticSink()
         sources = load_sources(paths, sink, allow_outside=options.allow_outside_includes,
                                texts=texts, lines=lines)
-        return compile_sources(paths, sources, sink, options, memo=memo)
+        result = compile_sources(paths, sources, sink, options, memo=memo)
+        if memo is None:
+            _freeze_first_build()
+        return result
+
+
+_froze_a_build = False
+
+
+def _freeze_first_build() -> None:
+    """In an `mpc` process, freeze what its first build made, as start-up is frozen
+    (`mplang.lang.heap`): a command keeps its build until it ends, and the collection that
+    follows the build (the collector on again, its counts grown by every object the build
+    made) would walk all of them to free nothing, a build making no cycles: a sixth of
+    `mpc build` of the full device. Once per process, as `heap` freezes (a test process
+    runs many commands); never in a program that uses mplang as a library."""
+    global _froze_a_build
+    if not _froze_a_build and "mplang.cli" in sys.modules:
+        _froze_a_build = True
+        gc.freeze()
 
 
 def compile_sources(paths: list[Path], sources: SourceSet, sink: DiagnosticSink,
@@ -72,10 +95,12 @@ def compile_sources(paths: list[Path], sources: SourceSet, sink: DiagnosticSink,
     `sink`); `lowering`, when given, receives the scope, lowered programs and placements.
     `encode=False` checks only (an editor's diagnostics): the result holds no image."""
     catalogue = catalogue_module.load()
+    kept = memo.lowerings if memo is not None else _stored(sources)
     with collection_paused():
         unit = build_unit(sources, sink, memo.blocks if memo is not None else None)
-        result = _finish(unit, catalogue, sink, options, lowering,
-                         memo.lowerings if memo is not None else None, encode)
+        result = _finish(unit, catalogue, sink, options, lowering, kept, encode)
+    if isinstance(kept, StoredLowerings):
+        kept.save()
     result.sources = {f.display: f.text.splitlines() for f in sources.files}
     if paths:
         first = paths[0].resolve()
@@ -88,6 +113,27 @@ def compile_sources(paths: list[Path], sources: SourceSet, sink: DiagnosticSink,
         [d for d in result.diagnostics
          if d.span.file not in marked or not suppressed(d, result.sources)], result.sources)
     return result
+
+
+def _stored(sources: SourceSet) -> StoredLowerings | None:
+    """The lowerings of a build without a memo (a command's one build): kept on disk
+    between runs (`mplang.ir.persist`), unless caching is off."""
+    directory = caches.user_cache_dir()
+    if directory is None:
+        return None
+    return StoredLowerings(directory, {f.display: f.text.split("\n") for f in sources.files},
+                           _salt())
+
+
+@cache
+def _salt() -> str:
+    """What a stored lowering depends on besides its program and context: the code that
+    lowers, warns (W111) and encodes, and the catalogue it reads."""
+    from importlib import import_module
+
+    return code_key(Path(path) for name in ("mplang.ir", "mplang.lang", "mplang.m8194h",
+                                            "mplang.stdlib.m8194h")
+                    for path in import_module(name).__path__)
 
 
 def compile_source(text: str, name: str = "<input>.mp", options: Options = Options()

@@ -7,21 +7,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from sourceedits import changed, edit_sequences
+from sourceedits import changed, edit_sequences, seen
 
 from mplang.ir.reuse import BuildMemo
 from mplang.lang.linecache import StatementCache
 from mplang.m8194h.compiler import BuildResult, compile_paths
-
-
-def _seen(result: BuildResult) -> tuple[object, ...]:
-    """All a build gives: diagnostics, the image, frames with their lines, listing, map."""
-    image = result.render("json") if result.ok else None
-    listing = result.render("listing") if result.ok else None
-    frames = [(p.placement.slot, p.frames, [(f.line.span, f.first_slot_line) for f in p.lines])
-              for p in result.programs]
-    return (result.diagnostics, image, listing, frames, result.variables, result.aliases,
-            result.init.frames if result.init else None)
 
 
 def _build(path: Path, text: str, lines: StatementCache | None = None,
@@ -34,13 +24,13 @@ def test_random_edits_build_as_a_fresh_build_does(path: Path,
                                                   steps: list[tuple[int, int, int]]) -> None:
     lines, memo = StatementCache(), BuildMemo()
     text = path.read_text(encoding="utf-8").split("\n")
-    assert _seen(_build(path, "\n".join(text), lines, memo)) == _seen(_build(path, "\n".join(text)))
+    assert seen(_build(path, "\n".join(text), lines, memo)) == seen(_build(path, "\n".join(text)))
     for step in steps:
         text = changed(text, step)
         joined = "\n".join(text)
-        assert _seen(_build(path, joined, lines, memo)) == _seen(_build(path, joined))
+        assert seen(_build(path, joined, lines, memo)) == seen(_build(path, joined))
         # the same text again, everything kept: still the same
-        assert _seen(_build(path, joined, lines, memo)) == _seen(_build(path, joined))
+        assert seen(_build(path, joined, lines, memo)) == seen(_build(path, joined))
 
 
 def test_an_edit_lowers_only_the_program_it_changed(tmp_path: Path) -> None:
@@ -74,7 +64,7 @@ def test_a_kept_program_is_its_own_copy_in_each_build(tmp_path: Path) -> None:
     lines, memo = StatementCache(), BuildMemo()
     first = _build(path, text, lines, memo)
     for _ in range(3):
-        assert _seen(_build(path, text, lines, memo)) == _seen(first)
+        assert seen(_build(path, text, lines, memo)) == seen(first)
 
 
 def test_w111_follows_the_max_v_a_kept_program_starts_from(tmp_path: Path) -> None:
@@ -88,7 +78,7 @@ def test_w111_follows_the_max_v_a_kept_program_starts_from(tmp_path: Path) -> No
         edited = text.replace("200000", max_v)
         kept = _build(path, edited, lines, memo)
         assert any(d.code == "W111" for d in kept.diagnostics)
-        assert _seen(kept) == _seen(_build(path, edited))
+        assert seen(kept) == seen(_build(path, edited))
 
 
 def _frames_kept(memo: BuildMemo, result: BuildResult) -> dict[str | None, object]:
@@ -117,7 +107,7 @@ def test_a_program_that_only_moved_is_shifted_not_lowered_again(tmp_path: Path) 
                    THREE[:3] + THREE[4:], ["# a comment on top", *THREE]):
         text = "\n".join(edited)
         kept = _build(path, text, lines, memo)
-        assert _seen(kept) == _seen(_build(path, text))
+        assert seen(kept) == seen(_build(path, text))
         assert any(d.code == "W111" and d.span.line == edited.index("  SET_A X, 123457") + 1
                    for d in kept.diagnostics)
         after = _frames_kept(memo, kept)
@@ -135,6 +125,6 @@ def test_a_moved_program_whose_message_names_a_line_is_lowered_again(tmp_path: P
     _build(path, "\n".join(text), lines, memo)
     edited = ["# a comment", "# another", *text]
     result = _build(path, "\n".join(edited), lines, memo)
-    assert _seen(result) == _seen(_build(path, "\n".join(edited)))
+    assert seen(result) == seen(_build(path, "\n".join(edited)))
     assert [d.message for d in result.diagnostics if d.code == "W101"] == \
         ["unreachable: line 7 always jumps away"]
