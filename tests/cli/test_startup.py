@@ -56,8 +56,8 @@ NEVER_FOR_A_BUILD = ("lark", "difflib", "pymodbus.server", "aiohttp", "mplang.cl
                      "click.shell_completion", "mplang.tools.report")
 """What `mpc lint` and `mpc flash --dry-run` whose files all hit the front cache, and `mpc
 status`, never need: the host view, pkgutil (the commands are listed from their
-directory), glob (for a file pattern only), click's shell completion (when the shell asks), the machine-read
-report formats."""
+directory), glob (for a file pattern only), click's shell completion (when the shell
+asks), the machine-read report formats."""
 
 NEVER_ON_A_HIT = ("tomllib",)
 """What a run whose catalogue comes from the cache an earlier run filled, without an
