@@ -1,12 +1,19 @@
 """The hot lines of the interpreter, prepared once per stored line (`prepare`).
 
-SET_VAR, VAR_CALCULATE and IF are most of what a program runs. Their generic handlers
-(`VirtualController._set_var`, `_calculate`, `_if`) decode the operands, look the operator
-up and branch on its symbol every time the line runs; here that is done once, when a table
-is first run, and the line becomes a closure that only reads its sources, computes and
-stores. Each source is a (list, index) pair read the same way: a variable's list
-(`vars` / `bvars`, which the controller never replaces) or a one-element list holding a
-constant.
+SET_VAR, VAR_CALCULATE, IF and the loops are most of what a program runs. Their generic
+handlers (`VirtualController._set_var`, `_calculate`, `_if`, `_for`, `_next`, ...) decode
+the operands, look the operator up and branch on its symbol every time the line runs; here
+that is done once, when a table is first run, and the line becomes a *quick* line: a
+closure that takes the frame, only reads its sources, computes and stores, and returns the
+pc of the line that runs next. Each source is a (list, index) pair read the same way: a
+variable's list (`vars` / `bvars`, which the controller never replaces) or a one-element
+list holding a constant.
+
+A quick line never reads the clock or `frame.pc`, never waits, moves no axis and leaves
+the call stack alone, so `VirtualController.advance` runs a stretch of them with the clock
+and the pc in locals (`Prepared.quick`); every other line, and every line under a debugger
+(`before_line`), goes through its `Handler` (`Prepared.lines`), where a quick line is
+wrapped as `Quick`, which stores the pc it returns.
 
 END_IF and LABEL do nothing when they run: their line gets no handler at all (the
 interpreter counts its time and moves on, as after a handler that returned nothing).
@@ -32,6 +39,47 @@ if TYPE_CHECKING:
     from mplang.m8194h.sim.tables import MacroTable
 
 Source = tuple[list[int], int]
+Fast = Callable[["Frame"], int]
+"""A quick line: runs the line on the frame and returns the pc to go on at."""
+
+
+class Quick:
+    """A quick line as a `Handler`: the debugger's path (and any caller of a handler) runs
+    it like any other line; `fast` is what the interpreter's quick path calls."""
+
+    __slots__ = ("fast",)
+
+    def __init__(self, fast: Fast) -> None:
+        self.fast = fast
+
+    def __call__(self, frame: Frame, _ops: tuple[Operand, ...]) -> None:
+        frame.pc = self.fast(frame)
+
+
+class Prepared:
+    """A table ready to run: `lines` (handler, operands, touches motion) for every line and
+    `quick` (a `Fast` or None) per line plus one None for the closing line, so that the
+    interpreter's quick path needs no bounds check; `blank` is `quick` with every entry
+    None (the debugger's: every line through its handler, after `before_line`)."""
+
+    __slots__ = ("blank", "lines", "quick", "table")
+
+    def __init__(self, table: MacroTable, lines: list[tuple[Handler | None,
+                                                             tuple[Operand, ...], bool]]) -> None:
+        self.table = table
+        self.lines = lines
+        self.quick: list[Fast | None] = [
+            _skip(pc + 1) if handler is None else
+            handler.fast if isinstance(handler, Quick) else None
+            for pc, (handler, _ops, _motion) in enumerate(lines)] + [None]
+        self.blank: list[Fast | None] = [None] * (len(lines) + 1)
+
+
+def _skip(after: int) -> Fast:
+    """A line with no handler: nothing happens, the next line runs."""
+    def skip(_f: Frame) -> int:
+        return after
+    return skip
 
 COMPARE: dict[str, Callable[[Any, Any], bool]] = {
     "<": operator.lt, ">": operator.gt, "<=": operator.le, ">=": operator.ge,
@@ -62,7 +110,7 @@ def _code(vc: VirtualController, operand: Operand) -> int | None:
     return int(operand)
 
 
-def _set_var(vc: VirtualController, ops: tuple[Operand, ...]) -> Handler | None:
+def _set_var(vc: VirtualController, pc: int, ops: tuple[Operand, ...]) -> Fast | None:
     if len(ops) != 2 or not isinstance(ops[0], VarRef):
         return None
     source = _source(vc, ops[1])
@@ -70,15 +118,17 @@ def _set_var(vc: VirtualController, ops: tuple[Operand, ...]) -> Handler | None:
         return None
     values, dest = vc.vars, ops[0].index
     src, at = source
+    after = pc + 1
 
-    def set_var(_f: Frame, _o: tuple[Operand, ...]) -> None:
+    def set_var(_f: Frame) -> int:
         result = src[at] & _MASK
         values[dest] = result - _SPAN if result & _SIGN else result
+        return after
 
     return set_var
 
 
-def _calculate(vc: VirtualController, ops: tuple[Operand, ...]) -> Handler | None:
+def _calculate(vc: VirtualController, pc: int, ops: tuple[Operand, ...]) -> Fast | None:
     if len(ops) != 4 or not isinstance(ops[3], VarRef):
         return None
     code = _code(vc, ops[1])
@@ -93,31 +143,36 @@ def _calculate(vc: VirtualController, ops: tuple[Operand, ...]) -> Handler | Non
         return None
     values, dest = vc.vars, ops[3].index
     (lsrc, li), (rsrc, ri) = left, right
+    after = pc + 1
     if combine is operator.add:
-        def add(_f: Frame, _o: tuple[Operand, ...]) -> None:
+        def add(_f: Frame) -> int:
             result = (lsrc[li] + rsrc[ri]) & _MASK
             values[dest] = result - _SPAN if result & _SIGN else result
+            return after
         return add
     if combine is operator.sub:
-        def sub(_f: Frame, _o: tuple[Operand, ...]) -> None:
+        def sub(_f: Frame) -> int:
             result = (lsrc[li] - rsrc[ri]) & _MASK
             values[dest] = result - _SPAN if result & _SIGN else result
+            return after
         return sub
     if combine is operator.mul:
-        def mul(_f: Frame, _o: tuple[Operand, ...]) -> None:
+        def mul(_f: Frame) -> int:
             result = (lsrc[li] * rsrc[ri]) & _MASK
             values[dest] = result - _SPAN if result & _SIGN else result
+            return after
         return mul
 
-    def calculate(_f: Frame, _o: tuple[Operand, ...]) -> None:
+    def calculate(_f: Frame) -> int:
         result = combine(lsrc[li], rsrc[ri]) & _MASK
         values[dest] = result - _SPAN if result & _SIGN else result
+        return after
 
     return calculate
 
 
 def _if(vc: VirtualController, table: MacroTable, pc: int,
-        ops: tuple[Operand, ...]) -> Handler | None:
+        ops: tuple[Operand, ...]) -> Fast | None:
     if len(ops) != 3:
         return None
     code = _code(vc, ops[1])
@@ -130,14 +185,83 @@ def _if(vc: VirtualController, table: MacroTable, pc: int,
     holds = COMPARE.get(symbol or "")
     if holds is None:
         return None
-    target = table.if_false[pc] + 1
+    target, after = table.if_false[pc] + 1, pc + 1
     (lsrc, li), (rsrc, ri) = left, right
 
-    def if_(frame: Frame, _o: tuple[Operand, ...]) -> None:
-        if not holds(lsrc[li], rsrc[ri]):
-            frame.pc = target
+    def if_(_f: Frame) -> int:
+        return after if holds(lsrc[li], rsrc[ri]) else target
 
     return if_
+
+
+def _for(vc: VirtualController, table: MacroTable, pc: int,
+         ops: tuple[Operand, ...]) -> Fast | None:
+    """FOR as `VirtualController._for`: a count of 0 or less skips the body, else the loop
+    is pushed (with the counted variable, or an internal counter for any other count)."""
+    source = _source(vc, ops[0]) if len(ops) == 1 else None
+    if source is None or pc not in table.for_end:
+        return None
+    src, at = source
+    ref = ops[0] if isinstance(ops[0], VarRef) else None
+    skip, after = table.for_end[pc] + 1, pc + 1
+
+    def for_(frame: Frame) -> int:
+        count = src[at]
+        if count <= 0:
+            return skip
+        frame.loops.append((pc, ref, [count]))
+        return after
+
+    return for_
+
+
+def _next(vc: VirtualController, pc: int) -> Fast:
+    """NEXT as `VirtualController._next`: count down, back to the line after the FOR while
+    any count remains."""
+    values, after = vc.vars, pc + 1
+
+    def next_(frame: Frame) -> int:
+        loops = frame.loops
+        start, ref, counter = loops[-1]
+        if ref is not None:
+            values[ref.index] -= 1
+            remaining = values[ref.index]
+        else:
+            counter[0] -= 1
+            remaining = counter[0]
+        if remaining > 0:
+            return start + 1
+        loops.pop()
+        return after
+
+    return next_
+
+
+def _jump(vc: VirtualController, table: MacroTable, pc: int, name: str,
+          ops: tuple[Operand, ...]) -> Fast | None:
+    """ELSE, EXIT_FOR and GOTO to a constant label: a jump known when the table is."""
+    if name == "ELSE" and pc in table.else_end:
+        target = table.else_end[pc] + 1
+
+        def else_(_f: Frame) -> int:
+            return target
+        return else_
+    if name == "EXIT_FOR" and table.exit_for_end.get(pc, -1) >= 0:
+        end = table.exit_for_end[pc] + 1
+
+        def exit_for(frame: Frame) -> int:
+            frame.loops.pop()
+            return end
+        return exit_for
+    label = _code(vc, ops[0]) if name == "GOTO" and len(ops) == 1 else None
+    if label is not None and label in table.labels:
+        to = table.labels[label] + 1
+
+        def goto(frame: Frame) -> int:
+            frame.loops.clear()  # labels stand outside every block: the jump leaves all loops
+            return to
+        return goto
+    return None
 
 
 _NOTHING = (lambda _f, _o: None).__code__
@@ -153,16 +277,29 @@ def _does_nothing(handler: Handler | None) -> bool:
 
 def prepare(vc: VirtualController, table: MacroTable, pc: int, name: str,
             handler: Handler | None) -> Handler | None:
-    """The handler line `pc` of `table` runs with: a prepared one for the hot lines whose
-    handler is still the controller's own, none for a line that does nothing, else
+    """The handler line `pc` of `table` runs with: a quick line (`Quick`) for the hot lines
+    whose handler is still the controller's own, none for a line that does nothing, else
     `handler` as it is."""
     if name in ("END_IF", "LABEL") and _does_nothing(handler):
         return None  # (both are pure lines: the interpreter does nothing else after them)
+    fast = _fast(vc, table, pc, name, handler)
+    return handler if fast is None else Quick(fast)
+
+
+def _fast(vc: VirtualController, table: MacroTable, pc: int, name: str,
+          handler: Handler | None) -> Fast | None:
     ops = table.lines[pc].operands
     if name == "SET_VAR" and handler == vc._set_var:
-        return _set_var(vc, ops) or handler
+        return _set_var(vc, pc, ops)
     if name == "VAR_CALCULATE" and handler == vc._calculate:
-        return _calculate(vc, ops) or handler
+        return _calculate(vc, pc, ops)
     if name == "IF" and handler == vc._if:
-        return _if(vc, table, pc, ops) or handler
-    return handler
+        return _if(vc, table, pc, ops)
+    if name == "FOR" and handler == vc._for:
+        return _for(vc, table, pc, ops)
+    if name == "NEXT" and handler == vc._next:
+        return _next(vc, pc)
+    if (name == "ELSE" and handler == vc._else) or (name == "GOTO" and handler == vc._goto) \
+            or (name == "EXIT_FOR" and handler == vc._exit_for):
+        return _jump(vc, table, pc, name, ops)
+    return None
