@@ -7,7 +7,8 @@ that is done once, when a table is first run, and the line becomes a *quick* lin
 closure that takes the frame, only reads its sources, computes and stores, and returns the
 pc of the line that runs next. Each source is a (list, index) pair read the same way: a
 variable's list (`vars` / `bvars`, which the controller never replaces) or a one-element
-list holding a constant.
+list holding a constant; a constant right operand is bound as an int. VAR_CALCULATE and IF
+closures are written out per operator (`_factories`), so the line runs `+` or `<` itself.
 
 A quick line never reads the clock or `frame.pc`, never waits, moves no axis and leaves
 the call stack alone, so `VirtualController.advance` runs a stretch of them with the clock
@@ -87,7 +88,7 @@ COMPARE: dict[str, Callable[[Any, Any], bool]] = {
 }
 """IF's comparison symbols (device profile [operators.compare]) as functions."""
 
-_MASK, _SIGN, _SPAN = 0xFFFFFFFF, 0x80000000, 1 << 32
+_MASK, _SIGN = 0xFFFFFFFF, 0x80000000
 
 
 def _source(vc: VirtualController, operand: Operand) -> Source | None:
@@ -110,19 +111,70 @@ def _code(vc: VirtualController, operand: Operand) -> int | None:
     return int(operand)
 
 
+_CALC_SYMBOLS = ("+", "-", "*", "&", "|")
+_WRAP = "((({expr}) + 0x80000000) & 0xFFFFFFFF) - 0x80000000"  # wrap32, without a branch
+
+
+def _factories(template: str, symbols: tuple[str, ...]) -> dict[tuple[str, bool], Any]:
+    """One closure factory per operator symbol and kind of right operand (True: a constant,
+    bound as an int; False: a (list, index) source), written out from `template` so that
+    the line runs the operator itself, not a call to its function. Built once, at import."""
+    made: dict[tuple[str, bool], Any] = {}
+    for symbol in symbols:
+        for constant in (True, False):
+            namespace: dict[str, Any] = {}
+            exec(template.format(op=symbol, right="right" if constant else "right[ri]"),
+                 namespace)
+            made[(symbol, constant)] = namespace["make"]
+    return made
+
+
+_CALCULATE = _factories('''
+def make(lsrc, li, right, ri, values, dest, after):
+    def line(_f):
+        values[dest] = {wrap}
+        return after
+    return line
+'''.replace("{wrap}", _WRAP.replace("{expr}", "lsrc[li] {op} {right}")), _CALC_SYMBOLS)
+
+_COMPARE = _factories('''
+def make(lsrc, li, right, ri, after, target):
+    def line(_f):
+        return after if lsrc[li] {op} {right} else target
+    return line
+''', tuple(COMPARE))
+
+
+def _right(vc: VirtualController, operand: Operand) -> tuple[Any, int, bool] | None:
+    """A right operand as the factories take it: (int, 0, True) for a constant, (list,
+    index, False) for a variable; None as `_source`."""
+    source = _source(vc, operand)
+    if source is None:
+        return None
+    if isinstance(operand, (VarRef, BVarRef)):
+        return source[0], source[1], False
+    return source[0][0], 0, True
+
+
 def _set_var(vc: VirtualController, pc: int, ops: tuple[Operand, ...]) -> Fast | None:
     if len(ops) != 2 or not isinstance(ops[0], VarRef):
         return None
-    source = _source(vc, ops[1])
+    source = _right(vc, ops[1])
     if source is None:
         return None
     values, dest = vc.vars, ops[0].index
-    src, at = source
+    src, at, constant = source
     after = pc + 1
+    if constant:
+        value = ((src + _SIGN) & _MASK) - _SIGN
+
+        def set_const(_f: Frame) -> int:
+            values[dest] = value
+            return after
+        return set_const
 
     def set_var(_f: Frame) -> int:
-        result = src[at] & _MASK
-        values[dest] = result - _SPAN if result & _SIGN else result
+        values[dest] = ((src[at] + 0x80000000) & 0xFFFFFFFF) - 0x80000000
         return after
 
     return set_var
@@ -132,43 +184,16 @@ def _calculate(vc: VirtualController, pc: int, ops: tuple[Operand, ...]) -> Fast
     if len(ops) != 4 or not isinstance(ops[3], VarRef):
         return None
     code = _code(vc, ops[1])
-    left, right = _source(vc, ops[0]), _source(vc, ops[2])
+    left, right = _source(vc, ops[0]), _right(vc, ops[2])
     if code is None or left is None or right is None:
         return None
     symbol = vc.calc_symbols.get(code)
-    combine: Callable[[int, int], int] | None = {
-        "+": operator.add, "-": operator.sub, "*": operator.mul, "&": operator.and_,
-        "|": operator.or_}.get(symbol or "")
-    if combine is None:  # division (its error) and unknown codes: the generic handler
+    if symbol not in _CALC_SYMBOLS:  # division (its error) and unknown codes: the generic
         return None
-    values, dest = vc.vars, ops[3].index
-    (lsrc, li), (rsrc, ri) = left, right
-    after = pc + 1
-    if combine is operator.add:
-        def add(_f: Frame) -> int:
-            result = (lsrc[li] + rsrc[ri]) & _MASK
-            values[dest] = result - _SPAN if result & _SIGN else result
-            return after
-        return add
-    if combine is operator.sub:
-        def sub(_f: Frame) -> int:
-            result = (lsrc[li] - rsrc[ri]) & _MASK
-            values[dest] = result - _SPAN if result & _SIGN else result
-            return after
-        return sub
-    if combine is operator.mul:
-        def mul(_f: Frame) -> int:
-            result = (lsrc[li] * rsrc[ri]) & _MASK
-            values[dest] = result - _SPAN if result & _SIGN else result
-            return after
-        return mul
-
-    def calculate(_f: Frame) -> int:
-        result = combine(lsrc[li], rsrc[ri]) & _MASK
-        values[dest] = result - _SPAN if result & _SIGN else result
-        return after
-
-    return calculate
+    (lsrc, li), (rvalue, ri, constant) = left, right
+    made: Fast = _CALCULATE[(symbol, constant)](lsrc, li, rvalue, ri, vc.vars, ops[3].index,
+                                                pc + 1)
+    return made
 
 
 def _if(vc: VirtualController, table: MacroTable, pc: int,
@@ -176,22 +201,18 @@ def _if(vc: VirtualController, table: MacroTable, pc: int,
     if len(ops) != 3:
         return None
     code = _code(vc, ops[1])
-    left, right = _source(vc, ops[0]), _source(vc, ops[2])
+    left, right = _source(vc, ops[0]), _right(vc, ops[2])
     if code is None or left is None or right is None or pc not in table.if_false:
         return None
     if code not in vc.cmp_symbols:
         code = ((code & 0xFF) << 8) | (code >> 8)  # the example's byte order (as `_if`)
     symbol = vc.cmp_symbols.get(code)
-    holds = COMPARE.get(symbol or "")
-    if holds is None:
+    if symbol not in COMPARE:
         return None
-    target, after = table.if_false[pc] + 1, pc + 1
-    (lsrc, li), (rsrc, ri) = left, right
-
-    def if_(_f: Frame) -> int:
-        return after if holds(lsrc[li], rsrc[ri]) else target
-
-    return if_
+    (lsrc, li), (rvalue, ri, constant) = left, right
+    made: Fast = _COMPARE[(symbol, constant)](lsrc, li, rvalue, ri, pc + 1,
+                                              table.if_false[pc] + 1)
+    return made
 
 
 def _for(vc: VirtualController, table: MacroTable, pc: int,
