@@ -575,6 +575,9 @@ class VirtualController:
         self.log.append(f"{self.clock:.4f} s: {why}")
 
     def value(self, operand: Operand) -> int:
+        """An operand's value now: a variable's, or the constant (most are plain ints)."""
+        if operand.__class__ is int:
+            return operand
         if isinstance(operand, VarRef):
             return self.vars[operand.index]
         if isinstance(operand, BVarRef):
@@ -587,7 +590,9 @@ class VirtualController:
 
         def setter(method: Callable[[int, int], None]) -> Callable[..., None]:
             def run(_f: Frame, ops: tuple[Operand, ...]) -> None:
-                method(self.value(ops[0]), self.value(ops[1]))
+                first, second = ops[0], ops[1]  # (plain ints as `value` reads them)
+                method(first if first.__class__ is int else self.value(first),
+                       second if second.__class__ is int else self.value(second))
             return run
 
         def vsetter(method: Callable[[int], None]) -> Callable[..., None]:
@@ -602,7 +607,7 @@ class VirtualController:
 
         def now_call(method: Callable[..., None]) -> Callable[..., None]:
             def run(_f: Frame, ops: tuple[Operand, ...]) -> None:
-                method(*[self.value(o) for o in ops], self.clock)
+                method(*[o if o.__class__ is int else self.value(o) for o in ops], self.clock)
             return run
 
         handlers: dict[str, Handler] = {
