@@ -27,22 +27,30 @@ from mplang.m8194h.sim import (
     frame_check,
     initial_table,
     interpolation_commands,
+    lines,
     memory,
     precompile,
     unmodelled,
 )
-from mplang.m8194h.sim.failure import EXECUTION_CODES, Failure, located, watch_axis_stops
+from mplang.m8194h.sim.failure import NOT_EXECUTABLE as NOT_EXECUTABLE
+from mplang.m8194h.sim.failure import ExecutionError as ExecutionError
+from mplang.m8194h.sim.failure import (
+    Failure,
+    located,
+    record_error,
+    watch_axis_stops,
+)
 from mplang.m8194h.sim.initial_table import AxisColumn, InitialTable
 from mplang.m8194h.sim.machine_data import MachineData
 from mplang.m8194h.sim.motion import MotionModel
 from mplang.m8194h.sim.queues import DeviceBusy as DeviceBusy
 from mplang.m8194h.sim.queues import QueuedCommand, QueueFull, Retry, requeue
-from mplang.m8194h.sim.tables import DownloadError, MacroTable, StoredLine, decode_frame
+from mplang.m8194h.sim.tables import DownloadError, MacroTable, decode_frame
 from mplang.m8194h.sim.triggers import Triggers
+from mplang.m8194h.sim.waits import LevelWait, StopWait
 
 AXIS_NAMES = ("X", "Y", "Z", "U")
 MAX_STEPS_DEFAULT = 50_000_000
-NOT_EXECUTABLE = 0x04  # execution error type: the line's values make no sense to the device
 LOG = logging.getLogger("mplang.sim")
 
 
@@ -62,12 +70,6 @@ PURE_COMMANDS = frozenset({
 })
 
 
-class ExecutionError(Exception):
-    def __init__(self, code: int, message: str) -> None:
-        super().__init__(message)
-        self.code = code
-
-
 @dataclass
 class Frame:
     """One level of the MP call stack."""
@@ -79,6 +81,8 @@ class Frame:
     wait: Callable[[], float] | None = None
     # a pending TIMER / STOP_WAIT / FRNET_WAIT: returns when it ends (inf: not foreseeable).
     # It is asked again whenever time moves, so a stop or an input change ends it early.
+    program: precompile.Prepared | None = field(default=None, compare=False, repr=False)
+    # the table's prepared lines, found once per frame (`VirtualController.prepared`)
 
 
 @dataclass
@@ -125,6 +129,7 @@ class VirtualController:
         self.execution_error = (0, 0, 0, 0, 0)  # registers 115-119
         self.illegal_cause = 0  # register 102
         self.stack: list[Frame] = []
+        self._isr_at: tuple[int, Frame | None] = (0, None)  # the ISR frame's place (`_push`)
         self.fifo: deque[QueuedCommand] = deque()
         self.isr_queue: deque[tuple[int, bool]] = deque()  # (ISRn, from a call) waiting
         self.return_value = 0
@@ -133,7 +138,7 @@ class VirtualController:
         self.log: deque[str] = deque(maxlen=200)  # what the device did, for `mpc sim -v`
         self.notices: dict[unmodelled.Notice, None] = {}  # unmodelled commands that ran
         self.handlers = self._handlers()
-        self.programs: dict[tuple[str, int], tuple[MacroTable, Program]] = {}
+        self.programs: dict[tuple[str, int], precompile.Prepared] = {}
         self.memory_version = 0  # counts non-volatile changes: tells `mpc sim` to save FRAM
         self.epoch = 0  # counts changes made to the motion model from outside its own plan
         # chapter 8: the non-volatile initial table, and the live settings the motion model
@@ -227,23 +232,28 @@ class VirtualController:
                              f"{self.stack[0].table.kind.upper()}{self.stack[0].table.slot} "
                              "is running")
         self.error = self.failure = None
-        self.stack.append(Frame(table))  # in place: `advance` holds this list
+        self._push(Frame(table))  # in place: `advance` holds this list
         self.chip_state = 8 if kind == "mp" else 10
         self.log.append(f"{self.clock:.4f} s: {kind.upper()}{slot} called")
 
     def _compiled(self, table: MacroTable) -> Program:
-        """The table's lines as `Program` entries, built once per table (the hot lines
-        prepared by `precompile`)."""
+        """The table's lines as `Program` entries (`prepared`)."""
+        return self.prepared(table).lines
+
+    def prepared(self, table: MacroTable) -> precompile.Prepared:
+        """The table ready to run, built once per table (the hot lines prepared by
+        `precompile`)."""
         key = (table.kind, table.slot)
         built = self.programs.get(key)
-        if built is not None and built[0] is table:
-            return built[1]
-        program = [(precompile.prepare(self, table, pc, line.command.short_name,
-                                       self.handlers.get(line.command.short_name)),
-                    line.operands, line.command.short_name not in PURE_COMMANDS)
-                   for pc, line in enumerate(table.lines)]
-        self.programs[key] = (table, program)
-        return program
+        if built is not None and built.table is table:
+            return built
+        program: Program = [(precompile.prepare(self, table, pc, line.command.short_name,
+                                                self.handlers.get(line.command.short_name)),
+                             line.operands, line.command.short_name not in PURE_COMMANDS)
+                            for pc, line in enumerate(table.lines)]
+        prepared = precompile.Prepared(table, program)
+        self.programs[key] = prepared
+        return prepared
 
     def request_isr(self, slot: int, call: bool = True) -> None:
         """Run ISRn as soon as possible: at once, above a running MP (which resumes where it
@@ -263,7 +273,17 @@ class VirtualController:
         self.isr_queue.append((slot, call))
 
     def _isr_running(self) -> bool:
-        return any(frame.table.kind == "isr" for frame in self.stack)
+        """An ISR frame is on the stack. There is at most one (ISRs do not nest), pushed by
+        `_push` with its place; frames only come and go at the top, so it is there as long
+        as that place holds that very frame."""
+        at, isr = self._isr_at
+        return len(self.stack) > at and self.stack[at] is isr
+
+    def _push(self, frame: Frame) -> None:
+        """Start running `frame` above the present ones."""
+        if frame.table.kind == "isr":
+            self._isr_at = (len(self.stack), frame)
+        self.stack.append(frame)
 
     def _start_isr(self, slot: int) -> None:
         table = self.tables.get(("isr", slot))
@@ -272,7 +292,7 @@ class VirtualController:
             return
         if not self.stack:
             self.error = self.failure = None
-        self.stack.append(Frame(table))
+        self._push(Frame(table))
         self.chip_state = 10
         self.log.append(f"{self.clock:.4f} s: ISR{slot} started")
 
@@ -281,25 +301,33 @@ class VirtualController:
         """Run the device up to simulated time `until` (or `max_steps` macro lines): macro
         lines at the profile's line time, queued real-time commands when they fall due,
         waits that end early when the state they wait for arrives. With `until_idle` it
-        returns as soon as no program runs and no command is queued. Returns lines run."""
+        returns as soon as no program runs and no command is queued. Returns lines run.
+
+        One loop over the events of the device in their order of precedence (the table's
+        loading, the machine's inputs, the FIFO, interrupts, triggers, waits), each of which
+        may end the slice of lines that `lines.run` runs; it is one function because every
+        branch reads and moves the same clock and horizon."""
         steps = 0
         stack = self.stack
         fifo = self.fifo
-        line_time = self.line_time
-        hook = self.before_line
         while True:
+            motion = self.motion  # (RESET_CARD replaces it)
             loading = self.loading_until
             if loading is not None and loading <= self.clock:
                 self._finish_loading()
                 continue
-            due = self.motion.io.script_due(self.clock) if self.machine else math.inf
-            if self.machine and self.motion.io.di_changes:
-                self.take_inputs()  # the machine file changed FRnet inputs
-                continue
+            if self.machine:
+                due = motion.io.script_due(self.clock)
+                if motion.io.di_changes:
+                    self.take_inputs()  # the machine file changed FRnet inputs
+                    continue
+            else:
+                due = math.inf
             if fifo and fifo[0].due <= self.clock and loading is None:
                 self._run_rtc(fifo.popleft())
                 continue
-            isr_running = self._isr_running()
+            at, isr = self._isr_at  # (`_isr_running`, inline)
+            isr_running = len(stack) > at and stack[at] is isr
             if self.isr_queue and not isr_running:
                 self._start_isr(self.isr_queue.popleft()[0])
                 continue
@@ -309,18 +337,20 @@ class VirtualController:
             if self.chip_state == 10 and stack and not isr_running:
                 self.chip_state = 8  # the ISR returned to the program it interrupted
             if loading is not None:  # the chip loads its table: the FIFO waits (RS 11368)
-                horizon = min(until, loading)
+                horizon = until if until < loading else loading
             else:
                 horizon = until if not fifo or fifo[0].due > until else fifo[0].due
-            horizon = min(horizon, due)
+            if due < horizon:
+                horizon = due
             # the chip's requests wait in its flags while an ISR runs (ISRs do not nest)
-            interrupt = None if isr_running else self.motion.next_interrupt(self.clock)
-            if interrupt is not None:  # (RESET_CARD replaces the motion model)
+            interrupt = None if isr_running else motion.next_interrupt(self.clock)
+            if interrupt is not None:
                 if interrupt <= self.clock:
-                    for _time, isr in self.motion.take_interrupts(self.clock):
-                        self.request_isr(isr, call=False)
+                    for _time, number in motion.take_interrupts(self.clock):
+                        self.request_isr(number, call=False)
                     continue
-                horizon = min(horizon, interrupt)
+                if interrupt < horizon:
+                    horizon = interrupt
             if not stack:
                 if self.chip_state in (8, 10):
                     self.chip_state += 1  # MP / ISR execution finished
@@ -345,55 +375,13 @@ class VirtualController:
                 if isinstance(frame.wait, Retry):
                     frame.pc -= 1
                 frame.wait = None
-                self.motion.settle(self.clock)
+                motion.settle(self.clock)
                 continue
             if self.clock >= until or steps >= max_steps:
                 return steps
-            program = self._compiled(frame.table)
-            end_pc = len(program)
-            while self.clock < horizon and steps < max_steps:
-                pc = frame.pc
-                if hook is not None and hook(frame):
-                    return steps
-                if pc >= end_pc:
-                    stack.pop()  # the closing line: return to the caller
-                    self.clock += line_time
-                    break
-                handler, operands, touches_motion = program[pc]
-                steps += 1
-                self.clock += line_time
-                frame.pc = pc + 1
-                if handler is None:
-                    continue  # a setting the model does not simulate: accepted, no effect
-                try:
-                    wait = handler(frame, operands)
-                except QueueFull as full:  # the motion queue is full: wait, run the line again
-                    frame.wait = Retry(self, full)
-                    break
-                except Exception as err:  # never out of the device: an execution error
-                    line = frame.table.lines[pc]
-                    code = err.code if isinstance(err, ExecutionError) else NOT_EXECUTABLE
-                    self._record_error(frame, line, code)
-                    self.error = (str(err) if isinstance(err, ExecutionError) else
-                                  f"{line.command.short_name} at line {line.slot_line}: {err}")
-                    self.failure = located(stack, pc, EXECUTION_CODES.get(code, "R104") if
-                                           isinstance(err, (ExecutionError, ValueError))
-                                           else "R309", self.error, self.clock)
-                    if not isinstance(err, (ExecutionError, ValueError)):
-                        LOG.warning("internal fault running %s: %r", self.error, err,
-                                    exc_info=err)
-                    stack.clear()
-                    break
-                if wait is not None:
-                    frame.wait = wait
-                    break
-                if touches_motion:
-                    self.epoch += 1
-                    if self.machine is not None or self.loading_until is not None or \
-                            self.isr_queue or not self.motion.io.uneventful():
-                        break  # a new motion (and its interrupts): look at the events again
-                if not stack or stack[-1] is not frame:
-                    break  # MP_CALL, EXIT_MACRO or MP_TERMINATE changed the program
+            steps, stopped = lines.run(self, frame, horizon, steps, max_steps)
+            if stopped:
+                return steps
 
     def run(self, max_time: float = 3600.0, max_steps: int = MAX_STEPS_DEFAULT) -> RunResult:
         """Execute the called program until it (and its callees) finish."""
@@ -430,13 +418,6 @@ class VirtualController:
             return RunResult(False, self.clock, steps, error, located(
                 self.stack, frame.pc - 1, "R202", f"{error} (--max-time)", self.clock))
         return RunResult(True, self.clock, steps)
-
-    def _record_error(self, frame: Frame, line: StoredLine, code: int) -> None:
-        table = frame.table
-        mp_no, isr_no = (table.slot, 0) if table.kind == "mp" else (0, table.slot)
-        self.execution_error = (mp_no, isr_no, line.command.code or 0, line.slot_line, code)
-        self.log.append(f"{self.clock:.4f} s: execution error {code:#04x} in "
-                        f"{table.kind.upper()}{table.slot} line {line.slot_line}")
 
     # ------------------------------------------------------- real-time commands
     def _run_rtc(self, queued: QueuedCommand) -> None:
@@ -486,7 +467,7 @@ class VirtualController:
             line = frame.table.lines[max(0, min(frame.pc, len(frame.table.lines)) - 1)] \
                 if frame.table.lines else None
             if line is not None:
-                self._record_error(frame, line, NOT_EXECUTABLE)
+                record_error(self, frame, line, NOT_EXECUTABLE)
             self.error = f"internal fault: {err!r}"
             self.failure = located(self.stack, frame.pc - 1, "R309", self.error, self.clock)
         self.fifo.clear()
@@ -594,6 +575,9 @@ class VirtualController:
         self.log.append(f"{self.clock:.4f} s: {why}")
 
     def value(self, operand: Operand) -> int:
+        """An operand's value now: a variable's, or the constant (most are plain ints)."""
+        if operand.__class__ is int:
+            return operand
         if isinstance(operand, VarRef):
             return self.vars[operand.index]
         if isinstance(operand, BVarRef):
@@ -606,7 +590,9 @@ class VirtualController:
 
         def setter(method: Callable[[int, int], None]) -> Callable[..., None]:
             def run(_f: Frame, ops: tuple[Operand, ...]) -> None:
-                method(self.value(ops[0]), self.value(ops[1]))
+                first, second = ops[0], ops[1]  # (plain ints as `value` reads them)
+                method(first if first.__class__ is int else self.value(first),
+                       second if second.__class__ is int else self.value(second))
             return run
 
         def vsetter(method: Callable[[int], None]) -> Callable[..., None]:
@@ -621,7 +607,7 @@ class VirtualController:
 
         def now_call(method: Callable[..., None]) -> Callable[..., None]:
             def run(_f: Frame, ops: tuple[Operand, ...]) -> None:
-                method(*[self.value(o) for o in ops], self.clock)
+                method(*[o if o.__class__ is int else self.value(o) for o in ops], self.clock)
             return run
 
         handlers: dict[str, Handler] = {
@@ -729,7 +715,7 @@ class VirtualController:
         if len(self.stack) >= self.profile.limit("call_depth"):
             raise ExecutionError(0x01, f"MP_CALL MP{slot}: more than "
                                  f"{self.profile.limit('call_depth')} nested programs")
-        self.stack.append(Frame(table))
+        self._push(Frame(table))
 
     def _exit_macro(self, _f: Frame, _ops: tuple[Operand, ...]) -> None:
         self.stack.pop()
@@ -742,18 +728,7 @@ class VirtualController:
         return lambda: end
 
     def _stop_wait(self, _f: Frame, ops: tuple[Operand, ...]) -> Wait:
-        mask = self.value(ops[0])
-        known: list[float] = []  # the answer for `epoch` (predicting it may simulate ahead)
-        epoch = -1
-
-        def idle() -> float:
-            nonlocal epoch
-            if epoch != self.epoch:
-                end = self.motion.idle_at(mask, self.clock)
-                known[:] = [math.inf if end is None else end]
-                epoch = self.epoch
-            return known[0]
-        return idle
+        return StopWait(self, self.value(ops[0]))
 
     def _frnet_out(self, _f: Frame, ops: tuple[Operand, ...]) -> None:
         self.frnet[self.value(ops[0]) & 0x7] = self.value(ops[1]) & 0xFFFF
@@ -772,13 +747,7 @@ class VirtualController:
         if ((self.frnet[group] >> channel) & 1) == state:
             return None
         deadline = self.clock + timeout / 1000 if timeout > 0 else math.inf
-
-        def level_or_timeout() -> float:
-            # inputs change only from outside (the simulator's API): seen when time moves
-            if ((self.frnet[group] >> channel) & 1) == state:
-                return self.clock
-            return deadline
-        return level_or_timeout
+        return LevelWait(self, group, channel, state, deadline)
 
     # --------------------------------------------------------------- inspection
     def snapshot(self) -> dict[str, object]:

@@ -8,9 +8,10 @@ source through the build's image, so a finding reads `file:line:col: error[Rnnn]
 from __future__ import annotations
 
 import functools
+import logging
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 from mplang.m8194h.sim.axes import AXES
 from mplang.m8194h.sim.io_state import (
@@ -24,10 +25,23 @@ from mplang.m8194h.sim.io_state import (
     ERR_SOFT_LIMIT_PLUS,
 )
 from mplang.m8194h.sim.motion import MotionModel
-from mplang.m8194h.sim.tables import MacroTable
+from mplang.m8194h.sim.tables import MacroTable, StoredLine
+
+if TYPE_CHECKING:
+    from mplang.m8194h.sim.controller import Frame, VirtualController
 
 # execution error type (register 119) -> run-time code
 EXECUTION_CODES = {0x01: "R101", 0x02: "R102", 0x03: "R103", 0x04: "R104"}
+NOT_EXECUTABLE = 0x04  # execution error type: the line's values make no sense to the device
+LOG = logging.getLogger("mplang.sim")
+
+
+class ExecutionError(Exception):
+    """A line the device refuses to run: `code` is its execution error type (register 119)."""
+
+    def __init__(self, code: int, message: str) -> None:
+        super().__init__(message)
+        self.code = code
 
 # error-code bits of an axis (GET_ERROR_CODE, table 26) -> run-time code and words
 STOP_CAUSES = (
@@ -111,3 +125,29 @@ def _stopped(device: _Device, axis: int, bits: int) -> None:
             device.stops[(code, axis)] = located(
                 device.stack, index, code, f"axis {AXES[axis]} stopped on {cause}",
                 device.clock)
+
+
+def record_error(vc: VirtualController, frame: Frame, line: StoredLine, code: int) -> None:
+    """The device's execution error registers (115-119) for `line` of `frame`, and its log."""
+    table = frame.table
+    mp_no, isr_no = (table.slot, 0) if table.kind == "mp" else (0, table.slot)
+    vc.execution_error = (mp_no, isr_no, line.command.code or 0, line.slot_line, code)
+    vc.log.append(f"{vc.clock:.4f} s: execution error {code:#04x} in "
+                  f"{table.kind.upper()}{table.slot} line {line.slot_line}")
+
+
+def failed(vc: VirtualController, frame: Frame, pc: int, err: Exception) -> None:
+    """Line `pc` of the top frame raised `err` (never out of the device): an execution
+    error, the run's error and failure, every program stopped."""
+    stack = vc.stack
+    line = frame.table.lines[pc]
+    code = err.code if isinstance(err, ExecutionError) else NOT_EXECUTABLE
+    record_error(vc, frame, line, code)
+    vc.error = (str(err) if isinstance(err, ExecutionError) else
+                f"{line.command.short_name} at line {line.slot_line}: {err}")
+    vc.failure = located(stack, pc, EXECUTION_CODES.get(code, "R104") if
+                         isinstance(err, (ExecutionError, ValueError))
+                         else "R309", vc.error, vc.clock)
+    if not isinstance(err, (ExecutionError, ValueError)):
+        LOG.warning("internal fault running %s: %r", vc.error, err, exc_info=err)
+    stack.clear()

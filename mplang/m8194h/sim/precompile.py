@@ -1,12 +1,20 @@
 """The hot lines of the interpreter, prepared once per stored line (`prepare`).
 
-SET_VAR, VAR_CALCULATE and IF are most of what a program runs. Their generic handlers
-(`VirtualController._set_var`, `_calculate`, `_if`) decode the operands, look the operator
-up and branch on its symbol every time the line runs; here that is done once, when a table
-is first run, and the line becomes a closure that only reads its sources, computes and
-stores. Each source is a (list, index) pair read the same way: a variable's list
-(`vars` / `bvars`, which the controller never replaces) or a one-element list holding a
-constant.
+SET_VAR, VAR_CALCULATE, IF and the loops are most of what a program runs. Their generic
+handlers (`VirtualController._set_var`, `_calculate`, `_if`, `_for`, `_next`, ...) decode
+the operands, look the operator up and branch on its symbol every time the line runs; here
+that is done once, when a table is first run, and the line becomes a *quick* line: a
+closure that takes the frame, only reads its sources, computes and stores, and returns the
+pc of the line that runs next. Each source is a (list, index) pair read the same way: a
+variable's list (`vars` / `bvars`, which the controller never replaces) or a one-element
+list holding a constant; a constant right operand is bound as an int. VAR_CALCULATE and IF
+closures are written out per operator (`_factories`), so the line runs `+` or `<` itself.
+
+A quick line never reads the clock or `frame.pc`, never waits, moves no axis and leaves
+the call stack alone, so `VirtualController.advance` runs a stretch of them with the clock
+and the pc in locals (`Prepared.quick`); every other line, and every line under a debugger
+(`before_line`), goes through its `Handler` (`Prepared.lines`), where a quick line is
+wrapped as `Quick`, which stores the pc it returns.
 
 END_IF and LABEL do nothing when they run: their line gets no handler at all (the
 interpreter counts its time and moves on, as after a handler that returned nothing).
@@ -32,6 +40,47 @@ if TYPE_CHECKING:
     from mplang.m8194h.sim.tables import MacroTable
 
 Source = tuple[list[int], int]
+Fast = Callable[["Frame"], int]
+"""A quick line: runs the line on the frame and returns the pc to go on at."""
+
+
+class Quick:
+    """A quick line as a `Handler`: the debugger's path (and any caller of a handler) runs
+    it like any other line; `fast` is what the interpreter's quick path calls."""
+
+    __slots__ = ("fast",)
+
+    def __init__(self, fast: Fast) -> None:
+        self.fast = fast
+
+    def __call__(self, frame: Frame, _ops: tuple[Operand, ...]) -> None:
+        frame.pc = self.fast(frame)
+
+
+class Prepared:
+    """A table ready to run: `lines` (handler, operands, touches motion) for every line and
+    `quick` (a `Fast` or None) per line plus one None for the closing line, so that the
+    interpreter's quick path needs no bounds check; `blank` is `quick` with every entry
+    None (the debugger's: every line through its handler, after `before_line`)."""
+
+    __slots__ = ("blank", "lines", "quick", "table")
+
+    def __init__(self, table: MacroTable, lines: list[tuple[Handler | None,
+                                                             tuple[Operand, ...], bool]]) -> None:
+        self.table = table
+        self.lines = lines
+        self.quick: list[Fast | None] = [
+            _skip(pc + 1) if handler is None else
+            handler.fast if isinstance(handler, Quick) else None
+            for pc, (handler, _ops, _motion) in enumerate(lines)] + [None]
+        self.blank: list[Fast | None] = [None] * (len(lines) + 1)
+
+
+def _skip(after: int) -> Fast:
+    """A line with no handler: nothing happens, the next line runs."""
+    def skip(_f: Frame) -> int:
+        return after
+    return skip
 
 COMPARE: dict[str, Callable[[Any, Any], bool]] = {
     "<": operator.lt, ">": operator.gt, "<=": operator.le, ">=": operator.ge,
@@ -39,7 +88,7 @@ COMPARE: dict[str, Callable[[Any, Any], bool]] = {
 }
 """IF's comparison symbols (device profile [operators.compare]) as functions."""
 
-_MASK, _SIGN, _SPAN = 0xFFFFFFFF, 0x80000000, 1 << 32
+_MASK, _SIGN = 0xFFFFFFFF, 0x80000000
 
 
 def _source(vc: VirtualController, operand: Operand) -> Source | None:
@@ -62,82 +111,178 @@ def _code(vc: VirtualController, operand: Operand) -> int | None:
     return int(operand)
 
 
-def _set_var(vc: VirtualController, ops: tuple[Operand, ...]) -> Handler | None:
+_CALC_SYMBOLS = ("+", "-", "*", "&", "|")
+_WRAP = "((({expr}) + 0x80000000) & 0xFFFFFFFF) - 0x80000000"  # wrap32, without a branch
+
+
+def _factories(template: str, symbols: tuple[str, ...]) -> dict[tuple[str, bool], Any]:
+    """One closure factory per operator symbol and kind of right operand (True: a constant,
+    bound as an int; False: a (list, index) source), written out from `template` so that
+    the line runs the operator itself, not a call to its function. Built once, at import."""
+    made: dict[tuple[str, bool], Any] = {}
+    for symbol in symbols:
+        for constant in (True, False):
+            namespace: dict[str, Any] = {}
+            exec(template.format(op=symbol, right="right" if constant else "right[ri]"),
+                 namespace)
+            made[(symbol, constant)] = namespace["make"]
+    return made
+
+
+_CALCULATE = _factories('''
+def make(lsrc, li, right, ri, values, dest, after):
+    def line(_f):
+        values[dest] = {wrap}
+        return after
+    return line
+'''.replace("{wrap}", _WRAP.replace("{expr}", "lsrc[li] {op} {right}")), _CALC_SYMBOLS)
+
+_COMPARE = _factories('''
+def make(lsrc, li, right, ri, after, target):
+    def line(_f):
+        return after if lsrc[li] {op} {right} else target
+    return line
+''', tuple(COMPARE))
+
+
+def _right(vc: VirtualController, operand: Operand) -> tuple[Any, int, bool] | None:
+    """A right operand as the factories take it: (int, 0, True) for a constant, (list,
+    index, False) for a variable; None as `_source`."""
+    source = _source(vc, operand)
+    if source is None:
+        return None
+    if isinstance(operand, (VarRef, BVarRef)):
+        return source[0], source[1], False
+    return source[0][0], 0, True
+
+
+def _set_var(vc: VirtualController, pc: int, ops: tuple[Operand, ...]) -> Fast | None:
     if len(ops) != 2 or not isinstance(ops[0], VarRef):
         return None
-    source = _source(vc, ops[1])
+    source = _right(vc, ops[1])
     if source is None:
         return None
     values, dest = vc.vars, ops[0].index
-    src, at = source
+    src, at, constant = source
+    after = pc + 1
+    if constant:
+        value = ((src + _SIGN) & _MASK) - _SIGN
 
-    def set_var(_f: Frame, _o: tuple[Operand, ...]) -> None:
-        result = src[at] & _MASK
-        values[dest] = result - _SPAN if result & _SIGN else result
+        def set_const(_f: Frame) -> int:
+            values[dest] = value
+            return after
+        return set_const
+
+    def set_var(_f: Frame) -> int:
+        values[dest] = ((src[at] + 0x80000000) & 0xFFFFFFFF) - 0x80000000
+        return after
 
     return set_var
 
 
-def _calculate(vc: VirtualController, ops: tuple[Operand, ...]) -> Handler | None:
+def _calculate(vc: VirtualController, pc: int, ops: tuple[Operand, ...]) -> Fast | None:
     if len(ops) != 4 or not isinstance(ops[3], VarRef):
         return None
     code = _code(vc, ops[1])
-    left, right = _source(vc, ops[0]), _source(vc, ops[2])
+    left, right = _source(vc, ops[0]), _right(vc, ops[2])
     if code is None or left is None or right is None:
         return None
     symbol = vc.calc_symbols.get(code)
-    combine: Callable[[int, int], int] | None = {
-        "+": operator.add, "-": operator.sub, "*": operator.mul, "&": operator.and_,
-        "|": operator.or_}.get(symbol or "")
-    if combine is None:  # division (its error) and unknown codes: the generic handler
+    if symbol not in _CALC_SYMBOLS:  # division (its error) and unknown codes: the generic
         return None
-    values, dest = vc.vars, ops[3].index
-    (lsrc, li), (rsrc, ri) = left, right
-    if combine is operator.add:
-        def add(_f: Frame, _o: tuple[Operand, ...]) -> None:
-            result = (lsrc[li] + rsrc[ri]) & _MASK
-            values[dest] = result - _SPAN if result & _SIGN else result
-        return add
-    if combine is operator.sub:
-        def sub(_f: Frame, _o: tuple[Operand, ...]) -> None:
-            result = (lsrc[li] - rsrc[ri]) & _MASK
-            values[dest] = result - _SPAN if result & _SIGN else result
-        return sub
-    if combine is operator.mul:
-        def mul(_f: Frame, _o: tuple[Operand, ...]) -> None:
-            result = (lsrc[li] * rsrc[ri]) & _MASK
-            values[dest] = result - _SPAN if result & _SIGN else result
-        return mul
-
-    def calculate(_f: Frame, _o: tuple[Operand, ...]) -> None:
-        result = combine(lsrc[li], rsrc[ri]) & _MASK
-        values[dest] = result - _SPAN if result & _SIGN else result
-
-    return calculate
+    (lsrc, li), (rvalue, ri, constant) = left, right
+    made: Fast = _CALCULATE[(symbol, constant)](lsrc, li, rvalue, ri, vc.vars, ops[3].index,
+                                                pc + 1)
+    return made
 
 
 def _if(vc: VirtualController, table: MacroTable, pc: int,
-        ops: tuple[Operand, ...]) -> Handler | None:
+        ops: tuple[Operand, ...]) -> Fast | None:
     if len(ops) != 3:
         return None
     code = _code(vc, ops[1])
-    left, right = _source(vc, ops[0]), _source(vc, ops[2])
+    left, right = _source(vc, ops[0]), _right(vc, ops[2])
     if code is None or left is None or right is None or pc not in table.if_false:
         return None
     if code not in vc.cmp_symbols:
         code = ((code & 0xFF) << 8) | (code >> 8)  # the example's byte order (as `_if`)
     symbol = vc.cmp_symbols.get(code)
-    holds = COMPARE.get(symbol or "")
-    if holds is None:
+    if symbol not in COMPARE:
         return None
-    target = table.if_false[pc] + 1
-    (lsrc, li), (rsrc, ri) = left, right
+    (lsrc, li), (rvalue, ri, constant) = left, right
+    made: Fast = _COMPARE[(symbol, constant)](lsrc, li, rvalue, ri, pc + 1,
+                                              table.if_false[pc] + 1)
+    return made
 
-    def if_(frame: Frame, _o: tuple[Operand, ...]) -> None:
-        if not holds(lsrc[li], rsrc[ri]):
-            frame.pc = target
 
-    return if_
+def _for(vc: VirtualController, table: MacroTable, pc: int,
+         ops: tuple[Operand, ...]) -> Fast | None:
+    """FOR as `VirtualController._for`: a count of 0 or less skips the body, else the loop
+    is pushed (with the counted variable, or an internal counter for any other count)."""
+    source = _source(vc, ops[0]) if len(ops) == 1 else None
+    if source is None or pc not in table.for_end:
+        return None
+    src, at = source
+    ref = ops[0] if isinstance(ops[0], VarRef) else None
+    skip, after = table.for_end[pc] + 1, pc + 1
+
+    def for_(frame: Frame) -> int:
+        count = src[at]
+        if count <= 0:
+            return skip
+        frame.loops.append((pc, ref, [count]))
+        return after
+
+    return for_
+
+
+def _next(vc: VirtualController, pc: int) -> Fast:
+    """NEXT as `VirtualController._next`: count down, back to the line after the FOR while
+    any count remains."""
+    values, after = vc.vars, pc + 1
+
+    def next_(frame: Frame) -> int:
+        loops = frame.loops
+        start, ref, counter = loops[-1]
+        if ref is not None:
+            values[ref.index] -= 1
+            remaining = values[ref.index]
+        else:
+            counter[0] -= 1
+            remaining = counter[0]
+        if remaining > 0:
+            return start + 1
+        loops.pop()
+        return after
+
+    return next_
+
+
+def _jump(vc: VirtualController, table: MacroTable, pc: int, name: str,
+          ops: tuple[Operand, ...]) -> Fast | None:
+    """ELSE, EXIT_FOR and GOTO to a constant label: a jump known when the table is."""
+    if name == "ELSE" and pc in table.else_end:
+        target = table.else_end[pc] + 1
+
+        def else_(_f: Frame) -> int:
+            return target
+        return else_
+    if name == "EXIT_FOR" and table.exit_for_end.get(pc, -1) >= 0:
+        end = table.exit_for_end[pc] + 1
+
+        def exit_for(frame: Frame) -> int:
+            frame.loops.pop()
+            return end
+        return exit_for
+    label = _code(vc, ops[0]) if name == "GOTO" and len(ops) == 1 else None
+    if label is not None and label in table.labels:
+        to = table.labels[label] + 1
+
+        def goto(frame: Frame) -> int:
+            frame.loops.clear()  # labels stand outside every block: the jump leaves all loops
+            return to
+        return goto
+    return None
 
 
 _NOTHING = (lambda _f, _o: None).__code__
@@ -153,16 +298,29 @@ def _does_nothing(handler: Handler | None) -> bool:
 
 def prepare(vc: VirtualController, table: MacroTable, pc: int, name: str,
             handler: Handler | None) -> Handler | None:
-    """The handler line `pc` of `table` runs with: a prepared one for the hot lines whose
-    handler is still the controller's own, none for a line that does nothing, else
+    """The handler line `pc` of `table` runs with: a quick line (`Quick`) for the hot lines
+    whose handler is still the controller's own, none for a line that does nothing, else
     `handler` as it is."""
     if name in ("END_IF", "LABEL") and _does_nothing(handler):
         return None  # (both are pure lines: the interpreter does nothing else after them)
+    fast = _fast(vc, table, pc, name, handler)
+    return handler if fast is None else Quick(fast)
+
+
+def _fast(vc: VirtualController, table: MacroTable, pc: int, name: str,
+          handler: Handler | None) -> Fast | None:
     ops = table.lines[pc].operands
     if name == "SET_VAR" and handler == vc._set_var:
-        return _set_var(vc, ops) or handler
+        return _set_var(vc, pc, ops)
     if name == "VAR_CALCULATE" and handler == vc._calculate:
-        return _calculate(vc, ops) or handler
+        return _calculate(vc, pc, ops)
     if name == "IF" and handler == vc._if:
-        return _if(vc, table, pc, ops) or handler
-    return handler
+        return _if(vc, table, pc, ops)
+    if name == "FOR" and handler == vc._for:
+        return _for(vc, table, pc, ops)
+    if name == "NEXT" and handler == vc._next:
+        return _next(vc, pc)
+    if (name == "ELSE" and handler == vc._else) or (name == "GOTO" and handler == vc._goto) \
+            or (name == "EXIT_FOR" and handler == vc._exit_for):
+        return _jump(vc, table, pc, name, ops)
+    return None
