@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import re
 from collections.abc import Iterable
-from dataclasses import dataclass, field
 
 from mplang.lang.record import FrozenRecord
 from mplang.lang.rules import RULES
@@ -80,14 +79,35 @@ def make_span(file: str, line: int, col: int = 1, end_col: int | None = None) ->
     return made
 
 
-@dataclass(frozen=True)
-class Diagnostic:
+class Diagnostic(FrozenRecord):
+    """One problem found in the sources. Frozen, hashable and compared by its fields as
+    `@dataclass(frozen=True)` made it, written out on `mplang.lang.record` (a whole
+    device's check makes and compares tens of thousands); pickled as the dataclass was
+    (its fields in `__dict__`, in this order: the front cache stores syntax diagnostics)."""
+
     code: str
     severity: Severity
     message: str
     span: Span
-    hint: str = ""
-    related: tuple[tuple[Span, str], ...] = field(default=())
+    hint: str
+    related: tuple[tuple[Span, str], ...]
+    _fields = __match_args__ = ("code", "severity", "message", "span", "hint", "related")
+
+    def __init__(self, code: str, severity: Severity, message: str, span: Span,
+                 hint: str = "", related: tuple[tuple[Span, str], ...] = ()) -> None:
+        self.__dict__.update(code=code, severity=severity, message=message, span=span,
+                             hint=hint, related=related)
+
+    def __eq__(self, other: object) -> bool:
+        if isinstance(other, Diagnostic):  # no subclass exists; compared field by field
+            return (self.code == other.code and self.severity == other.severity
+                    and self.message == other.message and self.span == other.span
+                    and self.hint == other.hint and self.related == other.related)
+        return NotImplemented
+
+    def __hash__(self) -> int:  # type: ignore[override]  # Record's is None
+        return hash((self.code, self.severity, self.message, self.span, self.hint,
+                     self.related))
 
     def render(self) -> str:
         """gcc-style one-liner, plus the hint on its own line."""

@@ -10,7 +10,6 @@ M8194H, FATEK and CSIM builds and the editor report the same."""
 from __future__ import annotations
 
 import re
-from dataclasses import replace
 
 from mplang.lang.diagnostics import Diagnostic, Severity, Span
 from mplang.lang.sources import LIBRARY_PREFIX
@@ -40,7 +39,7 @@ def settle_includes(diagnostics: list[Diagnostic], sources: dict[str, list[str]]
     note = (f"{dropped} error{'s' if dropped != 1 else ''} about names it may define "
             f"{'are' if dropped != 1 else 'is'} left out until it is found")
     first = failed[0]
-    return [replace(d, hint=f"{d.hint}; {note}" if d.hint else note) if d is first else d
+    return [d.replace(hint=f"{d.hint}; {note}" if d.hint else note) if d is first else d
             for d in kept]
 
 

@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import re
 from collections.abc import Callable
-from dataclasses import replace
 from typing import Any
 
 from mplang.lang import ast
@@ -101,9 +100,10 @@ def moved(value: Any, file: str, line: int) -> Any:
 
 
 def _moved_diagnostic(item: Diagnostic, file: str, line: int) -> Diagnostic:
-    return replace(item, span=Span(file, line, item.span.col, item.span.end_col),
-                   related=tuple((Span(file, line, s.col, s.end_col), note)
-                                 for s, note in item.related))
+    return Diagnostic(item.code, item.severity, item.message,
+                      make_span(file, line, item.span.col, item.span.end_col), item.hint,
+                      tuple((make_span(file, line, s.col, s.end_col), note)
+                            for s, note in item.related))
 
 
 def _placed(found: Line, file: str, line: int, where: tuple[str, int]) -> Line:
