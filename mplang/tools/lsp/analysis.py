@@ -31,7 +31,7 @@ from mplang.lang.diagnostics import (
     without_ignored,
 )
 from mplang.lang.linecache import StatementCache
-from mplang.lang.sources import SourceFile, SourceSet, load_sources
+from mplang.lang.sources import SourceFile, SourceSet, load_sources, of_types
 from mplang.lang.structure import build_unit
 from mplang.m8194h.compiler import BuildMemo, Lowering, compile_sources
 from mplang.m8194h.link import Placement, link
@@ -432,6 +432,7 @@ _INDEXED = (ast.Const, ast.Alias, ast.VarDecl, ast.ProgramHeader, ast.End, ast.L
 _INDEXED_TYPES = frozenset(_INDEXED)
 """The same, looked up by exact type (thousands of statements a check; no syntax-tree class
 has subclasses)."""
+_INCLUDE = frozenset({ast.Include})
 
 
 def _index_file(analysis: Analysis, source: SourceFile, entry: SourceText) -> None:
@@ -446,9 +447,8 @@ def _index_file(analysis: Analysis, source: SourceFile, entry: SourceText) -> No
             blocks.append(open_block)
             open_block = None
 
-    for statement in source.statements:
-        if type(statement) not in _INDEXED_TYPES:
-            continue  # commands and the like define nothing: their line is not lexed
+    for statement in of_types(source.statements, _INDEXED_TYPES):
+        # commands and the like define nothing: they are not visited
         if isinstance(statement, ast.End):
             if statement.what in ("mp", "isr"):
                 close(statement.span.line - 1)
@@ -550,7 +550,8 @@ def _include_graph(files: list[SourceFile], analysis: Analysis,
     for source in files:
         including = source.path.resolve()
         graph[including] = [_include_target(including, s.path, analysis, by_display)
-                            for s in source.statements if isinstance(s, ast.Include)]
+                            for s in of_types(source.statements, _INCLUDE)
+                            if isinstance(s, ast.Include)]
     return graph
 
 
