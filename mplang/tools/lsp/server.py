@@ -17,7 +17,8 @@ than `DEBOUNCE_ABOVE_S` is checked `DEBOUNCE_S` after the last change of a burst
 of after every keystroke; requests on it check it first, and diagnostics are published only
 for the document's current version, so none shown is ever stale. After start-up the heap
 built so far (catalogue, grammar, the code) is frozen out of the cycle collector, which
-would otherwise walk it on every collection, and the collector waits while a check runs.
+would otherwise walk it on every collection, the collector waits while a check runs, and
+what a check kept is frozen after it (with a full collection every few hundred checks).
 
 Hostile input: messages are read by `transport` (bounded, resynchronising after a framing
 error) instead of pygls' own loop, and a request on a document the client did not open reads
@@ -94,6 +95,9 @@ DEBOUNCE_ABOVE_S = 0.05
 checked after a pause in its changes rather than after each of them."""
 DEBOUNCE_S = 0.03
 """The pause: changes closer together than this are checked once, for the last of them."""
+FULL_COLLECTION_EVERY = 256
+"""Checks between two full collections of the frozen heap (`MpLanguageServer.settle_heap`):
+what cyclic garbage the checks in between left is freed then."""
 WARM_UP_TEXT = "MP 1\n    SET_V X, 100\nEND MP\n"
 """Checked once at start-up, so that the catalogue and the grammar are loaded (and frozen
 out of the cycle collector's walks) before the first keystroke."""
@@ -191,6 +195,7 @@ class MpLanguageServer(LanguageServer):
         # The text of each open document (by unquoted URI), kept here with the protocol's
         # line breaks (`positions.apply_change`) rather than by pygls' incremental sync.
         self.texts: dict[str, str] = {}
+        self.checks_done = 0  # for the full collection every FULL_COLLECTION_EVERY checks
 
     # ------------------------------------------------------------------ documents
     @property
@@ -338,8 +343,8 @@ class MpLanguageServer(LanguageServer):
 
         The cycle collector waits until the diagnostics are out: a check allocates hundreds
         of thousands of objects, and collecting while it runs walks them (and the analysis
-        kept from before) again and again, a quarter of a whole device's check. They are
-        collected once, by the first collection after it."""
+        kept from before) again and again, a quarter of a whole device's check. What the
+        check kept is then frozen out of the collector's walks too (`settle_heap`)."""
         self.cancel_pending(uri)
         collecting = gc.isenabled()
         gc.disable()
@@ -348,8 +353,22 @@ class MpLanguageServer(LanguageServer):
             self.publish(uri, analysis)
         finally:
             if collecting:
+                self.settle_heap()
                 gc.enable()
         return analysis
+
+    def settle_heap(self) -> None:
+        """After a check: freeze what is alive now (the analysis, its build memo, the parsed
+        lines), so that the collections that the next check's allocations set off do not
+        walk it (a whole device's analysis is hundreds of thousands of objects: a tenth of
+        an edit's time went on those walks). Reference counting still frees what a later
+        check drops; only cyclic garbage would stay, so every `FULL_COLLECTION_EVERY`
+        checks everything is unfrozen, collected once and frozen again."""
+        self.checks_done += 1
+        if self.checks_done % FULL_COLLECTION_EVERY == 0:
+            gc.unfreeze()
+            gc.collect()
+        gc.freeze()
 
     def publish(self, uri: str, analysis: Analysis) -> None:
         """Publish a document's diagnostics, only if its analysis checked the version the

@@ -12,6 +12,7 @@ import asyncio
 import gc
 import random
 import sys
+import weakref
 from collections.abc import AsyncIterator
 from pathlib import Path
 
@@ -21,7 +22,7 @@ from lspedits import position, random_edit
 from lsprotocol import types as lsp
 from pytest_lsp import ClientServerConfig, LanguageClient
 
-from mplang.tools.lsp.server import create_server
+from mplang.tools.lsp.server import FULL_COLLECTION_EVERY, create_server
 
 ASYNC = pytest.mark.asyncio(loop_scope="module")
 SERVER = [sys.executable, "-c", "from mplang.tools.lsp.server import create_server; "
@@ -268,6 +269,34 @@ def test_the_cycle_collector_waits_while_a_check_runs(tmp_path: Path) -> None:
     finally:
         gc.callbacks.remove(seen)
     assert phases == [] and gc.isenabled()
+
+
+class _Cyclic:
+    """An object in a reference cycle with itself: only the cycle collector frees it."""
+
+    def __init__(self) -> None:
+        self.me = self
+
+
+def test_a_check_freezes_what_it_kept_and_a_full_collection_frees_cycles_later(
+        tmp_path: Path) -> None:
+    """After a check, what is alive is out of the collector's walks; cyclic garbage frozen
+    with it is freed by the full collection every FULL_COLLECTION_EVERY checks."""
+    path = tmp_path / "short.mp"
+    path.write_text("MP 1 short\n    VAR1 = VAR1 + 1\nEND MP\n")
+    server = create_server()
+    list(server.protocol.lsp_initialize(lsp.InitializeParams(
+        capabilities=lsp.ClientCapabilities(), root_uri=tmp_path.as_uri())))
+    try:
+        garbage = weakref.ref(_Cyclic())  # unreachable at once: only a collection frees it
+        frozen = gc.get_freeze_count()
+        server.check(path.as_uri())
+        assert gc.get_freeze_count() > frozen and gc.isenabled()
+        server.checks_done = FULL_COLLECTION_EVERY - 1
+        server.check(path.as_uri())
+        assert garbage() is None and gc.get_freeze_count() > 0 and gc.isenabled()
+    finally:
+        gc.unfreeze()
 
 
 @ASYNC
