@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Callable
+from operator import itemgetter
 from typing import Any, NamedTuple
 
 from mplang.lang import ast
@@ -192,13 +193,12 @@ class StatementCache:
         lines = self._files.get(file)
         if lines is None:
             return None
-        seen: set[str] = set()
-        first: list[Numbered] = []
-        for number, found in enumerate(lines, start=1):
-            if found[0] not in seen:
-                seen.add(found[0])
-                first.append((number, found))
-        return first
+        texts = list(map(itemgetter(0), lines))
+        texts.reverse()
+        # each text's first index, found in C: of repeated keys the last stored (the first
+        # line, counted from the end) stays; a whole device repeats most of its lines
+        first = dict(zip(texts, range(len(texts) - 1, -1, -1), strict=True))
+        return [(index + 1, lines[index]) for index in sorted(first.values())]
 
     def seed(self, file: str, lines: list[Numbered]) -> None:
         """Take lines of `file` from an earlier run (`distinct_of` then: the front cache's
