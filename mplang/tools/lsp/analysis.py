@@ -13,7 +13,7 @@ from __future__ import annotations
 import bisect
 import logging
 import re
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Protocol, cast
@@ -346,29 +346,62 @@ def _analyse(path: Path, text: str, context: BuildContext, open_texts: Mapping[P
     own = {id(entry) for entry in by_display.values() if entry.path == analysis.path}
     before = previous.placed if previous is not None and previous.path == resolved else {}
     here = {display for display, entry in by_display.items() if id(entry) in own}
-    analysis.diagnostics = []
     shifted = memo.lowerings.shifted if memo is not None and lowering is not None else {}
+    analysis.diagnostics = _placed_all(analysis, diagnostics, before, here, shifted,
+                                       lambda d: _place_diagnostic(analysis, d, by_display,
+                                                                   graph, pages, own))
+    if context.problem:
+        analysis.diagnostics.insert(0, EditorDiagnostic(line_range(0, 0, 0), "error", "",
+                                                        context.problem, "", (), None))
+    return analysis
+
+
+def _placed_all(analysis: Analysis, diagnostics: list[Diagnostic],
+                before: dict[int, tuple[Diagnostic, str, EditorDiagnostic]], here: set[str],
+                shifted: Mapping[int, tuple[Diagnostic, Diagnostic, int]],
+                place: Callable[[Diagnostic], EditorDiagnostic | None]
+                ) -> list[EditorDiagnostic]:
+    """Every diagnostic placed in the document, in order: the last analysis's placement where
+    it still holds (`before`), else a new one (`place`; None: shown in another document).
+
+    Kept by identity first (a program the edit left alone keeps its diagnostic objects; a
+    whole device has thousands, taken inline here), or moved with a program that only
+    moved; then, for the rest, by value: a program that was checked again (the edited one)
+    reports mostly the same diagnostics as new objects, and a diagnostic equal to one placed
+    last time on a line of the same text is placed the same. Only the placements no
+    diagnostic took by identity are looked at for that, so a whole device's are not
+    hashed for the one program an edit changed."""
     lines, kept_now = analysis.lines, analysis.placed
-    for diagnostic in diagnostics:
-        # the common case inline (a whole device's thousands of warnings, left as they were
-        # by an edit elsewhere): the same object, on its own line of unchanged text
+    found: list[EditorDiagnostic | None] = []
+    missed: list[int] = []
+    for index, diagnostic in enumerate(diagnostics):
         kept = before.get(id(diagnostic)) if before else None
         if kept is not None and kept[0] is diagnostic:
             span = diagnostic.span
             if span.file in here and 0 < span.line <= len(lines) and \
                     lines[span.line - 1] == kept[1]:
                 kept_now[id(diagnostic)] = kept
-                analysis.diagnostics.append(kept[2])
+                found.append(kept[2])
                 continue
         placed = _reuse_placed(analysis, diagnostic, before, here, shifted) if before else None
         if placed is None:
-            placed = _place_diagnostic(analysis, diagnostic, by_display, graph, pages, own)
-        if placed is not None:
-            analysis.diagnostics.append(placed)
-    if context.problem:
-        analysis.diagnostics.insert(0, EditorDiagnostic(line_range(0, 0, 0), "error", "",
-                                                        context.problem, "", (), None))
-    return analysis
+            missed.append(index)
+        found.append(placed)
+    alike: dict[Diagnostic, tuple[Diagnostic, str, EditorDiagnostic]] = {}
+    if missed and before:
+        taken = {id(entry[0]) for entry in kept_now.values()}
+        alike = {entry[0]: entry for key, entry in before.items() if key not in taken}
+    for index in missed:
+        diagnostic = diagnostics[index]
+        kept = alike.get(diagnostic)
+        span = diagnostic.span
+        if kept is not None and span.file in here and 0 < span.line <= len(lines) and \
+                lines[span.line - 1] == kept[1]:
+            kept_now[id(diagnostic)] = (diagnostic, kept[1], kept[2])
+            found[index] = kept[2]
+        else:
+            found[index] = place(diagnostic)
+    return [placed for placed in found if placed is not None]
 
 
 def _refusals(files: list[SourceFile], roots: list[Path], refused: Mapping[Path, str]
