@@ -389,7 +389,8 @@ def _placed_all(analysis: Analysis, diagnostics: list[Diagnostic],
         found.append(placed)
     alike: dict[Diagnostic, tuple[Diagnostic, str, EditorDiagnostic]] = {}
     if missed and before:
-        taken = {id(entry[0]) for entry in kept_now.values()}
+        taken = set(kept_now)  # by identity: the same ids as last time
+        taken.update(id(entry[1]) for key, entry in shifted.items() if key in kept_now)
         alike = {entry[0]: entry for key, entry in before.items() if key not in taken}
     for index in missed:
         diagnostic = diagnostics[index]
