@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Iterable
+from operator import attrgetter
 
 from mplang.lang.record import FrozenRecord
 from mplang.lang.rules import RULES
@@ -122,16 +123,23 @@ class Diagnostic(FrozenRecord):
         return (self.span.file, self.span.line, self.span.col, self.code)
 
 
+_SORT_KEY = attrgetter("span.file", "span.line", "span.col", "code")
+"""`Diagnostic.sort_key`, read in C (a whole device's check sorts thousands)."""
+_SAME_KEY = attrgetter("code", "span.file", "span.line", "span.col", "span.end_col", "message")
+"""What makes two diagnostics the same one for a sink: code, span and message, as a flat
+tuple read and hashed in C (equal exactly when code, `Span` and message are)."""
+
+
 class DiagnosticSink:
     """Collects diagnostics; the compiler never stops at the first problem."""
 
     def __init__(self) -> None:
         self.items: list[Diagnostic] = []
-        self._seen: set[tuple[str, Span, str]] = set()
+        self._seen: set[tuple[str, str, int, int, int | None, str]] = set()
 
     def add(self, code: str, span: Span, message: str, hint: str = "",
             related: tuple[tuple[Span, str], ...] = ()) -> None:
-        key = (code, span, message)
+        key = (code, span.file, span.line, span.col, span.end_col, message)
         if key in self._seen:
             return
         self._seen.add(key)
@@ -143,7 +151,7 @@ class DiagnosticSink:
         seen, items = self._seen, self.items
         for diagnostic in diagnostics:
             count = len(seen)
-            seen.add((diagnostic.code, diagnostic.span, diagnostic.message))  # hashed once
+            seen.add(_SAME_KEY(diagnostic))  # hashed once
             if len(seen) != count:
                 items.append(diagnostic)
 
@@ -156,7 +164,7 @@ class DiagnosticSink:
         return [d for d in self.items if d.severity is Severity.WARNING]
 
     def sorted(self) -> list[Diagnostic]:
-        return sorted(self.items, key=Diagnostic.sort_key)
+        return sorted(self.items, key=_SORT_KEY)
 
 
 def suppressed(diagnostic: Diagnostic, sources: dict[str, list[str]]) -> bool:

@@ -71,3 +71,25 @@ def test_sink_keeps_each_diagnostic_once() -> None:
     sink.add("E202", Span("a.mp", 2, 3), "unknown name 'X'")
     sink.extend([_sample(), _sample(), sink.items[0]])
     assert [d.code for d in sink.items] == ["E202", "E301"]
+
+
+def test_sorted_is_by_sort_key_and_stable() -> None:
+    """The sink sorts by file, line, column and code; diagnostics alike in all four keep
+    the order they were added in."""
+    sink = DiagnosticSink()
+    spans = [Span("b.mp", 2, 5), Span("a.mp", 10, 1), Span("a.mp", 2, 7, 9), Span("a.mp", 2, 7)]
+    for number, span in enumerate(spans * 2):
+        sink.add("W103" if number % 2 else "E202", span, f"message {number}")
+    ordered = sink.sorted()
+    assert ordered == sorted(sink.items, key=Diagnostic.sort_key)
+    assert [d.span.file for d in ordered][:1] == ["a.mp"] and len(ordered) == 8
+    alike = [d for d in ordered if d.span == Span("a.mp", 2, 7) and d.code == "W103"]
+    assert [d.message for d in alike] == ["message 3", "message 7"]
+
+
+def test_a_span_with_and_without_an_end_column_are_two_places() -> None:
+    sink = DiagnosticSink()
+    sink.add("E202", Span("a.mp", 2, 7), "m")
+    sink.add("E202", Span("a.mp", 2, 7, 9), "m")
+    sink.extend([Diagnostic("E202", Severity.ERROR, "m", Span("a.mp", 2, 7, 9))])
+    assert [d.span.end_col for d in sink.items] == [None, 9]
