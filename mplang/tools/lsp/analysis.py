@@ -13,8 +13,10 @@ from __future__ import annotations
 import bisect
 import logging
 import re
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field, replace
+from itertools import compress, repeat
+from operator import attrgetter, eq, itemgetter, not_
 from pathlib import Path
 from typing import Protocol, cast
 
@@ -356,6 +358,13 @@ def _analyse(path: Path, text: str, context: BuildContext, open_texts: Mapping[P
     return analysis
 
 
+_LINE_OF, _FILE_OF = attrgetter("span.line"), attrgetter("span.file")
+_TEXT_OF, _PLACED_OF = itemgetter(1), itemgetter(2)
+_NO_ENTRY = cast(tuple[Diagnostic, str, EditorDiagnostic], (None, None, None))
+"""A diagnostic placed nowhere last time: its line's text (None) equals no line's, and its
+placement (None) is looked for again."""
+
+
 def _placed_all(analysis: Analysis, diagnostics: list[Diagnostic],
                 before: dict[int, tuple[Diagnostic, str, EditorDiagnostic]], here: set[str],
                 shifted: Mapping[int, tuple[Diagnostic, Diagnostic, int]],
@@ -372,26 +381,33 @@ def _placed_all(analysis: Analysis, diagnostics: list[Diagnostic],
     diagnostic took by identity are looked at for that, so a whole device's are not
     hashed for the one program an edit changed."""
     lines, kept_now = analysis.lines, analysis.placed
-    found: list[EditorDiagnostic | None] = []
+    found: list[EditorDiagnostic | None] = [None] * len(diagnostics)
+    rest: Iterable[int] = range(len(diagnostics))
+    numbers = list(map(_LINE_OF, diagnostics))
+    if before and numbers and set(map(_FILE_OF, diagnostics)) <= here and \
+            min(numbers) > 0 and max(numbers) <= len(lines):
+        # By identity, in C: the entry kept under a diagnostic's id holds that very object
+        # (alive while kept, so no other object has its id); it stands when its line's text
+        # is the same. Only the others are looked at one by one below.
+        ids = list(map(id, diagnostics))
+        entries = list(map(before.get, ids, repeat(_NO_ENTRY)))
+        same = list(map(eq, map(_TEXT_OF, entries), map(lines.__getitem__,
+                                                           map((-1).__add__, numbers))))
+        kept_now.update(compress(zip(ids, entries, strict=True), same))
+        found = list(map(_PLACED_OF, entries))
+        rest = compress(range(len(diagnostics)), map(not_, same))
     missed: list[int] = []
-    for index, diagnostic in enumerate(diagnostics):
-        kept = before.get(id(diagnostic)) if before else None
-        if kept is not None and kept[0] is diagnostic:
-            span = diagnostic.span
-            if span.file in here and 0 < span.line <= len(lines) and \
-                    lines[span.line - 1] == kept[1]:
-                kept_now[id(diagnostic)] = kept
-                found.append(kept[2])
-                continue
+    for index in rest:
+        diagnostic = diagnostics[index]
         placed = _reuse_placed(analysis, diagnostic, before, here, shifted) if before else None
         if placed is None:
             missed.append(index)
-        found.append(placed)
+        found[index] = placed
     alike: dict[Diagnostic, tuple[Diagnostic, str, EditorDiagnostic]] = {}
     if missed and before:
         taken = set(kept_now)  # by identity: the same ids as last time
-        taken.update(id(entry[1]) for key, entry in shifted.items() if key in kept_now)
-        alike = {entry[0]: entry for key, entry in before.items() if key not in taken}
+        taken.update(id(shifted[key][1]) for key in kept_now.keys() & shifted.keys())
+        alike = {before[key][0]: before[key] for key in before.keys() - taken}
     for index in missed:
         diagnostic = diagnostics[index]
         kept = alike.get(diagnostic)
@@ -402,7 +418,7 @@ def _placed_all(analysis: Analysis, diagnostics: list[Diagnostic],
             found[index] = kept[2]
         else:
             found[index] = place(diagnostic)
-    return [placed for placed in found if placed is not None]
+    return list(filter(None, found))  # in C: a placement is never false
 
 
 def _refusals(files: list[SourceFile], roots: list[Path], refused: Mapping[Path, str]
