@@ -40,8 +40,10 @@ import sys
 import threading
 import time
 from collections.abc import Callable, Hashable, Iterator
+from itertools import compress, repeat
+from operator import eq, itemgetter, not_
 from pathlib import Path
-from typing import Any, BinaryIO, TypeVar
+from typing import Any, BinaryIO, TypeVar, cast
 from urllib.parse import unquote
 
 from lsprotocol import types as lsp
@@ -396,18 +398,22 @@ class MpLanguageServer(LanguageServer):
         # unchanged, `analysis._reuse_placed`) is the same object, with the same JSON
         same_before = self.published_same.get(uri, {})
         same_now: dict[int, tuple[EditorDiagnostic, str, str]] = {}
-        found = []
         encoding = self.encoding
-        for diagnostic in analysis.diagnostics:
-            same = same_before.get(id(diagnostic))
-            if same is not None and same[0] is diagnostic and same[1] == encoding:
-                same_now[id(diagnostic)] = same
-                found.append(same[2])
-                continue
+        diagnostics = analysis.diagnostics
+        # In C passes: an entry kept under a placement's id holds that very object (alive
+        # while kept, so no other has its id); it stands in the same encoding. Only the
+        # others are converted, or looked up by what their JSON depends on, one by one.
+        ids = list(map(id, diagnostics))
+        entries = list(map(same_before.get, ids, repeat(_NOT_PUBLISHED)))
+        kept = list(map(eq, map(_ENCODING_OF, entries), repeat(encoding)))
+        same_now.update(compress(zip(ids, entries, strict=True), kept))
+        found: list[str] = list(map(_JSON_OF, entries))
+        for index in compress(range(len(diagnostics)), map(not_, kept)):
+            diagnostic = diagnostics[index]
             shifted = _moved_json(analysis, diagnostic, same_before, encoding)
             if shifted is not None:
                 same_now[id(diagnostic)] = (diagnostic, encoding, shifted)
-                found.append(shifted)
+                found[index] = shifted
                 continue
             key = _published_key(diagnostic, analysis.lines, encoding)
             value = now.get(key) if key is not None else None
@@ -419,7 +425,7 @@ class MpLanguageServer(LanguageServer):
             if key is not None:
                 now[key] = value
                 same_now[id(diagnostic)] = (diagnostic, encoding, value)
-            found.append(value)
+            found[index] = value
         if self.is_open(uri):
             self.published[uri] = now
             self.published_same[uri] = same_now
@@ -585,6 +591,10 @@ def _published_key(diagnostic: EditorDiagnostic, lines: list[str], encoding: str
             encoding, lines[start.line] if 0 <= start.line < len(lines) else "",
             lines[end.line] if 0 <= end.line < len(lines) and end.line != start.line else "")
 
+
+_NOT_PUBLISHED = cast(tuple[EditorDiagnostic, str, str], (None, None, None))
+"""A placement not published last time: in no encoding, with no JSON text."""
+_ENCODING_OF, _JSON_OF = itemgetter(1), itemgetter(2)
 
 _RANGE_JSON = re.compile(r'\{"range": \{"start": \{"line": (\d+), "character": (\d+)\}, '
                          r'"end": \{"line": (\d+), "character": (\d+)\}\}')
