@@ -265,7 +265,8 @@ class StatementCache:
                 cut = last.starts[after]
                 offset = starts.pop() - cut
                 statements += last.statements[cut:]
-                starts += [offset + start for start in last.starts[after:]]
+                starts += last.starts[after:] if not offset else \
+                    [offset + start for start in last.starts[after:]]
                 reported += [index for index in last.reported if index >= after]
         self._files[file] = placed
         self._last[file] = _Last(text, placed, statements, starts, reported)
