@@ -54,8 +54,10 @@ def _library_constants(diagnostics: list[Diagnostic], sources: dict[str, list[st
     INCLUDE of the user's file that brought it in."""
     missing: dict[str, list[str]] = {}
     for d in diagnostics:
+        if d.code != "E202" or not d.span.file.startswith(LIBRARY_PREFIX):
+            continue  # the message is read only when it can matter (a device's thousands)
         match = UNKNOWN_NAME.match(d.message)
-        if d.code == "E202" and d.span.file.startswith(LIBRARY_PREFIX) and match:
+        if match:
             names = missing.setdefault(d.span.file, [])
             if match.group(1) not in names:
                 names.append(match.group(1))
