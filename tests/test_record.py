@@ -22,11 +22,10 @@ CONVERTED = ("mplang.ir.macro", "mplang.ir.configure", "mplang.ir.scope", "mplan
              "mplang.family.hostview", "mplang.family.registry", "mplang.m8194h.image",
              "mplang.m8194h.link", "mplang.tools.project", "mplang.cli.common",
              "mplang.cli.families", "mplang.ir.catalogue", "mplang.family.face",
-             "mplang.family.run_error")
+             "mplang.family.run_error", "mplang.lang.diagnostics")
 """Modules that no longer define a dataclass: importing them creates none."""
 
-PARTLY = {"mplang.ir.unit": {"Options"},
-          "mplang.lang.diagnostics": {"Diagnostic"}}
+PARTLY = {"mplang.ir.unit": {"Options"}}
 """Modules whose named classes stay dataclasses (code elsewhere calls `dataclasses.replace`
 on them)."""
 

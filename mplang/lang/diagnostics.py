@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Iterable
-from dataclasses import dataclass, field
+from operator import attrgetter
 
 from mplang.lang.record import FrozenRecord
 from mplang.lang.rules import RULES
@@ -80,14 +80,35 @@ def make_span(file: str, line: int, col: int = 1, end_col: int | None = None) ->
     return made
 
 
-@dataclass(frozen=True)
-class Diagnostic:
+class Diagnostic(FrozenRecord):
+    """One problem found in the sources. Frozen, hashable and compared by its fields as
+    `@dataclass(frozen=True)` made it, written out on `mplang.lang.record` (a whole
+    device's check makes and compares tens of thousands); pickled as the dataclass was
+    (its fields in `__dict__`, in this order: the front cache stores syntax diagnostics)."""
+
     code: str
     severity: Severity
     message: str
     span: Span
-    hint: str = ""
-    related: tuple[tuple[Span, str], ...] = field(default=())
+    hint: str
+    related: tuple[tuple[Span, str], ...]
+    _fields = __match_args__ = ("code", "severity", "message", "span", "hint", "related")
+
+    def __init__(self, code: str, severity: Severity, message: str, span: Span,
+                 hint: str = "", related: tuple[tuple[Span, str], ...] = ()) -> None:
+        self.__dict__.update(code=code, severity=severity, message=message, span=span,
+                             hint=hint, related=related)
+
+    def __eq__(self, other: object) -> bool:
+        if isinstance(other, Diagnostic):  # no subclass exists; compared field by field
+            return (self.code == other.code and self.severity == other.severity
+                    and self.message == other.message and self.span == other.span
+                    and self.hint == other.hint and self.related == other.related)
+        return NotImplemented
+
+    def __hash__(self) -> int:  # type: ignore[override]  # Record's is None
+        return hash((self.code, self.severity, self.message, self.span, self.hint,
+                     self.related))
 
     def render(self) -> str:
         """gcc-style one-liner, plus the hint on its own line."""
@@ -102,16 +123,23 @@ class Diagnostic:
         return (self.span.file, self.span.line, self.span.col, self.code)
 
 
+_SORT_KEY = attrgetter("span.file", "span.line", "span.col", "code")
+"""`Diagnostic.sort_key`, read in C (a whole device's check sorts thousands)."""
+_SAME_KEY = attrgetter("code", "span.file", "span.line", "span.col", "span.end_col", "message")
+"""What makes two diagnostics the same one for a sink: code, span and message, as a flat
+tuple read and hashed in C (equal exactly when code, `Span` and message are)."""
+
+
 class DiagnosticSink:
     """Collects diagnostics; the compiler never stops at the first problem."""
 
     def __init__(self) -> None:
         self.items: list[Diagnostic] = []
-        self._seen: set[tuple[str, Span, str]] = set()
+        self._seen: set[tuple[str, str, int, int, int | None, str]] = set()
 
     def add(self, code: str, span: Span, message: str, hint: str = "",
             related: tuple[tuple[Span, str], ...] = ()) -> None:
-        key = (code, span, message)
+        key = (code, span.file, span.line, span.col, span.end_col, message)
         if key in self._seen:
             return
         self._seen.add(key)
@@ -123,7 +151,7 @@ class DiagnosticSink:
         seen, items = self._seen, self.items
         for diagnostic in diagnostics:
             count = len(seen)
-            seen.add((diagnostic.code, diagnostic.span, diagnostic.message))  # hashed once
+            seen.add(_SAME_KEY(diagnostic))  # hashed once
             if len(seen) != count:
                 items.append(diagnostic)
 
@@ -136,7 +164,7 @@ class DiagnosticSink:
         return [d for d in self.items if d.severity is Severity.WARNING]
 
     def sorted(self) -> list[Diagnostic]:
-        return sorted(self.items, key=Diagnostic.sort_key)
+        return sorted(self.items, key=_SORT_KEY)
 
 
 def suppressed(diagnostic: Diagnostic, sources: dict[str, list[str]]) -> bool:

@@ -10,7 +10,6 @@ M8194H, FATEK and CSIM builds and the editor report the same."""
 from __future__ import annotations
 
 import re
-from dataclasses import replace
 
 from mplang.lang.diagnostics import Diagnostic, Severity, Span
 from mplang.lang.sources import LIBRARY_PREFIX
@@ -40,7 +39,7 @@ def settle_includes(diagnostics: list[Diagnostic], sources: dict[str, list[str]]
     note = (f"{dropped} error{'s' if dropped != 1 else ''} about names it may define "
             f"{'are' if dropped != 1 else 'is'} left out until it is found")
     first = failed[0]
-    return [replace(d, hint=f"{d.hint}; {note}" if d.hint else note) if d is first else d
+    return [d.replace(hint=f"{d.hint}; {note}" if d.hint else note) if d is first else d
             for d in kept]
 
 
@@ -55,8 +54,10 @@ def _library_constants(diagnostics: list[Diagnostic], sources: dict[str, list[st
     INCLUDE of the user's file that brought it in."""
     missing: dict[str, list[str]] = {}
     for d in diagnostics:
+        if d.code != "E202" or not d.span.file.startswith(LIBRARY_PREFIX):
+            continue  # the message is read only when it can matter (a device's thousands)
         match = UNKNOWN_NAME.match(d.message)
-        if d.code == "E202" and d.span.file.startswith(LIBRARY_PREFIX) and match:
+        if match:
             names = missing.setdefault(d.span.file, [])
             if match.group(1) not in names:
                 names.append(match.group(1))

@@ -26,8 +26,8 @@ from __future__ import annotations
 
 import re
 from collections.abc import Callable
-from dataclasses import replace
-from typing import Any
+from operator import itemgetter
+from typing import Any, NamedTuple
 
 from mplang.lang import ast
 from mplang.lang.diagnostics import Diagnostic, DiagnosticSink, Span, make_span
@@ -101,9 +101,10 @@ def moved(value: Any, file: str, line: int) -> Any:
 
 
 def _moved_diagnostic(item: Diagnostic, file: str, line: int) -> Diagnostic:
-    return replace(item, span=Span(file, line, item.span.col, item.span.end_col),
-                   related=tuple((Span(file, line, s.col, s.end_col), note)
-                                 for s, note in item.related))
+    return Diagnostic(item.code, item.severity, item.message,
+                      make_span(file, line, item.span.col, item.span.end_col), item.hint,
+                      tuple((make_span(file, line, s.col, s.end_col), note)
+                            for s, note in item.related))
 
 
 def _placed(found: Line, file: str, line: int, where: tuple[str, int]) -> Line:
@@ -115,6 +116,61 @@ def _placed(found: Line, file: str, line: int, where: tuple[str, int]) -> Line:
             [_moved_diagnostic(d, file, line) for d in reported])
 
 
+class _Last(NamedTuple):
+    """A file's last text and what its parse gave: its lines (the very list `_files`
+    holds), its statements, where each line's statements begin in them (one more entry
+    than lines: the end) and the lines that reported syntax diagnostics (0-based)."""
+
+    text: str
+    lines: list[Line]
+    statements: list[ast.Statement]
+    starts: list[int]
+    reported: list[int]
+
+
+def _unchanged_ends(before: str, after: str, count_before: int, count_after: int
+                    ) -> tuple[int, int]:
+    """How many whole lines at the start and at the end two texts (of `count_before` and
+    `count_after` lines) share, never overlapping in either: found by comparing slices of
+    the texts (in C, halving the length each step), not line by line."""
+    low, high = 0, min(len(before), len(after))
+    while low < high:  # the longest common prefix, in characters
+        middle = (low + high + 1) // 2
+        if before[low:middle] == after[low:middle]:
+            low = middle
+        else:
+            high = middle - 1
+    if low == len(before) == len(after):
+        return count_after, 0  # the same text: every line as it was
+    head = after.count("\n", 0, low)  # lines wholly before the first difference
+    limit = min(count_before, count_after) - head
+    low, high = 0, min(len(before), len(after)) - after.rfind("\n", 0, low) - 1
+    while low < high:  # the longest common suffix within what the prefix left
+        middle = (low + high + 1) // 2
+        if before[len(before) - middle:len(before) - low] == \
+                after[len(after) - middle:len(after) - low]:
+            low = middle
+        else:
+            high = middle - 1
+    tail = after.count("\n", len(after) - low) if low else 0
+    return head, max(0, min(tail, limit))
+
+
+def _gathered(lines: list[Line], first: int) -> tuple[list[ast.Statement], list[int], list[int]]:
+    """The statements of `lines` (line `first` (0-based) on) in order, where each line's
+    begin among them (and the end), and which lines reported syntax diagnostics."""
+    statements: list[ast.Statement] = []
+    starts: list[int] = []
+    reported: list[int] = []
+    for index, (_, found, diagnostics) in enumerate(lines, start=first):
+        starts.append(len(statements))
+        statements.extend(found)
+        if diagnostics:
+            reported.append(index)
+    starts.append(len(statements))
+    return statements, starts, reported
+
+
 class StatementCache:
     """Statements by line text, and the lines of each file as last parsed (see the module
     docstring). Not thread-safe: one per server or process."""
@@ -123,6 +179,7 @@ class StatementCache:
         self._given = parse
         self._texts: dict[str, tuple[Line, tuple[str, int]]] = {}
         self._files: dict[str, list[Line]] = {}
+        self._last: dict[str, _Last] = {}  # per file: its last text and what it gave
 
     def lines_of(self, file: str) -> list[Line]:
         """`file`'s lines as last parsed (empty if never, or if its text was parsed whole)."""
@@ -136,13 +193,12 @@ class StatementCache:
         lines = self._files.get(file)
         if lines is None:
             return None
-        seen: set[str] = set()
-        first: list[Numbered] = []
-        for number, found in enumerate(lines, start=1):
-            if found[0] not in seen:
-                seen.add(found[0])
-                first.append((number, found))
-        return first
+        texts = list(map(itemgetter(0), lines))
+        texts.reverse()
+        # each text's first index, found in C: of repeated keys the last stored (the first
+        # line, counted from the end) stays; a whole device repeats most of its lines
+        first = dict(zip(texts, range(len(texts) - 1, -1, -1), strict=True))
+        return [(index + 1, lines[index]) for index in sorted(first.values())]
 
     def seed(self, file: str, lines: list[Numbered]) -> None:
         """Take lines of `file` from an earlier run (`distinct_of` then: the front cache's
@@ -153,18 +209,32 @@ class StatementCache:
     def forget(self, file: str) -> None:
         """Drop `file`'s lines (a document closed); their texts go at the next sweep."""
         self._files.pop(file, None)
+        self._last.pop(file, None)
 
     def parse(self, text: str, file: str, sink: DiagnosticSink) -> list[ast.Statement]:
         """What `parser.parse_text(text, file, sink)` gives, parsing only lines this cache
-        has not seen; the diagnostics reach `sink` in the same order."""
+        has not seen; the diagnostics reach `sink` in the same order.
+
+        A file parsed here before is compared with its last text: the lines before the first
+        change and after the last are taken as they were (their statements sliced off the
+        last result, not gathered line by line; those after it moved to their new numbers
+        when lines were inserted or removed), so an edit of one line of a whole device
+        costs the edited line, not every line."""
         if "\r" in text and _LONE_CR.search(text):
             self._files.pop(file, None)  # parsed whole, kept nowhere
+            self._last.pop(file, None)
             return self._parse_with(text, file, sink)
         segments = text.split("\n")
+        last = self._last.get(file)
         known = self._files.get(file, [])
+        if last is not None and last.lines is known:
+            head, tail = _unchanged_ends(last.text, text, len(known), len(segments))
+        else:
+            last, head, tail = None, 0, 0
         lines: list[Line | None] = []
         missing: dict[str, list[int]] = {}
-        for index, segment in enumerate(segments):
+        for index in range(head, len(segments) - tail):
+            segment = segments[index]
             if index < len(known) and known[index][0] == segment:
                 lines.append(known[index])
                 continue
@@ -174,24 +244,45 @@ class StatementCache:
                 lines.append(None)
             else:
                 lines.append(_placed(found[0], file, index + 1, found[1]))
+        shift = len(segments) - len(known)
+        after = len(known) - tail  # the first of the unchanged lines at the end, as it was
+        if tail and shift:  # the lines after the change moved: their spans move with them
+            lines.extend(_placed(found, file, index + 1 + shift, (file, index + 1))
+                         for index, found in enumerate(known[after:], start=after))
         if missing:
-            self._fill(segments, lines, missing, file)
-        placed: list[Line] = [line for line in lines if line is not None]
+            self._fill(segments[head:], lines, missing, file, head,
+                       whole=not head and not tail and 2 * len(missing) > len(segments))
+        middle: list[Line] = [line for line in lines if line is not None]
+        statements, starts, reported = _gathered(middle, head)
+        placed = known[:head] + middle if head else middle
+        if last is not None:  # the unchanged ends, sliced off the last result
+            first = last.starts[head]
+            statements = last.statements[:first] + statements
+            starts = last.starts[:head] + [first + start for start in starts]
+            reported = [index for index in last.reported if index < head] + reported
+            if tail and not shift:  # the same objects, at the same lines
+                placed = placed + known[after:]
+                cut = last.starts[after]
+                offset = starts.pop() - cut
+                statements += last.statements[cut:]
+                starts += last.starts[after:] if not offset else \
+                    [offset + start for start in last.starts[after:]]
+                reported += [index for index in last.reported if index >= after]
         self._files[file] = placed
-        statements: list[ast.Statement] = []
-        for _, found_statements, reported in placed:
-            statements.extend(found_statements)
-            for item in reported:
+        self._last[file] = _Last(text, placed, statements, starts, reported)
+        for index in reported:
+            for item in placed[index][2]:
                 sink.add(item.code, item.span, item.message, item.hint, item.related)
         if len(self._texts) > _SLACK + sum(len(f) for f in self._files.values()):
             self._sweep()
-        return statements
+        return list(statements)
 
     def _fill(self, segments: list[str], lines: list[Line | None],
-              missing: dict[str, list[int]], file: str) -> None:
-        """Parse the missing lines in one call: the whole text when most lines are new
-        (every span already in place), else the new texts alone, joined."""
-        whole = 2 * len(missing) > len(segments)
+              missing: dict[str, list[int]], file: str, head: int, whole: bool) -> None:
+        """Parse the missing lines in one call: the whole text (`whole`: most lines are new;
+        every span is then already in place), else the new texts alone, joined. `segments`
+        and `lines` are the text's lines from number `head` (0-based) on; `missing` gives
+        each new text's lines by their index in the whole text."""
         batch = segments if whole else list(missing)
         scratch = DiagnosticSink()
         found = self._parse_with("\n".join(batch), file, scratch)
@@ -211,7 +302,7 @@ class StatementCache:
                 continue
             self._texts[segment] = (line, (file, number))
             for index in missing[segment]:
-                lines[index] = _placed(line, file, index + 1, (file, number))
+                lines[index - head] = _placed(line, file, index + 1, (file, number))
 
     def _parse_with(self, text: str, file: str, sink: DiagnosticSink) -> list[ast.Statement]:
         """The parse given to the cache, else `parser.parse_text`."""

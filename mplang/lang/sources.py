@@ -16,9 +16,10 @@ from __future__ import annotations
 import errno
 import os
 import stat
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from importlib import resources
 from importlib.resources.abc import Traversable
+from itertools import compress
 from pathlib import Path
 
 from mplang.lang import ast, frontcache
@@ -42,6 +43,15 @@ class SourceFile(Record):
         self.statements = [] if statements is None else statements
 
 
+def of_types(statements: list[ast.Statement], kinds: frozenset[type]
+             ) -> Iterator[ast.Statement]:
+    """The statements of exactly these classes (no syntax-tree class has subclasses), picked
+    in C: a whole device has thousands of statements and a pass wants a few of them."""
+    return compress(statements, map(kinds.__contains__, map(type, statements)))
+
+
+_NESTING = frozenset({ast.ProgramHeader, ast.End, ast.Include})
+"""What an INCLUDE's place in or outside a block depends on."""
 LIBRARY_PREFIX = "std:"
 LIBRARY_PACKAGE = "mplang.stdlib"
 
@@ -190,8 +200,14 @@ def load_sources(paths: list[Path], sink: DiagnosticSink, *,
             text, display, sink, store=store if isinstance(store, bool) else store(path),
             where=str(resolved), lines=lines))
         result.files.append(source)
+        statements = source.statements
+        # only what comes before the last INCLUDE matters (a block opened or closed): a
+        # whole device has thousands of statements and no INCLUDE among them
+        kinds = list(map(type, statements))  # one pass in C, not a loop of isinstance
+        kinds.reverse()
+        last = len(kinds) - kinds.index(ast.Include) if ast.Include in kinds else 0
         depth = 0
-        for statement in source.statements:
+        for statement in of_types(statements[:last], _NESTING):
             if isinstance(statement, ast.ProgramHeader):
                 depth += 1
             elif isinstance(statement, ast.End) and statement.what in ("mp", "isr"):

@@ -278,3 +278,50 @@ def test_a_text_parsed_whole_is_never_kept(tmp_path: Path,
         assert (statements, sink.items) == _full_named(text, "cr.mp")
         assert [d.code for d in sink.items] == ["E101"]
     assert not (tmp_path / "cache" / "front").exists()
+
+
+def _naive_ends(before: list[str], after: list[str]) -> tuple[int, int]:
+    head = 0
+    while head < min(len(before), len(after)) and before[head] == after[head]:
+        head += 1
+    tail = 0
+    while tail < min(len(before), len(after)) - head and \
+            before[len(before) - 1 - tail] == after[len(after) - 1 - tail]:
+        tail += 1
+    return head, tail
+
+
+@settings(max_examples=200, deadline=None)
+@given(before=st.lists(st.sampled_from(["a", "ab", "", "b", "a\r"]), min_size=1, max_size=8),
+       after=st.lists(st.sampled_from(["a", "ab", "", "b", "a\r"]), min_size=1, max_size=8))
+def test_unchanged_ends_are_whole_equal_lines_that_never_overlap(before: list[str],
+                                                                 after: list[str]) -> None:
+    """The lines taken as they were at each end are equal in both texts and overlap in
+    neither; at most the line of a change at a line's edge is left to the middle (it is
+    then compared there)."""
+    head, tail = linecache._unchanged_ends("\n".join(before), "\n".join(after), len(before),
+                                           len(after))
+    assert before[:head] == after[:head]
+    assert before[len(before) - tail:] == after[len(after) - tail:]
+    assert head + tail <= min(len(before), len(after)) or before == after
+    naive_head, naive_tail = _naive_ends(before, after)
+    assert head <= naive_head and tail <= naive_tail
+    assert (naive_head - head <= 1 and naive_tail - tail <= 1) or before == after
+
+
+@settings(max_examples=60, deadline=None)
+@given(name=st.sampled_from(sorted(SOURCES)), edits=EDITS)
+def test_edits_at_the_ends_keep_diagnostics_in_order(name: str,
+                                                     edits: list[tuple[int, int, int]]) -> None:
+    """A broken line at the top and one at the bottom stay in the unchanged ends of every
+    edit between them: their diagnostics still reach the sink, in line order, moved with
+    their lines when lines are inserted or removed, as a full parse reports them."""
+    cache = StatementCache()
+    lines = ["  X = = 1", *SOURCES[name].split("\n"), "IF X >"]
+    assert _incremental(cache, "\n".join(lines)) == _full("\n".join(lines))
+    for action in edits:
+        middle = _edit(lines[1:-1], action)
+        lines = [lines[0], *middle, lines[-1]]
+        text = "\n".join(lines)
+        assert _incremental(cache, text) == _full(text)
+        assert _incremental(cache, text) == _full(text)  # the same text again

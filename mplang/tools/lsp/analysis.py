@@ -13,8 +13,10 @@ from __future__ import annotations
 import bisect
 import logging
 import re
-from collections.abc import Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field, replace
+from itertools import compress, repeat
+from operator import attrgetter, eq, itemgetter, not_
 from pathlib import Path
 from typing import Protocol, cast
 
@@ -31,7 +33,7 @@ from mplang.lang.diagnostics import (
     without_ignored,
 )
 from mplang.lang.linecache import StatementCache
-from mplang.lang.sources import SourceFile, SourceSet, load_sources
+from mplang.lang.sources import SourceFile, SourceSet, load_sources, of_types
 from mplang.lang.structure import build_unit
 from mplang.m8194h.compiler import BuildMemo, Lowering, compile_sources
 from mplang.m8194h.link import Placement, link
@@ -346,18 +348,77 @@ def _analyse(path: Path, text: str, context: BuildContext, open_texts: Mapping[P
     own = {id(entry) for entry in by_display.values() if entry.path == analysis.path}
     before = previous.placed if previous is not None and previous.path == resolved else {}
     here = {display for display, entry in by_display.items() if id(entry) in own}
-    analysis.diagnostics = []
     shifted = memo.lowerings.shifted if memo is not None and lowering is not None else {}
-    for diagnostic in diagnostics:
-        placed = _reuse_placed(analysis, diagnostic, before, here, shifted) if before else None
-        if placed is None:
-            placed = _place_diagnostic(analysis, diagnostic, by_display, graph, pages, own)
-        if placed is not None:
-            analysis.diagnostics.append(placed)
+    analysis.diagnostics = _placed_all(analysis, diagnostics, before, here, shifted,
+                                       lambda d: _place_diagnostic(analysis, d, by_display,
+                                                                   graph, pages, own))
     if context.problem:
         analysis.diagnostics.insert(0, EditorDiagnostic(line_range(0, 0, 0), "error", "",
                                                         context.problem, "", (), None))
     return analysis
+
+
+_LINE_OF, _FILE_OF = attrgetter("span.line"), attrgetter("span.file")
+_TEXT_OF, _PLACED_OF = itemgetter(1), itemgetter(2)
+_NO_ENTRY = cast(tuple[Diagnostic, str, EditorDiagnostic], (None, None, None))
+"""A diagnostic placed nowhere last time: its line's text (None) equals no line's, and its
+placement (None) is looked for again."""
+
+
+def _placed_all(analysis: Analysis, diagnostics: list[Diagnostic],
+                before: dict[int, tuple[Diagnostic, str, EditorDiagnostic]], here: set[str],
+                shifted: Mapping[int, tuple[Diagnostic, Diagnostic, int]],
+                place: Callable[[Diagnostic], EditorDiagnostic | None]
+                ) -> list[EditorDiagnostic]:
+    """Every diagnostic placed in the document, in order: the last analysis's placement where
+    it still holds (`before`), else a new one (`place`; None: shown in another document).
+
+    Kept by identity first (a program the edit left alone keeps its diagnostic objects; a
+    whole device has thousands, taken inline here), or moved with a program that only
+    moved; then, for the rest, by value: a program that was checked again (the edited one)
+    reports mostly the same diagnostics as new objects, and a diagnostic equal to one placed
+    last time on a line of the same text is placed the same. Only the placements no
+    diagnostic took by identity are looked at for that, so a whole device's are not
+    hashed for the one program an edit changed."""
+    lines, kept_now = analysis.lines, analysis.placed
+    found: list[EditorDiagnostic | None] = [None] * len(diagnostics)
+    rest: Iterable[int] = range(len(diagnostics))
+    numbers = list(map(_LINE_OF, diagnostics))
+    if before and numbers and set(map(_FILE_OF, diagnostics)) <= here and \
+            min(numbers) > 0 and max(numbers) <= len(lines):
+        # By identity, in C: the entry kept under a diagnostic's id holds that very object
+        # (alive while kept, so no other object has its id); it stands when its line's text
+        # is the same. Only the others are looked at one by one below.
+        ids = list(map(id, diagnostics))
+        entries = list(map(before.get, ids, repeat(_NO_ENTRY)))
+        same = list(map(eq, map(_TEXT_OF, entries), map(lines.__getitem__,
+                                                           map((-1).__add__, numbers))))
+        kept_now.update(compress(zip(ids, entries, strict=True), same))
+        found = list(map(_PLACED_OF, entries))
+        rest = compress(range(len(diagnostics)), map(not_, same))
+    missed: list[int] = []
+    for index in rest:
+        diagnostic = diagnostics[index]
+        placed = _reuse_placed(analysis, diagnostic, before, here, shifted) if before else None
+        if placed is None:
+            missed.append(index)
+        found[index] = placed
+    alike: dict[Diagnostic, tuple[Diagnostic, str, EditorDiagnostic]] = {}
+    if missed and before:
+        taken = set(kept_now)  # by identity: the same ids as last time
+        taken.update(id(shifted[key][1]) for key in kept_now.keys() & shifted.keys())
+        alike = {before[key][0]: before[key] for key in before.keys() - taken}
+    for index in missed:
+        diagnostic = diagnostics[index]
+        kept = alike.get(diagnostic)
+        span = diagnostic.span
+        if kept is not None and span.file in here and 0 < span.line <= len(lines) and \
+                lines[span.line - 1] == kept[1]:
+            kept_now[id(diagnostic)] = (diagnostic, kept[1], kept[2])
+            found[index] = kept[2]
+        else:
+            found[index] = place(diagnostic)
+    return list(filter(None, found))  # in C: a placement is never false
 
 
 def _refusals(files: list[SourceFile], roots: list[Path], refused: Mapping[Path, str]
@@ -432,6 +493,7 @@ _INDEXED = (ast.Const, ast.Alias, ast.VarDecl, ast.ProgramHeader, ast.End, ast.L
 _INDEXED_TYPES = frozenset(_INDEXED)
 """The same, looked up by exact type (thousands of statements a check; no syntax-tree class
 has subclasses)."""
+_INCLUDE = frozenset({ast.Include})
 
 
 def _index_file(analysis: Analysis, source: SourceFile, entry: SourceText) -> None:
@@ -446,9 +508,8 @@ def _index_file(analysis: Analysis, source: SourceFile, entry: SourceText) -> No
             blocks.append(open_block)
             open_block = None
 
-    for statement in source.statements:
-        if type(statement) not in _INDEXED_TYPES:
-            continue  # commands and the like define nothing: their line is not lexed
+    for statement in of_types(source.statements, _INDEXED_TYPES):
+        # commands and the like define nothing: they are not visited
         if isinstance(statement, ast.End):
             if statement.what in ("mp", "isr"):
                 close(statement.span.line - 1)
@@ -488,16 +549,32 @@ def _index_file(analysis: Analysis, source: SourceFile, entry: SourceText) -> No
     analysis.programs.extend(blocks)
 
 
+_header_ranges: dict[tuple[str, int], tuple[Range, Range]] = {}
+"""A header line's name and code ranges, by its text and line: a whole device's 1,770
+headers, nearly all where they were at the last check."""
+
+
 def _program_block(header: ast.ProgramHeader, entry: SourceText, tokens: list[Token],
                    line: int) -> ProgramBlock:
+    key = (entry.lines[line], line)
+    ranges = _header_ranges.get(key)
+    if ranges is None:
+        if len(_header_ranges) >= 32_768:
+            _header_ranges.clear()
+        ranges = _header_ranges[key] = _header_ranges_of(tokens, line)
+    return ProgramBlock(header.kind, header.number, header.name, entry.path, ranges[0],
+                        ranges[1], line, line)
+
+
+def _header_ranges_of(tokens: list[Token], line: int) -> tuple[Range, Range]:
+    """A header's name (else number, else keyword) and its code without the comment."""
     code = [t for t in tokens if t.kind != "comment"]
     named = [t for t in code[1:3] if t.kind in ("name", "int")]
     chosen = named[-1] if named else (code[0] if code else None)
     name_range = line_range(line, chosen.start, chosen.end) if chosen else \
         line_range(line, 0, 0)
     header_range = line_range(line, code[0].start, code[-1].end) if code else name_range
-    return ProgramBlock(header.kind, header.number, header.name, entry.path, name_range,
-                        header_range, line, line)
+    return name_range, header_range
 
 
 def _measure_programs(analysis: Analysis, files: list[SourceFile],
@@ -550,7 +627,8 @@ def _include_graph(files: list[SourceFile], analysis: Analysis,
     for source in files:
         including = source.path.resolve()
         graph[including] = [_include_target(including, s.path, analysis, by_display)
-                            for s in source.statements if isinstance(s, ast.Include)]
+                            for s in of_types(source.statements, _INCLUDE)
+                            if isinstance(s, ast.Include)]
     return graph
 
 

@@ -212,7 +212,9 @@ Classified = list[tuple[int, int, int, int]]  # start, end, type, modifiers (no 
 Line = tuple[Classified, list[int]]
 """A line's tokens, and the encoded data of all but its first (relative to the token before,
 on the same line: the same wherever the line is)."""
-_classified_lines: dict[Names, dict[str, Line]] = {}
+Kept = dict[str | tuple[str, bool], Line]
+"""Classified lines by text (a program header's by its text and whether a block holds it)."""
+_classified_lines: dict[Names, Kept] = {}
 
 
 def _names(analysis: Analysis) -> Names:
@@ -224,7 +226,7 @@ def _names(analysis: Analysis) -> Names:
             frozenset(p.name.upper() for p in analysis.programs if p.name))
 
 
-def _lines_for(names: Names) -> dict[str, Line]:
+def _lines_for(names: Names) -> Kept:
     """The classified lines kept for a set of names (the least recently used set dropped)."""
     kept = _classified_lines.pop(names, None)
     if kept is None:
@@ -280,7 +282,8 @@ def semantic_tokens(analysis: Analysis) -> list[int]:
 
     A line's tokens depend on its text and on the names the build defines, so they are kept
     by line text for each set of names: after an edit that defines no new name, only the
-    edited lines (and program headers) are classified again."""
+    edited lines are classified again (a program header's are kept by its text and whether a
+    block holds it)."""
     data: list[int] = []
     previous_line = previous_start = 0
     definitions = [d.location for table in (analysis.consts, analysis.aliases,
@@ -297,10 +300,15 @@ def semantic_tokens(analysis: Analysis) -> list[int]:
     for number, text in enumerate(analysis.lines):
         line = kept.get(text)
         if line is None:
-            classified = _classify(analysis, number, text)
-            line = (classified, _rest_of_line(classified))
-            if _HEADER.match(text) is None:
-                kept[text] = line
+            # a header's words name its program when a block holds the line (a header the
+            # parser refused may stand outside any): kept by its text and that
+            key: str | tuple[str, bool] = text
+            if _HEADER.match(text) is not None:
+                key = (text, analysis.program_at(number) is not None)
+                line = kept.get(key)
+            if line is None:
+                classified = _classify(analysis, number, text)
+                line = kept[key] = (classified, _rest_of_line(classified))
         classified, rest = line
         if not classified:
             continue

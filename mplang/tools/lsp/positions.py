@@ -45,6 +45,8 @@ class Location:
 
 def split_lines(text: str) -> list[str]:
     """Lines as the compiler numbers them: split at '\\n', a trailing '\\r' dropped."""
+    if "\r" not in text:  # nearly every text: split in C only
+        return text.split("\n")
     return [line.removesuffix("\r") for line in text.split("\n")]
 
 

@@ -17,7 +17,8 @@ than `DEBOUNCE_ABOVE_S` is checked `DEBOUNCE_S` after the last change of a burst
 of after every keystroke; requests on it check it first, and diagnostics are published only
 for the document's current version, so none shown is ever stale. After start-up the heap
 built so far (catalogue, grammar, the code) is frozen out of the cycle collector, which
-would otherwise walk it on every collection, and the collector waits while a check runs.
+would otherwise walk it on every collection, the collector waits while a check runs, and
+what a check kept is frozen after it (with a full collection every few hundred checks).
 
 Hostile input: messages are read by `transport` (bounded, resynchronising after a framing
 error) instead of pygls' own loop, and a request on a document the client did not open reads
@@ -39,8 +40,10 @@ import sys
 import threading
 import time
 from collections.abc import Callable, Hashable, Iterator
+from itertools import compress, repeat
+from operator import eq, itemgetter, not_
 from pathlib import Path
-from typing import Any, BinaryIO, TypeVar
+from typing import Any, BinaryIO, TypeVar, cast
 from urllib.parse import unquote
 
 from lsprotocol import types as lsp
@@ -94,6 +97,9 @@ DEBOUNCE_ABOVE_S = 0.05
 checked after a pause in its changes rather than after each of them."""
 DEBOUNCE_S = 0.03
 """The pause: changes closer together than this are checked once, for the last of them."""
+FULL_COLLECTION_EVERY = 256
+"""Checks between two full collections of the frozen heap (`MpLanguageServer.settle_heap`):
+what cyclic garbage the checks in between left is freed then."""
 WARM_UP_TEXT = "MP 1\n    SET_V X, 100\nEND MP\n"
 """Checked once at start-up, so that the catalogue and the grammar are loaded (and frozen
 out of the cycle collector's walks) before the first keystroke."""
@@ -191,6 +197,7 @@ class MpLanguageServer(LanguageServer):
         # The text of each open document (by unquoted URI), kept here with the protocol's
         # line breaks (`positions.apply_change`) rather than by pygls' incremental sync.
         self.texts: dict[str, str] = {}
+        self.checks_done = 0  # for the full collection every FULL_COLLECTION_EVERY checks
 
     # ------------------------------------------------------------------ documents
     @property
@@ -338,8 +345,8 @@ class MpLanguageServer(LanguageServer):
 
         The cycle collector waits until the diagnostics are out: a check allocates hundreds
         of thousands of objects, and collecting while it runs walks them (and the analysis
-        kept from before) again and again, a quarter of a whole device's check. They are
-        collected once, by the first collection after it."""
+        kept from before) again and again, a quarter of a whole device's check. What the
+        check kept is then frozen out of the collector's walks too (`settle_heap`)."""
         self.cancel_pending(uri)
         collecting = gc.isenabled()
         gc.disable()
@@ -348,8 +355,22 @@ class MpLanguageServer(LanguageServer):
             self.publish(uri, analysis)
         finally:
             if collecting:
+                self.settle_heap()
                 gc.enable()
         return analysis
+
+    def settle_heap(self) -> None:
+        """After a check: freeze what is alive now (the analysis, its build memo, the parsed
+        lines), so that the collections that the next check's allocations set off do not
+        walk it (a whole device's analysis is hundreds of thousands of objects: a tenth of
+        an edit's time went on those walks). Reference counting still frees what a later
+        check drops; only cyclic garbage would stay, so every `FULL_COLLECTION_EVERY`
+        checks everything is unfrozen, collected once and frozen again."""
+        self.checks_done += 1
+        if self.checks_done % FULL_COLLECTION_EVERY == 0:
+            gc.unfreeze()
+            gc.collect()
+        gc.freeze()
 
     def publish(self, uri: str, analysis: Analysis) -> None:
         """Publish a document's diagnostics, only if its analysis checked the version the
@@ -377,18 +398,22 @@ class MpLanguageServer(LanguageServer):
         # unchanged, `analysis._reuse_placed`) is the same object, with the same JSON
         same_before = self.published_same.get(uri, {})
         same_now: dict[int, tuple[EditorDiagnostic, str, str]] = {}
-        found = []
         encoding = self.encoding
-        for diagnostic in analysis.diagnostics:
-            same = same_before.get(id(diagnostic))
-            if same is not None and same[0] is diagnostic and same[1] == encoding:
-                same_now[id(diagnostic)] = same
-                found.append(same[2])
-                continue
+        diagnostics = analysis.diagnostics
+        # In C passes: an entry kept under a placement's id holds that very object (alive
+        # while kept, so no other has its id); it stands in the same encoding. Only the
+        # others are converted, or looked up by what their JSON depends on, one by one.
+        ids = list(map(id, diagnostics))
+        entries = list(map(same_before.get, ids, repeat(_NOT_PUBLISHED)))
+        kept = list(map(eq, map(_ENCODING_OF, entries), repeat(encoding)))
+        same_now.update(compress(zip(ids, entries, strict=True), kept))
+        found: list[str] = list(map(_JSON_OF, entries))
+        for index in compress(range(len(diagnostics)), map(not_, kept)):
+            diagnostic = diagnostics[index]
             shifted = _moved_json(analysis, diagnostic, same_before, encoding)
             if shifted is not None:
                 same_now[id(diagnostic)] = (diagnostic, encoding, shifted)
-                found.append(shifted)
+                found[index] = shifted
                 continue
             key = _published_key(diagnostic, analysis.lines, encoding)
             value = now.get(key) if key is not None else None
@@ -400,7 +425,7 @@ class MpLanguageServer(LanguageServer):
             if key is not None:
                 now[key] = value
                 same_now[id(diagnostic)] = (diagnostic, encoding, value)
-            found.append(value)
+            found[index] = value
         if self.is_open(uri):
             self.published[uri] = now
             self.published_same[uri] = same_now
@@ -566,6 +591,10 @@ def _published_key(diagnostic: EditorDiagnostic, lines: list[str], encoding: str
             encoding, lines[start.line] if 0 <= start.line < len(lines) else "",
             lines[end.line] if 0 <= end.line < len(lines) and end.line != start.line else "")
 
+
+_NOT_PUBLISHED = cast(tuple[EditorDiagnostic, str, str], (None, None, None))
+"""A placement not published last time: in no encoding, with no JSON text."""
+_ENCODING_OF, _JSON_OF = itemgetter(1), itemgetter(2)
 
 _RANGE_JSON = re.compile(r'\{"range": \{"start": \{"line": (\d+), "character": (\d+)\}, '
                          r'"end": \{"line": (\d+), "character": (\d+)\}\}')

@@ -43,9 +43,23 @@ class Token:
         return body[:-1] if len(body) and body[-1] == self.text[0] else body
 
 
+_KEPT_LINES = 32_768
+"""How many line texts keep their tokens (a whole device has about 6,000 distinct lines)."""
+_lexed: dict[str, list[Token]] = {}
+
+
 def lex_line(text: str) -> list[Token]:
-    return [Token(match.lastgroup or "other", match.group(), match.start(), match.end())
+    """A line's tokens, kept by its text: every check indexes the definitions and headers
+    of every file, and the semantic tokens read every line, nearly all as they were. The
+    list is shared between callers: never changed by one."""
+    found = _lexed.get(text)
+    if found is None:
+        if len(_lexed) >= _KEPT_LINES:
+            _lexed.clear()
+        found = _lexed[text] = [
+            Token(match.lastgroup or "other", match.group(), match.start(), match.end())
             for match in _TOKEN.finditer(text)]
+    return found
 
 
 def word_at(tokens: list[Token], character: int) -> Token | None:

@@ -12,6 +12,7 @@ import asyncio
 import gc
 import random
 import sys
+import weakref
 from collections.abc import AsyncIterator
 from pathlib import Path
 
@@ -20,8 +21,9 @@ import pytest_lsp
 from lspedits import position, random_edit
 from lsprotocol import types as lsp
 from pytest_lsp import ClientServerConfig, LanguageClient
+from sourceedits import SAMPLES, changed
 
-from mplang.tools.lsp.server import create_server
+from mplang.tools.lsp.server import FULL_COLLECTION_EVERY, create_server
 
 ASYNC = pytest.mark.asyncio(loop_scope="module")
 SERVER = [sys.executable, "-c", "from mplang.tools.lsp.server import create_server; "
@@ -270,6 +272,34 @@ def test_the_cycle_collector_waits_while_a_check_runs(tmp_path: Path) -> None:
     assert phases == [] and gc.isenabled()
 
 
+class _Cyclic:
+    """An object in a reference cycle with itself: only the cycle collector frees it."""
+
+    def __init__(self) -> None:
+        self.me = self
+
+
+def test_a_check_freezes_what_it_kept_and_a_full_collection_frees_cycles_later(
+        tmp_path: Path) -> None:
+    """After a check, what is alive is out of the collector's walks; cyclic garbage frozen
+    with it is freed by the full collection every FULL_COLLECTION_EVERY checks."""
+    path = tmp_path / "short.mp"
+    path.write_text("MP 1 short\n    VAR1 = VAR1 + 1\nEND MP\n")
+    server = create_server()
+    list(server.protocol.lsp_initialize(lsp.InitializeParams(
+        capabilities=lsp.ClientCapabilities(), root_uri=tmp_path.as_uri())))
+    try:
+        garbage = weakref.ref(_Cyclic())  # unreachable at once: only a collection frees it
+        frozen = gc.get_freeze_count()
+        server.check(path.as_uri())
+        assert gc.get_freeze_count() > frozen and gc.isenabled()
+        server.checks_done = FULL_COLLECTION_EVERY - 1
+        server.check(path.as_uri())
+        assert garbage() is None and gc.get_freeze_count() > 0 and gc.isenabled()
+    finally:
+        gc.unfreeze()
+
+
 @ASYNC
 async def test_programs_moved_by_inserted_and_deleted_lines_publish_as_a_fresh_open(
         client: LanguageClient, project: Path) -> None:
@@ -293,3 +323,46 @@ async def test_programs_moved_by_inserted_and_deleted_lines_publish_as_a_fresh_o
         whole = await published(whole_uri, 1)
         assert edited.diagnostics == whole.diagnostics
         assert [d.code for d in edited.diagnostics].count("W111") == 3
+
+
+def _line_change(before: list[str], after: list[str]
+                 ) -> tuple[tuple[int, int], tuple[int, int], str]:
+    """The range edit an editor sends for a change of lines: what lies between the text the
+    two versions share at the start and at the end, replaced."""
+    old, new = "\n".join(before), "\n".join(after)
+    head = 0
+    while head < min(len(old), len(new)) and old[head] == new[head]:
+        head += 1
+    tail = 0
+    while tail < min(len(old), len(new)) - head and old[-1 - tail] == new[-1 - tail]:
+        tail += 1
+    return position(old, head), position(old, len(old) - tail), new[head:len(new) - tail]
+
+
+@ASYNC
+@pytest.mark.parametrize("seed", range(4))
+async def test_random_bursts_of_edits_publish_what_a_fresh_open_publishes(
+        client: LanguageClient, project: Path, seed: int) -> None:
+    """Bursts of random edits of a sample (digits, lines from other files, lines dropped,
+    inserted and swapped), sent faster than the server's pause: the last version's
+    diagnostics, published once its burst is checked, equal those of its text opened
+    afresh, and no publish is of a version older than one already published."""
+    rng = random.Random(seed)
+    sample = rng.choice(SAMPLES)
+    lines = sample.read_text(encoding="utf-8").split("\n")
+    uri = (project / f"random{seed}.mp").as_uri()
+    await open_document(client, uri, "\n".join(lines))
+    version = 1
+    for burst in range(3):
+        for _ in range(rng.randint(1, 5)):
+            after = changed(lines, (rng.randint(0, 5), rng.randint(0, 5_000),
+                                    rng.randint(0, 5_000)))
+            version += 1
+            client.text_document_did_change(change(uri, version, _line_change(lines, after)))
+            lines = after
+        kept = await published(uri, version)
+        fresh = (project / f"random{seed}-fresh{burst}.mp").as_uri()
+        await open_document(client, fresh, "\n".join(lines))
+        assert kept.diagnostics == (await published(fresh, 1)).diagnostics
+    versions = [p.version for p in PUBLISHED if p.uri == uri]
+    assert versions == sorted(versions) and versions[-1] == version
