@@ -8,12 +8,17 @@ statements and blocks; `configure.InitLowerer` reuses the argument checks for IN
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from mplang.ir.catalogue import Command, Param
 from mplang.ir.fold import walk_expr
 from mplang.ir.macro import BVarRef, LoweredProgram, MacroLine, Operand, ProgramRef, VarRef
 from mplang.ir.scope import BVAR_RE, PROGRAM_RE, ConstError, Scope, did_you_mean, temps_for
 from mplang.lang import ast
 from mplang.lang.diagnostics import Span
+
+if TYPE_CHECKING:
+    from mplang.ir.blockmemo import VariableLog
 
 
 class OperandLowerer:
@@ -37,6 +42,7 @@ class OperandLowerer:
                                   program.span, program.end_span)
         self.written: set[int] = set()
         self.warned_reads: set[int] = set()
+        self.log: VariableLog | None = None  # set while a kept statement is recorded
 
     # ------------------------------------------------------------------ emitting
     def emit(self, short: str, operands: tuple[Operand, ...], span: Span) -> None:
@@ -56,8 +62,12 @@ class OperandLowerer:
         the source wrote it (an ALIAS `hits`, with its number beside: `hits (VAR30)`)."""
         if ref.index in self.temps or ref.index in self.scope.declared_indices:
             return
+        if self.log is not None:
+            self.log.reads.add(ref.index)
         if ref.index not in self.written and ref.index not in self.warned_reads:
             self.warned_reads.add(ref.index)
+            if self.log is not None:
+                self.log.warned.add(ref.index)
             self.sink.add("W103", span, f"{self.var_words(ref, expr)} is read before this "
                           "program writes it",
                           hint="initialise it first, or ignore if the host or a caller sets it")
@@ -73,6 +83,8 @@ class OperandLowerer:
         return device
 
     def note_write(self, ref: VarRef) -> None:
+        if self.log is not None and ref.index not in self.written:
+            self.log.writes.add(ref.index)
         self.written.add(ref.index)
 
     def check_user_var(self, index: int, span: Span) -> bool:

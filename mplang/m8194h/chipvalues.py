@@ -23,9 +23,10 @@ from typing import TYPE_CHECKING, Any
 from mplang.lang.diagnostics import Diagnostic, DiagnosticSink
 
 if TYPE_CHECKING:
+    from mplang.ir.blockmemo import Statement
     from mplang.ir.catalogue import Profile
     from mplang.ir.macro import LoweredProgram, MacroLine
-    from mplang.ir.reuse import Lowerings
+    from mplang.ir.reuse import Lowered, Lowerings
 
 #: the power-on maximum speed (factory initial table, RS 9705)
 DEFAULT_MAX_V = 200_000
@@ -225,14 +226,43 @@ def warn_changed(programs: Iterable[LoweredProgram], init: LoweredProgram | None
             _warn_lines(program, list(start), rules, sink)
             continue
 
-        def warn(program: LoweredProgram = program) -> list[Diagnostic]:
+        def warn(program: LoweredProgram = program, entry: Lowered = entry
+                 ) -> list[Diagnostic]:
             own = DiagnosticSink()
-            _warn_lines(program, list(start), rules, own)
+            segments = entry.segments()
+            if segments is None:
+                _warn_lines(program, list(start), rules, own)
+            else:
+                _warn_segments(program, segments, list(start), rules, own)
             return own.items
 
         found = entry.derived_for("W111", key, warn)
         assert isinstance(found, list)
         sink.extend(found)
+
+
+def _warn_segments(program: LoweredProgram, segments: list[tuple[Statement, int, int]],
+                   start: list[float | None], rules: ChipRules, sink: DiagnosticSink) -> None:
+    """`_warn_lines` statement by statement: a kept statement (its lines the same objects)
+    entered with the same MAX_V reading gives the warnings it gave, and leaves the reading
+    as it left it."""
+    reading = _MaxV(start)
+    for statement, first, end in segments:
+        def warn(first: int = first, end: int = end,
+                 entered: tuple[list[float | None], int] = (list(reading.axes), reading.axis1)
+                 ) -> tuple[list[Diagnostic], list[float | None], int]:
+            own = DiagnosticSink()
+            inner = _MaxV(entered[0])
+            inner.axis1 = entered[1]
+            _warn_reading(program.lines[first:end], inner, rules, own)
+            return own.items, inner.axes, inner.axis1
+
+        found = statement.derived_for("W111", (rules, tuple(reading.axes), reading.axis1),
+                                      warn)
+        assert isinstance(found, tuple)
+        items, axes, axis1 = found
+        sink.extend(items)
+        reading.axes, reading.axis1 = list(axes), axis1
 
 
 def _named(line: MacroLine) -> dict[str, object]:
@@ -241,8 +271,13 @@ def _named(line: MacroLine) -> dict[str, object]:
 
 def _warn_lines(program: LoweredProgram, start: list[float | None], rules: ChipRules,
                 sink: DiagnosticSink) -> None:
-    reading = _MaxV(start)
-    for line in program.lines:
+    _warn_reading(program.lines, _MaxV(start), rules, sink)
+
+
+def _warn_reading(lines: list[MacroLine], reading: _MaxV, rules: ChipRules,
+                  sink: DiagnosticSink) -> None:
+    """W111 of `lines`, `reading` following the MAX_V values along them."""
+    for line in lines:
         command = line.command.short_name
         if command not in rules.parameters and not _sets_max_v(command):
             continue  # no speed, acceleration or jerk argument, no MAX_V or axis 1 change

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from sourceedits import changed, edit_sequences
+from sourceedits import LARGE, LARGE_POOL, changed, edit_sequences, large_edit_sequences
 
 from mplang.ir.reuse import BuildMemo
 from mplang.lang.linecache import StatementCache
@@ -138,3 +138,65 @@ def test_a_moved_program_whose_message_names_a_line_is_lowered_again(tmp_path: P
     assert _seen(result) == _seen(_build(path, "\n".join(edited)))
     assert [d.message for d in result.diagnostics if d.code == "W101"] == \
         ["unreachable: line 7 always jumps away"]
+
+
+@large_edit_sequences
+def test_random_edits_inside_one_program_build_as_a_fresh_build_does(
+        steps: list[tuple[int, int, int]]) -> None:
+    """Edits inside one long program and across its blocks' boundaries (IF/ELSE/END IF,
+    FOR/NEXT, LABEL/GOTO, WHILE, REPEAT): each build with the memo, which lowers again only
+    the statements an edit changed, is the build from scratch."""
+    path = Path("/large.mp")
+    lines, memo = StatementCache(), BuildMemo()
+    text = list(LARGE)
+    assert _seen(_build(path, "\n".join(text), lines, memo)) == \
+        _seen(_build(path, "\n".join(text)))
+    for step in steps:
+        text = changed(text, step, LARGE_POOL)
+        joined = "\n".join(text)
+        assert _seen(_build(path, joined, lines, memo)) == _seen(_build(path, joined))
+
+
+def _statements_kept(memo: BuildMemo, result: BuildResult, name: str) -> list[object]:
+    """The kept top-level statements of program `name`, in order."""
+    for image in result.programs:
+        if image.placement.program.name == name:
+            entry = memo.lowerings.entry(image.placement.program)
+            assert entry is not None and entry.statements is not None
+            return list(entry.statements.order)
+    raise AssertionError(name)
+
+
+def test_an_edit_inside_a_program_lowers_only_the_statement_it_changed(tmp_path: Path
+                                                                       ) -> None:
+    """A number edited in one statement of a long program: that statement is lowered
+    again, every other one (blocks, jumps, reads) is the same kept object, and the build
+    is the fresh one."""
+    path = tmp_path / "large.mp"
+    lines, memo = StatementCache(), BuildMemo()
+    before = _statements_kept(memo, _build(path, "\n".join(LARGE), lines, memo), "long")
+    at = LARGE.index("    FIXED_MOVE XY, 207")  # inside the third IF block
+    edited = [*LARGE[:at], "    FIXED_MOVE XY, 208", *LARGE[at + 1:]]
+    result = _build(path, "\n".join(edited), lines, memo)
+    assert _seen(result) == _seen(_build(path, "\n".join(edited)))
+    after = _statements_kept(memo, result, "long")
+    assert len(after) == len(before)
+    changed_at = [i for i, (a, b) in enumerate(zip(before, after, strict=True)) if a is not b]
+    assert len(changed_at) == 1
+    assert after[changed_at[0]].node.span.line < at + 1 <= \
+        after[changed_at[0]].node.end_span.line  # type: ignore[attr-defined]
+
+
+def test_a_statement_that_enters_another_state_is_lowered_again(tmp_path: Path) -> None:
+    """A variable written earlier in the program is read later: W103 of the read comes and
+    goes with the write, though the reading statement is unchanged."""
+    path = tmp_path / "reads.mp"
+    text = ["MP 1 main", "  VAR5 = 1", "  SET_V X, 100", "  IF VAR5 > 2", "    SET_V Y, 10",
+            "  END IF", "END MP", ""]
+    lines, memo = StatementCache(), BuildMemo()
+    for first in ("  VAR5 = 1", "  VAR6 = 1", "  VAR5 = 2", "  VAR6 = 3"):
+        edited = [text[0], first, *text[2:]]
+        result = _build(path, "\n".join(edited), lines, memo)
+        assert _seen(result) == _seen(_build(path, "\n".join(edited)))
+        assert any(d.code == "W103" for d in result.diagnostics) == (first == "  VAR6 = 1"
+                                                                     or first == "  VAR6 = 3")
