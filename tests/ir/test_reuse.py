@@ -10,6 +10,7 @@ from pathlib import Path
 from sourceedits import LARGE, LARGE_POOL, changed, edit_sequences, large_edit_sequences
 
 from mplang.ir.reuse import BuildMemo
+from mplang.lang import ast
 from mplang.lang.linecache import StatementCache
 from mplang.m8194h.compiler import BuildResult, compile_paths
 
@@ -200,3 +201,27 @@ def test_a_statement_that_enters_another_state_is_lowered_again(tmp_path: Path) 
         assert _seen(result) == _seen(_build(path, "\n".join(edited)))
         assert any(d.code == "W103" for d in result.diagnostics) == (first == "  VAR6 = 1"
                                                                      or first == "  VAR6 = 3")
+
+
+def test_an_edit_inside_a_program_matches_again_only_the_block_it_changed(tmp_path: Path
+                                                                          ) -> None:
+    """The blocks at a program's top level that an edit left alone are the same syntax
+    objects as before (matched once, `lang.structure.BlockMemo.find_block`); the edited
+    one is matched again."""
+    path = tmp_path / "large.mp"
+    lines, memo = StatementCache(), BuildMemo()
+
+    def body(result: BuildResult) -> list[object]:
+        program = next(p.placement.program for p in result.programs
+                       if p.placement.program.name == "long")
+        entry = memo.lowerings.entry(program)
+        assert entry is not None
+        return list(entry.program.body)
+
+    before = body(_build(path, "\n".join(LARGE), lines, memo))
+    at = LARGE.index("      EXIT FOR")  # inside the first FOR, inside its IF
+    edited = [*LARGE[:at], "      SET_V X, 5", *LARGE[at + 1:]]
+    after = body(_build(path, "\n".join(edited), lines, memo))
+    differs = [i for i, (a, b) in enumerate(zip(before, after, strict=True)) if a is not b]
+    assert len(differs) == 1 and isinstance(after[differs[0]], ast.ForBlock)
+    assert [type(n) for n in before] == [type(n) for n in after]
