@@ -75,6 +75,8 @@ class ProgramLowerer(OperandLowerer):
         self.blocks: list[_Block] = []
         self.labels: dict[str, int] = {}
         self.spare_labels: list[int] = []  # label numbers no LABEL of the source takes
+        self.if_depth = self.profile.limit("if_depth")
+        self.for_depth = self.profile.limit("for_depth")
 
     # ---------------------------------------------------------------- statements
     def lower_program(self, kept: Statements | None = None) -> LoweredProgram:
@@ -170,7 +172,7 @@ class ProgramLowerer(OperandLowerer):
             self.lower_block(node.body)
             return
         depth = sum(1 for b in self.blocks if b.kind == "for") + 1
-        if depth == self.profile.limit("for_depth") + 1:  # once, where the nesting passes it
+        if depth == self.for_depth + 1:  # once, where the nesting passes it
             self.sink.add("E311", node.span, f"FOR nested {depth} deep; the device allows "
                           f"{self.profile.limit('for_depth')} (one outer and "
                           f"{self.profile.limit('for_depth') - 1} inner)")
@@ -196,8 +198,8 @@ class ProgramLowerer(OperandLowerer):
     def lower_if(self, node: ast.IfBlock, body: list[ast.Node] | None = None,
                  loop_label: int | None = None) -> None:
         """IF ... [ELSE ...] END_IF; for a WHILE (`loop_label`), `body` then GOTO back."""
-        depth = sum(1 for b in self.blocks if b.kind in ("if", "while")) + 1
-        if depth == self.profile.limit("if_depth") + 1:  # once, where the nesting passes it
+        depth = sum(1 for b in self.blocks if b.kind != "for") + 1  # IFs and WHILEs
+        if depth == self.if_depth + 1:  # once, where the nesting passes it
             self.sink.add("E310", node.span, f"IF nested {depth} deep; the device allows "
                           f"{self.profile.limit('if_depth')} (one outer and "
                           f"{self.profile.limit('if_depth') - 1} inner)")
