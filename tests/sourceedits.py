@@ -61,6 +61,14 @@ LARGE_POOL = sorted(set(LARGE) | {
     "  VAR1 = (1 +", "  CALL helper", "  IF VAR2 + 1 > VAR3 * 2", "  VAR7 = VAR8 * 3 - VAR9"})
 
 
+def _warm_up() -> list[list[str]]:
+    """Texts to build before a drawn sequence of edits of `LARGE`: `LARGE`, one number of
+    its long program changed, and `LARGE` again. A program keeps its statements from its
+    first edit on, so the drawn edits meet kept statements from their first step."""
+    at = LARGE.index("  SET_V Z, 2")
+    return [LARGE, [*LARGE[:at], "  SET_V Z, 9", *LARGE[at + 1:]], LARGE]
+
+
 def _replace(line: str, by: str) -> tuple[int, int, int]:
     """The step of `changed` (with `LARGE_POOL`) that replaces the line at the place of
     `LARGE`'s first `line` by `by`."""
@@ -145,3 +153,6 @@ def large_edit_sequences(test: Callable[..., None]) -> Callable[..., None]:
     wrapped = given(steps=STEPS)(wrapped)
     decorated: Callable[..., None] = settings(max_examples=40, deadline=None)(wrapped)
     return decorated
+
+
+LARGE_WARM_UP = _warm_up()

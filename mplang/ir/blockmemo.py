@@ -70,15 +70,17 @@ class Statement:
         self.after_return = after_return
         self.reads: tuple[int, ...] = ()  # variables whose W103 state it checked
         self.read_state: tuple[tuple[bool, bool], ...] = ()  # (written, warned) on entry
+        # what it made and left (set by `_record`; empty ones shared: a long document
+        # keeps thousands of statements, every object more for the collector to walk)
         self.lines: list[MacroLine] = []
-        self.calls: list[CallSite] = []
-        self.diagnostics: list[Diagnostic] = []
+        self.calls: tuple[CallSite, ...] = ()
+        self.diagnostics: list[Diagnostic] | tuple[()] = ()
         self.jumps = False
-        self.writes: frozenset[int] = frozenset()
-        self.warned: frozenset[int] = frozenset()
+        self.writes: frozenset[int] = _NONE
+        self.warned: frozenset[int] = _NONE
         self.free_after: tuple[int, ...] = ()
         self.spare_after: tuple[int, ...] = ()
-        self.derived: dict[str, tuple[Hashable, object]] = {}
+        self.derived: dict[str, tuple[Hashable, object]] | None = None
 
     def fits(self, node: ast.Node, lowerer: ProgramLowerer) -> bool:
         """Whether lowering `node` in `lowerer`'s present state gives what this gave."""
@@ -95,7 +97,12 @@ class Statement:
     def derived_for(self, kind: str, key: Hashable, make: Callable[[], object]) -> object:
         """What a back end derives from this statement's lines (`kind`) for `key`, what
         else it read (the state its lines start from): kept for the last key only."""
+        if self.derived is None:
+            self.derived = {}
         return derived_for(self.derived, kind, key, make)
+
+
+_NONE: frozenset[int] = frozenset()
 
 
 def derived_for(derived: dict[str, tuple[Hashable, object]], kind: str, key: Hashable,
@@ -205,12 +212,17 @@ def _record(node: ast.Node, lowerer: ProgramLowerer, make: Callable[[ast.Node], 
                              index in warned and index not in log.warned)
                             for index in made.reads)
     made.lines = lowerer.out.lines[first_line:]
-    made.calls = lowerer.out.calls[first_call:]
-    made.diagnostics = own.items
-    made.writes = frozenset(log.writes)
-    made.warned = frozenset(log.warned)
-    made.free_after = tuple(lowerer.free_temps)
-    made.spare_after = tuple(lowerer.spare_labels)
+    if len(lowerer.out.calls) > first_call:
+        made.calls = tuple(lowerer.out.calls[first_call:])
+    if own.items:
+        made.diagnostics = own.items
+    if log.writes:
+        made.writes = frozenset(log.writes)
+    if log.warned:
+        made.warned = frozenset(log.warned)
+    free, spare = tuple(lowerer.free_temps), tuple(lowerer.spare_labels)
+    made.free_after = made.free_temps if free == made.free_temps else free
+    made.spare_after = made.spare_labels if spare == made.spare_labels else spare
     return made
 
 

@@ -177,17 +177,20 @@ class Lowerings:
         self.shifted = {}
 
     def lower(self, program: ast.Program, scope: Scope, sink: DiagnosticSink,
-              lower: Callable[[Statements], LoweredProgram | None]) -> LoweredProgram | None:
+              lower: Callable[[Statements | None], LoweredProgram | None]
+              ) -> LoweredProgram | None:
         """The program's lowering for this build: kept, or made by `lower` with its
         diagnostics caught on their way to `sink` and kept with it. `lower` is given the
-        statements kept at the program's place, so that an edit inside a program lowers
-        again only the statements it changed."""
+        statements kept at the program's place (from its first edit on), so that an edit
+        inside a program lowers again only the statements it changed."""
         before = kept = self._now.get(program.span) or self._before.get(program.span)
         if kept is None or not (kept.program is program or kept.program == program):
             kept = self._moved(program)
         if kept is None:
-            statements = before.statements if before is not None and \
-                before.statements is not None else Statements()
+            # a program lowered for the first time keeps no statements: most programs of a
+            # long-lived document are never edited, and every kept object is more for the
+            # collector to walk; the first edit of one starts its table
+            statements = None if before is None else before.statements or Statements()
             own = DiagnosticSink()
             shared, scope.sink = scope.sink, own
             try:

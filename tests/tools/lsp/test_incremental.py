@@ -8,7 +8,14 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from sourceedits import LARGE, LARGE_POOL, changed, edit_sequences, large_edit_sequences
+from sourceedits import (
+    LARGE,
+    LARGE_POOL,
+    LARGE_WARM_UP,
+    changed,
+    edit_sequences,
+    large_edit_sequences,
+)
 
 from mplang.ir.reuse import BuildMemo
 from mplang.lang.linecache import StatementCache
@@ -45,9 +52,11 @@ def test_random_edits_inside_one_program_analyse_as_a_fresh_analysis_does(
     scratch."""
     path = Path("/large.mp")
     lines, memo = StatementCache(), BuildMemo()
+    previous = None
+    for text in LARGE_WARM_UP:
+        previous = analyse(path, "\n".join(text), lines=lines, memo=memo, previous=previous)
+        assert _seen(previous) == _seen(analyse(path, "\n".join(text)))
     text = list(LARGE)
-    previous = analyse(path, "\n".join(text), lines=lines, memo=memo)
-    assert _seen(previous) == _seen(analyse(path, "\n".join(text)))
     for step in steps:
         text = changed(text, step, LARGE_POOL)
         joined = "\n".join(text)
