@@ -156,3 +156,8 @@ def large_edit_sequences(test: Callable[..., None]) -> Callable[..., None]:
 
 
 LARGE_WARM_UP = _warm_up()
+
+
+def changed_large(lines: list[str], step: tuple[int, int, int]) -> list[str]:
+    """`changed` with the pool of `LARGE`'s edits (block openers, closers, labels, jumps)."""
+    return changed(lines, step, LARGE_POOL)

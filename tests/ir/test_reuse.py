@@ -9,9 +9,9 @@ from pathlib import Path
 
 from sourceedits import (
     LARGE,
-    LARGE_POOL,
     LARGE_WARM_UP,
     changed,
+    changed_large,
     edit_sequences,
     large_edit_sequences,
 )
@@ -161,7 +161,7 @@ def test_random_edits_inside_one_program_build_as_a_fresh_build_does(
             _seen(_build(path, "\n".join(text)))
     text = list(LARGE)
     for step in steps:
-        text = changed(text, step, LARGE_POOL)
+        text = changed_large(text, step)
         joined = "\n".join(text)
         assert _seen(_build(path, joined, lines, memo)) == _seen(_build(path, joined))
 

@@ -8,14 +8,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from sourceedits import (
-    LARGE,
-    LARGE_POOL,
-    LARGE_WARM_UP,
-    changed,
-    edit_sequences,
-    large_edit_sequences,
-)
+from sourceedits import LARGE_WARM_UP, changed, changed_large, edit_sequences, large_edit_sequences
 
 from mplang.ir.reuse import BuildMemo
 from mplang.lang.linecache import StatementCache
@@ -56,9 +49,9 @@ def test_random_edits_inside_one_program_analyse_as_a_fresh_analysis_does(
     for text in LARGE_WARM_UP:
         previous = analyse(path, "\n".join(text), lines=lines, memo=memo, previous=previous)
         assert _seen(previous) == _seen(analyse(path, "\n".join(text)))
-    text = list(LARGE)
+    text = list(LARGE_WARM_UP[-1])
     for step in steps:
-        text = changed(text, step, LARGE_POOL)
+        text = changed_large(text, step)
         joined = "\n".join(text)
         previous = analyse(path, joined, lines=lines, memo=memo, previous=previous)
         assert _seen(previous) == _seen(analyse(path, joined))
