@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 
+from mplang.ir.blockmemo import Statements
 from mplang.ir.fold import apply_operator, wrap32
 from mplang.ir.interrupts import wire_lines, wires
 from mplang.ir.macro import CallSite, LoweredProgram, ProgramRef, VarRef
@@ -74,14 +75,24 @@ class ProgramLowerer(OperandLowerer):
         self.blocks: list[_Block] = []
         self.labels: dict[str, int] = {}
         self.spare_labels: list[int] = []  # label numbers no LABEL of the source takes
+        self.if_depth = self.profile.limit("if_depth")
+        self.for_depth = self.profile.limit("for_depth")
 
     # ---------------------------------------------------------------- statements
-    def lower_program(self) -> LoweredProgram:
+    def lower_program(self, kept: Statements | None = None) -> LoweredProgram:
+        """The program's macro lines; `kept`, its statements as last lowered, gives each
+        unchanged top-level statement its lowering from then (`mplang.ir.blockmemo`)."""
         self.collect_labels(self.program.body)
-        self.lower_block(self.program.body)
+        if kept is None:
+            self.lower_block(self.program.body)
+        else:
+            kept.start(self)
+            self.lower_block(self.program.body, kept)
+            kept.finish()
         return self.out
 
-    def lower_block(self, body: list[ast.Node]) -> None:
+    def lower_block(self, body: list[ast.Node], kept: Statements | None = None) -> None:
+        """Lower a body; `kept`: the program's table of kept statements, for its body."""
         dead_after: Span | None = None  # set after a jump, until a LABEL makes code live
         warned = False
         for node in body:
@@ -91,14 +102,19 @@ class ProgramLowerer(OperandLowerer):
                 self.sink.add("W101", node.span, f"unreachable: line {dead_after.line} always "
                               "jumps away", hint="remove it, or put a LABEL before it")
                 warned = True
-            try:
-                jumps = self.lower_node(node)
-            except RecursionError:  # a pathological expression: say so, never crash
-                self.sink.add("E107", node.span, "the statement's expression is nested too "
-                              "deeply to compile", hint="split it into several assignments")
-                jumps = False
+            jumps = self.lower_statement(node) if kept is None else \
+                kept.lower(node, self, self.lower_statement)
             if jumps and dead_after is None:
                 dead_after = node.span
+
+    def lower_statement(self, node: ast.Node) -> bool:
+        """`lower_node`, with a pathological expression reported instead of a crash."""
+        try:
+            return self.lower_node(node)
+        except RecursionError:
+            self.sink.add("E107", node.span, "the statement's expression is nested too "
+                          "deeply to compile", hint="split it into several assignments")
+            return False
 
     def lower_node(self, node: ast.Node) -> bool:
         """Lower one node; True if control never falls through it."""
@@ -156,7 +172,7 @@ class ProgramLowerer(OperandLowerer):
             self.lower_block(node.body)
             return
         depth = sum(1 for b in self.blocks if b.kind == "for") + 1
-        if depth == self.profile.limit("for_depth") + 1:  # once, where the nesting passes it
+        if depth == self.for_depth + 1:  # once, where the nesting passes it
             self.sink.add("E311", node.span, f"FOR nested {depth} deep; the device allows "
                           f"{self.profile.limit('for_depth')} (one outer and "
                           f"{self.profile.limit('for_depth') - 1} inner)")
@@ -182,8 +198,8 @@ class ProgramLowerer(OperandLowerer):
     def lower_if(self, node: ast.IfBlock, body: list[ast.Node] | None = None,
                  loop_label: int | None = None) -> None:
         """IF ... [ELSE ...] END_IF; for a WHILE (`loop_label`), `body` then GOTO back."""
-        depth = sum(1 for b in self.blocks if b.kind in ("if", "while")) + 1
-        if depth == self.profile.limit("if_depth") + 1:  # once, where the nesting passes it
+        depth = sum(1 for b in self.blocks if b.kind != "for") + 1  # IFs and WHILEs
+        if depth == self.if_depth + 1:  # once, where the nesting passes it
             self.sink.add("E310", node.span, f"IF nested {depth} deep; the device allows "
                           f"{self.profile.limit('if_depth')} (one outer and "
                           f"{self.profile.limit('if_depth') - 1} inner)")

@@ -8,12 +8,20 @@ statements and blocks; `configure.InitLowerer` reuses the argument checks for IN
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from mplang.ir.catalogue import Command, Param
 from mplang.ir.fold import walk_expr
 from mplang.ir.macro import BVarRef, LoweredProgram, MacroLine, Operand, ProgramRef, VarRef
 from mplang.ir.scope import BVAR_RE, PROGRAM_RE, ConstError, Scope, did_you_mean, temps_for
 from mplang.lang import ast
 from mplang.lang.diagnostics import Span
+
+if TYPE_CHECKING:
+    from mplang.ir.blockmemo import VariableLog
+
+
+_UNKNOWN = object()
 
 
 class OperandLowerer:
@@ -37,6 +45,15 @@ class OperandLowerer:
                                   program.span, program.end_span)
         self.written: set[int] = set()
         self.warned_reads: set[int] = set()
+        # the profile's numbers every statement checks against, read once per program
+        profile = self.profile
+        self.var_count = profile.var("count")
+        self.immediate_min = profile.var("immediate_min")
+        self.immediate_max = profile.var("immediate_max")
+        self.initial_table_offset = int(profile.raw["axes"]["initial_table_offset"])
+        self.log: VariableLog | None = None  # set while a kept statement is recorded
+        # constant arguments resolved: (id of the parameter, a number?, value) -> operand
+        self._resolved: dict[tuple[int, bool, object], Operand | None] = {}
 
     # ------------------------------------------------------------------ emitting
     def emit(self, short: str, operands: tuple[Operand, ...], span: Span) -> None:
@@ -56,8 +73,12 @@ class OperandLowerer:
         the source wrote it (an ALIAS `hits`, with its number beside: `hits (VAR30)`)."""
         if ref.index in self.temps or ref.index in self.scope.declared_indices:
             return
+        if self.log is not None:
+            self.log.reads.add(ref.index)
         if ref.index not in self.written and ref.index not in self.warned_reads:
             self.warned_reads.add(ref.index)
+            if self.log is not None:
+                self.log.warned.add(ref.index)
             self.sink.add("W103", span, f"{self.var_words(ref, expr)} is read before this "
                           "program writes it",
                           hint="initialise it first, or ignore if the host or a caller sets it")
@@ -73,10 +94,12 @@ class OperandLowerer:
         return device
 
     def note_write(self, ref: VarRef) -> None:
+        if self.log is not None and ref.index not in self.written:
+            self.log.writes.add(ref.index)
         self.written.add(ref.index)
 
     def check_user_var(self, index: int, span: Span) -> bool:
-        count = self.profile.var("count")
+        count = self.var_count
         if index >= count:
             self.sink.add("E204", span, f"VAR{index} does not exist: variables are "
                           f"VAR0..VAR{count - 1}")
@@ -122,7 +145,7 @@ class OperandLowerer:
             raise
 
     def check_immediate(self, value: int, span: Span) -> bool:
-        low, high = self.profile.var("immediate_min"), self.profile.var("immediate_max")
+        low, high = self.immediate_min, self.immediate_max
         if not low <= value <= high:
             self.sink.add("E418", span, f"{value} is outside the device's immediate range "
                           f"{low:,}..{high:,}")
@@ -351,7 +374,30 @@ class OperandLowerer:
         return tuple(operands) if ok else None
 
     def argument(self, command: Command, param: Param, arg: ast.Expr) -> Operand | None:
-        """Resolve and check one command argument against its catalogue description."""
+        """Resolve and check one command argument against its catalogue description. A
+        number or a name that resolved to a constant with nothing to report resolves so for
+        the same parameter everywhere in the program (the names' meanings are the build's):
+        it is resolved once (`_resolved`), as programs repeat their settings."""
+        if isinstance(arg, ast.Num):
+            key: tuple[int, bool, object] | None = (id(param), True, arg.value)
+        elif isinstance(arg, ast.Name):
+            key = (id(param), False, arg.name)
+        else:
+            key = None
+        if key is not None:
+            known = self._resolved.get(key, _UNKNOWN)
+            if known is not _UNKNOWN:
+                return known  # type: ignore[return-value]
+            reported = len(self.sink.items)
+            operand = self.resolve_argument(command, param, arg)
+            if len(self.sink.items) == reported and not isinstance(operand, VarRef):
+                self._resolved[key] = operand  # no W103 state read, nothing said
+            return operand
+        return self.resolve_argument(command, param, arg)
+
+    def resolve_argument(self, command: Command, param: Param, arg: ast.Expr
+                         ) -> Operand | None:
+        """`argument`, worked out."""
         where = f"{command.short_name} {param.name}"
         while isinstance(arg, ast.Group) and len(arg.items) == 1:
             arg = arg.items[0]
@@ -479,7 +525,7 @@ class OperandLowerer:
             return None
         if param.encoding == "holding_address":
             first = self.profile.var("holding_base")
-            last = first + 2 * (self.profile.var("count") - 1)
+            last = first + 2 * (self.var_count - 1)
             if first <= value <= last and (value - first) % 2 == 0:
                 self.sink.add("W108", span, f"{where} = {value} is sent exactly like "
                               f"VAR{(value - first) // 2} (holding address {value})",
@@ -490,7 +536,7 @@ class OperandLowerer:
         return value
 
     def check_axis(self, param: Param, value: int, span: Span, where: str) -> Operand | None:
-        offset = int(self.profile.raw["axes"]["initial_table_offset"])
+        offset = self.initial_table_offset
         if value & offset and param.kind != "axis_it":
             self.sink.add("E413", span, f"initial-table axis codes (INITIAL_*) cannot be used "
                           f"in a program ({where})", hint="configure the initial table from "

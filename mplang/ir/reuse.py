@@ -13,6 +13,9 @@ the later passes do the same per program:
   and the catalogue. A change of the context drops every lowering;
 - what a back end derives from one lowered program alone (the M8194H's W111 warnings and
   frames) is kept beside it (`Lowered.derived_for`), for the last key (what else it read);
+- inside a program that changed, its top-level statements that did not
+  (`ir.blockmemo.Statements`, kept with its lowering): a statement lowers as it did when it
+  is unchanged and enters the state it entered then;
 - a program that only moved (lines inserted or deleted above it: `BlockMemo.moved`) takes
   what it kept with every line shifted (`Lowered.moved`): its macro lines' origins, its
   diagnostics and derived diagnostics. Unless one of them names a line in its text
@@ -28,6 +31,7 @@ import re
 from collections.abc import Callable, Hashable
 from dataclasses import dataclass, field
 
+from mplang.ir.blockmemo import Statement, Statements, derived_for
 from mplang.ir.macro import CallSite, LoweredProgram, MacroLine
 from mplang.ir.scope import Scope
 from mplang.lang import ast
@@ -82,17 +86,21 @@ class Lowered:
     result: LoweredProgram | None
     diagnostics: list[Diagnostic]
     derived: dict[str, tuple[Hashable, object]] = field(default_factory=dict)
+    # its top-level statements as lowered (`ir.blockmemo`): None for a lowering shifted
+    statements: Statements | None = None
+
+    def segments(self) -> list[tuple[Statement, int, int]] | None:
+        """Each top-level statement of the program with its part of the macro lines
+        (first, end), for a back end that derives per statement; None if unknown."""
+        if self.statements is None or self.result is None:
+            return None
+        return self.statements.segments(self.result.lines)
 
     def derived_for(self, kind: str, key: Hashable, make: Callable[[], object]) -> object:
         """What a back end derives from this lowering (`kind`: "W111", "frames", ...) for
         `key`, what else it read: kept for the last key only, so that a program kept
         through many edits of what it does not contain keeps one of each."""
-        kept = self.derived.get(kind)
-        if kept is not None and kept[0] == key:
-            return kept[1]
-        made = make()
-        self.derived[kind] = (key, made)
-        return made
+        return derived_for(self.derived, kind, key, make)
 
     def moved(self, program: ast.Program, offset: int,
               shifted: dict[int, tuple[Diagnostic, Diagnostic, int]] | None = None
@@ -169,20 +177,27 @@ class Lowerings:
         self.shifted = {}
 
     def lower(self, program: ast.Program, scope: Scope, sink: DiagnosticSink,
-              lower: Callable[[], LoweredProgram | None]) -> LoweredProgram | None:
+              lower: Callable[[Statements | None], LoweredProgram | None]
+              ) -> LoweredProgram | None:
         """The program's lowering for this build: kept, or made by `lower` with its
-        diagnostics caught on their way to `sink` and kept with it."""
-        kept = self._now.get(program.span) or self._before.get(program.span)
+        diagnostics caught on their way to `sink` and kept with it. `lower` is given the
+        statements kept at the program's place (from its first edit on), so that an edit
+        inside a program lowers again only the statements it changed."""
+        before = kept = self._now.get(program.span) or self._before.get(program.span)
         if kept is None or not (kept.program is program or kept.program == program):
             kept = self._moved(program)
         if kept is None:
+            # a program lowered for the first time keeps no statements: most programs of a
+            # long-lived document are never edited, and every kept object is more for the
+            # collector to walk; the first edit of one starts its table
+            statements = None if before is None else before.statements or Statements()
             own = DiagnosticSink()
             shared, scope.sink = scope.sink, own
             try:
-                result = lower()
+                result = lower(statements)
             finally:
                 scope.sink = shared
-            kept = Lowered(program, result, own.items)
+            kept = Lowered(program, result, own.items, statements=statements)
         self._now[program.span] = kept
         sink.extend(kept.diagnostics)
         copy = kept.copy()

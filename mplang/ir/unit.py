@@ -11,6 +11,7 @@ from __future__ import annotations
 import contextlib
 from dataclasses import dataclass
 
+from mplang.ir.blockmemo import Statements
 from mplang.ir.configure import (
     InitLowerer,
     InterruptWiring,
@@ -101,10 +102,11 @@ def lower_unit(unit: ast.Unit, scope: Scope, sink: DiagnosticSink, options: Opti
     if kept is not None:
         kept.start(lowering_context(scope, names, options.temps, options.target))
     for program in unit.programs:
-        def lower(program: ast.Program = program) -> LoweredProgram | None:
+        def lower(statements: Statements | None = None, program: ast.Program = program
+                  ) -> LoweredProgram | None:
             with contextlib.suppress(ConstError):  # already reported where it arose
                 return ProgramLowerer(scope, program, options.temps, options.target,
-                                      names).lower_program()
+                                      names).lower_program(statements)
             return None
 
         result = lower() if kept is None else kept.lower(program, scope, sink, lower)

@@ -121,6 +121,29 @@ class BlockMemo:
         self._texts_before: dict[tuple[str, str], _Built] = {}
         # this build's programs that only moved: id -> (the program, as kept, by lines)
         self.moved: dict[int, tuple[ast.Program, ast.Program, int]] = {}
+        # blocks at the top level of a program, by the span of their opening line: (their
+        # statements, opening to closing, and the node they made), for `find_block`
+        self._blocks_now: dict[Span, tuple[list[ast.Statement], ast.Node]] = {}
+        self._blocks_before: dict[Span, tuple[list[ast.Statement], ast.Node]] = {}
+
+    def find_block(self, statements: list[ast.Statement], index: int
+                   ) -> tuple[list[ast.Statement], ast.Node] | None:
+        """The kept top-level block (FOR, IF, WHILE, REPEAT) that `statements[index]`
+        opens, if the statements that follow are still its statements: an edit inside a
+        long program matches again only the blocks it changed, and the later passes see
+        the others as the same objects (`mplang.ir.blockmemo`)."""
+        span = statements[index].span
+        kept = self._blocks_now.get(span) or self._blocks_before.get(span)
+        if kept is None or statements[index:index + len(kept[0])] != kept[0]:
+            return None
+        self._blocks_now[span] = kept
+        return kept
+
+    def keep_block(self, statements: list[ast.Statement], node: ast.Node) -> None:
+        """Keep a top-level block that matched with nothing to report: its matching then
+        depends on its statements alone (a program's header or END, a declaration, a depth
+        beyond the limit inside it is reported)."""
+        self._blocks_now[statements[0].span] = (statements, node)
 
     def find(self, statements: list[ast.Statement], index: int) -> _Built | None:
         """The kept program whose header is `statements[index]`, if the statements that
@@ -168,6 +191,7 @@ class BlockMemo:
         """A build is over: what it did not use is forgotten."""
         self._before, self._now = self._now, {}
         self._texts_before, self._texts_now = self._texts_now, {}
+        self._blocks_before, self._blocks_now = self._blocks_now, {}
 
 
 def build_unit(sources: SourceSet, sink: DiagnosticSink, memo: BlockMemo | None = None
@@ -197,6 +221,9 @@ def _build_file(statements: list[ast.Statement], file: str, unit: ast.Unit,
     started: int | None = None  # where the program being matched began, when it can be kept
     mark = 0  # the sink's length then
     origin: _Built | None = None  # the kept program it is, moved
+    # the top-level block being matched, when it can be kept: where it began, the sink then
+    block_start: int | None = None
+    block_mark = 0
 
     def close_program(end_span: Span) -> None:
         block = stack.pop()
@@ -232,6 +259,9 @@ def _build_file(statements: list[ast.Statement], file: str, unit: ast.Unit,
             node = ast.IfBlock(block.head.left, block.head.op, block.head.right, block.body,
                                block.otherwise, block.head.span, block.else_span, end_span)
         stack[-1].target.append(node)
+        if memo is not None and len(stack) == 1 and block_start is not None and \
+                len(sink.items) == block_mark:
+            memo.keep_block(statements[block_start:index], node)
 
     def in_program() -> bool:
         return bool(stack)
@@ -240,7 +270,10 @@ def _build_file(statements: list[ast.Statement], file: str, unit: ast.Unit,
         """Push a FOR/IF/WHILE/REPEAT. Beyond MAX_BLOCK_DEPTH the block is matched with its
         closer as usual but left out of the program (reported once, at its outermost
         level), so no later pass walks a tree deeper than that."""
+        nonlocal block_start, block_mark
         block = _Open(kind, statement)
+        if len(stack) == 1:
+            block_start, block_mark = index - 1, len(sink.items)
         if stack[-1].dropped:
             block.dropped = True
         elif len(stack) > MAX_BLOCK_DEPTH:
@@ -327,6 +360,12 @@ def _build_file(statements: list[ast.Statement], file: str, unit: ast.Unit,
             started, mark = index, len(sink.items)
             origin = memo.find_moved(file, texts, raw.span.line) if texts is not None and \
                 0 < raw.span.line <= len(texts) else None
+        elif memo is not None and len(stack) == 1 and stack[0].kind in ("mp", "isr"):
+            found = memo.find_block(statements, index)
+            if found is not None:
+                stack[0].target.append(found[1])
+                index += len(found[0])
+                continue
         index += 1
         statement = normalise(raw)
         if stack and stack[0].kind in CONFIG_KINDS and config_line(statement):

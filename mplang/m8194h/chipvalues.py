@@ -23,9 +23,10 @@ from typing import TYPE_CHECKING, Any
 from mplang.lang.diagnostics import Diagnostic, DiagnosticSink
 
 if TYPE_CHECKING:
+    from mplang.ir.blockmemo import Statement
     from mplang.ir.catalogue import Profile
     from mplang.ir.macro import LoweredProgram, MacroLine
-    from mplang.ir.reuse import Lowerings
+    from mplang.ir.reuse import Lowered, Lowerings
 
 #: the power-on maximum speed (factory initial table, RS 9705)
 DEFAULT_MAX_V = 200_000
@@ -218,16 +219,22 @@ def warn_changed(programs: Iterable[LoweredProgram], init: LoweredProgram | None
             reading.see(line.command.short_name, _named(line))
         start = reading.axes
     key = (rules, tuple(start))
+    memo: dict[tuple[object, ...], _Judged] = {}
     for program in [*([init] if init is not None else []), *programs]:
         entry = kept.entry(program) if kept is not None else None
         if entry is None or entry.result is None or \
                 len(entry.result.lines) != len(program.lines):  # wiring added lines
-            _warn_lines(program, list(start), rules, sink)
+            _warn_lines(program, list(start), rules, sink, memo)
             continue
 
-        def warn(program: LoweredProgram = program) -> list[Diagnostic]:
+        def warn(program: LoweredProgram = program, entry: Lowered = entry
+                 ) -> list[Diagnostic]:
             own = DiagnosticSink()
-            _warn_lines(program, list(start), rules, own)
+            segments = entry.segments()
+            if segments is None:
+                _warn_lines(program, list(start), rules, own, memo)
+            else:
+                _warn_segments(program, segments, list(start), rules, own, memo)
             return own.items
 
         found = entry.derived_for("W111", key, warn)
@@ -235,24 +242,79 @@ def warn_changed(programs: Iterable[LoweredProgram], init: LoweredProgram | None
         sink.extend(found)
 
 
+def _warn_segments(program: LoweredProgram, segments: list[tuple[Statement, int, int]],
+                   start: list[float | None], rules: ChipRules, sink: DiagnosticSink,
+                   memo: dict[tuple[object, ...], _Judged]) -> None:
+    """`_warn_lines` statement by statement: a kept statement (its lines the same objects)
+    entered with the same MAX_V reading gives the warnings it gave, and leaves the reading
+    as it left it."""
+    reading = _MaxV(start)
+    for statement, first, end in segments:
+        def warn(first: int = first, end: int = end,
+                 entered: tuple[list[float | None], int] = (list(reading.axes), reading.axis1)
+                 ) -> tuple[list[Diagnostic], list[float | None], int]:
+            own = DiagnosticSink()
+            inner = _MaxV(entered[0])
+            inner.axis1 = entered[1]
+            _warn_reading(program.lines[first:end], inner, rules, own, memo)
+            return own.items, inner.axes, inner.axis1
+
+        found = statement.derived_for("W111", (rules, tuple(reading.axes), reading.axis1),
+                                      warn)
+        assert isinstance(found, tuple)
+        items, axes, axis1 = found
+        sink.extend(items)
+        reading.axes, reading.axis1 = list(axes), axis1
+
+
 def _named(line: MacroLine) -> dict[str, object]:
     return {p.name: o for p, o in zip(line.command.params, line.operands, strict=False)}
 
 
 def _warn_lines(program: LoweredProgram, start: list[float | None], rules: ChipRules,
-                sink: DiagnosticSink) -> None:
-    reading = _MaxV(start)
-    for line in program.lines:
+                sink: DiagnosticSink, memo: dict[tuple[object, ...], _Judged]) -> None:
+    _warn_reading(program.lines, _MaxV(start), rules, sink, memo)
+
+
+_Judged = tuple[tuple[str, ...], tuple[float | None, ...], int]
+"""A line's W111 messages and the MAX_V reading after it (its axes, its axis 1)."""
+
+
+def _warn_reading(lines: list[MacroLine], reading: _MaxV, rules: ChipRules,
+                  sink: DiagnosticSink, memo: dict[tuple[object, ...], _Judged] | None = None
+                  ) -> None:
+    """W111 of `lines`, `reading` following the MAX_V values along them. `memo`, kept over
+    one build, judges a command with the same operands from the same reading once: a
+    device's programs repeat their settings many times."""
+    for line in lines:
         command = line.command.short_name
         if command not in rules.parameters and not _sets_max_v(command):
             continue  # no speed, acceleration or jerk argument, no MAX_V or axis 1 change
-        params = _named(line)
-        names = [p.name for p in line.command.params]
-        for max_v in dict.fromkeys(reading.of(params)):
-            if max_v is None:
-                continue
-            for change in changed_arguments(rules, command, names, line.operands, max_v):
-                what = command if change.param == "data" else f"{command} {change.param}"
-                sink.add("W111", line.span, f"{what}: the {change.kind} {shown(change.given)} "
-                         f"runs as {shown(change.used)} on the device ({change.reason})")
-        reading.see(command, params)
+        key = (id(line.command), line.operands, tuple(reading.axes), reading.axis1)
+        judged = memo.get(key) if memo is not None else None
+        if judged is None:
+            judged = _judge(line, command, reading, rules)
+            if memo is not None:
+                memo[key] = judged
+        for message in judged[0]:
+            sink.add("W111", line.span, message)
+        reading.axes, reading.axis1 = list(judged[1]), judged[2]
+
+
+def _judge(line: MacroLine, command: str, reading: _MaxV, rules: ChipRules) -> _Judged:
+    """One line's W111 messages from `reading`, and the reading after it (`reading` is left
+    as it was)."""
+    params = _named(line)
+    names = [p.name for p in line.command.params]
+    messages: list[str] = []
+    for max_v in dict.fromkeys(reading.of(params)):
+        if max_v is None:
+            continue
+        for change in changed_arguments(rules, command, names, line.operands, max_v):
+            what = command if change.param == "data" else f"{command} {change.param}"
+            messages.append(f"{what}: the {change.kind} {shown(change.given)} runs as "
+                            f"{shown(change.used)} on the device ({change.reason})")
+    after = _MaxV(reading.axes)
+    after.axis1 = reading.axis1
+    after.see(command, params)
+    return tuple(messages), tuple(after.axes), after.axis1

@@ -180,3 +180,21 @@ def test_const_from_unknown_name_names_it() -> None:
     assert ("CONST A uses SPEDE, which is not defined, so it is not a constant",
             "did you mean SPEED?") in found
     assert any("CONST B uses VAR3, which is a variable" in message for message, _ in found)
+
+
+def test_repeated_arguments_resolve_alike_and_each_place_reports_its_own() -> None:
+    """A program resolves a constant argument once per parameter and value: every copy of
+    a line compiles to the same operands, and a refused value is reported at each place,
+    as is a variable read before it is written (never taken from an earlier copy)."""
+    lines = ["MP 156 main", *["  SET_V X, 2000", "  SET_V Y, 3000000000", "  SET_V X, VAR7",
+                            "  SET_V X, SPEED"] * 3, "END MP", ""]
+    result = compile_source("\n".join(["CONST SPEED = 300", *lines]), "repeat.mp")
+    refused = [d.span.line for d in result.diagnostics if d.code == "E418"]
+    assert refused == [4, 8, 12]
+    assert [d.span.line for d in result.diagnostics if d.code == "W103"] == [5]
+    fine = "\n".join(line for line in ["CONST SPEED = 300", *lines] if "SET_V Y" not in line)
+    built = compile_source(fine, "fine.mp")
+    assert built.ok
+    operands = [line.operands for line in built.programs[0].placement.program.lines
+                if line.command.short_name == "SET_V"]
+    assert operands == [(1, 2000), (1, VarRef(7)), (1, 300)] * 3

@@ -7,9 +7,18 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from sourceedits import changed, edit_sequences, seen
+from sourceedits import (
+    LARGE,
+    LARGE_WARM_UP,
+    changed,
+    changed_large,
+    edit_sequences,
+    large_edit_sequences,
+    seen,
+)
 
 from mplang.ir.reuse import BuildMemo
+from mplang.lang import ast
 from mplang.lang.linecache import StatementCache
 from mplang.m8194h.compiler import BuildResult, compile_paths
 
@@ -128,3 +137,96 @@ def test_a_moved_program_whose_message_names_a_line_is_lowered_again(tmp_path: P
     assert seen(result) == seen(_build(path, "\n".join(edited)))
     assert [d.message for d in result.diagnostics if d.code == "W101"] == \
         ["unreachable: line 7 always jumps away"]
+
+
+@large_edit_sequences
+def test_random_edits_inside_one_program_build_as_a_fresh_build_does(
+        steps: list[tuple[int, int, int]]) -> None:
+    """Edits inside one long program and across its blocks' boundaries (IF/ELSE/END IF,
+    FOR/NEXT, LABEL/GOTO, WHILE, REPEAT): each build with the memo, which lowers again only
+    the statements an edit changed, is the build from scratch."""
+    path = Path("/large.mp")
+    lines, memo = StatementCache(), BuildMemo()
+    for text in LARGE_WARM_UP:
+        assert seen(_build(path, "\n".join(text), lines, memo)) == \
+            seen(_build(path, "\n".join(text)))
+    text = list(LARGE)
+    for step in steps:
+        text = changed_large(text, step)
+        joined = "\n".join(text)
+        assert seen(_build(path, joined, lines, memo)) == seen(_build(path, joined))
+
+
+def _statements_kept(memo: BuildMemo, result: BuildResult, name: str) -> list[object]:
+    """The kept top-level statements of program `name`, in order."""
+    for image in result.programs:
+        if image.placement.program.name == name:
+            entry = memo.lowerings.entry(image.placement.program)
+            assert entry is not None and entry.statements is not None
+            return list(entry.statements.order)
+    raise AssertionError(name)
+
+
+def test_an_edit_inside_a_program_lowers_only_the_statement_it_changed(tmp_path: Path
+                                                                       ) -> None:
+    """A number edited in one statement of a long program: that statement is lowered
+    again, every other one (blocks, jumps, reads) is the same kept object, and the build
+    is the fresh one."""
+    path = tmp_path / "large.mp"
+    lines, memo = StatementCache(), BuildMemo()
+    first = _build(path, "\n".join(LARGE), lines, memo)
+    entry = memo.lowerings.entry(first.programs[0].placement.program)
+    assert entry is not None and entry.statements is None
+    # the first edit of a program starts its table of statements
+    warm = LARGE.index("  SET_V Z, 2")
+    start = [*LARGE[:warm], "  SET_V Z, 9", *LARGE[warm + 1:]]
+    before = _statements_kept(memo, _build(path, "\n".join(start), lines, memo), "long")
+    at = LARGE.index("    FIXED_MOVE XY, 207")  # inside the third IF block
+    edited = [*start[:at], "    FIXED_MOVE XY, 208", *start[at + 1:]]
+    result = _build(path, "\n".join(edited), lines, memo)
+    assert seen(result) == seen(_build(path, "\n".join(edited)))
+    after = _statements_kept(memo, result, "long")
+    assert len(after) == len(before)
+    changed_at = [i for i, (a, b) in enumerate(zip(before, after, strict=True)) if a is not b]
+    assert len(changed_at) == 1
+    assert after[changed_at[0]].node.span.line < at + 1 <= \
+        after[changed_at[0]].node.end_span.line  # type: ignore[attr-defined]
+
+
+def test_a_statement_that_enters_another_state_is_lowered_again(tmp_path: Path) -> None:
+    """A variable written earlier in the program is read later: W103 of the read comes and
+    goes with the write, though the reading statement is unchanged."""
+    path = tmp_path / "reads.mp"
+    text = ["MP 1 main", "  VAR5 = 1", "  SET_V X, 100", "  IF VAR5 > 2", "    SET_V Y, 10",
+            "  END IF", "END MP", ""]
+    lines, memo = StatementCache(), BuildMemo()
+    for first in ("  VAR5 = 1", "  VAR6 = 1", "  VAR5 = 2", "  VAR6 = 3"):
+        edited = [text[0], first, *text[2:]]
+        result = _build(path, "\n".join(edited), lines, memo)
+        assert seen(result) == seen(_build(path, "\n".join(edited)))
+        assert any(d.code == "W103" for d in result.diagnostics) == (first == "  VAR6 = 1"
+                                                                     or first == "  VAR6 = 3")
+
+
+def test_an_edit_inside_a_program_matches_again_only_the_block_it_changed(tmp_path: Path
+                                                                          ) -> None:
+    """The blocks at a program's top level that an edit left alone are the same syntax
+    objects as before (matched once, `lang.structure.BlockMemo.find_block`); the edited
+    one is matched again."""
+    path = tmp_path / "large.mp"
+    lines, memo = StatementCache(), BuildMemo()
+
+    def body(result: BuildResult) -> list[object]:
+        program = next(p.placement.program for p in result.programs
+                       if p.placement.program.name == "long")
+        entry = memo.lowerings.entry(program)
+        assert entry is not None
+        return list(entry.program.body)
+
+    before = body(_build(path, "\n".join(LARGE), lines, memo))
+    at = LARGE.index("      EXIT FOR")  # inside the first FOR, inside its IF
+    edited = [*LARGE[:at], "      SET_V X, 5", *LARGE[at + 1:]]
+    after = body(_build(path, "\n".join(edited), lines, memo))
+    differs = [i for i, (a, b) in enumerate(zip(before, after, strict=True)) if a is not b]
+    assert len(differs) == 1 and isinstance(after[differs[0]], ast.ForBlock)
+    assert [type(n) for n in before] == [type(n) for n in after]

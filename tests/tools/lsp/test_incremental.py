@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from sourceedits import changed, edit_sequences
+from sourceedits import LARGE_WARM_UP, changed, changed_large, edit_sequences, large_edit_sequences
 
 from mplang.ir.reuse import BuildMemo
 from mplang.lang.linecache import StatementCache
@@ -35,3 +35,23 @@ def test_random_edits_analyse_as_a_fresh_analysis_does(path: Path,
         previous = analyse(path, joined, lines=lines, memo=memo, previous=previous)
         assert _seen(previous) == _seen(analyse(path, joined))
 
+
+
+@large_edit_sequences
+def test_random_edits_inside_one_program_analyse_as_a_fresh_analysis_does(
+        steps: list[tuple[int, int, int]]) -> None:
+    """Edits inside one long program and across its blocks' boundaries, analysed as the
+    server does (statements of the program kept between edits): each is the analysis from
+    scratch."""
+    path = Path("/large.mp")
+    lines, memo = StatementCache(), BuildMemo()
+    previous = None
+    for text in LARGE_WARM_UP:
+        previous = analyse(path, "\n".join(text), lines=lines, memo=memo, previous=previous)
+        assert _seen(previous) == _seen(analyse(path, "\n".join(text)))
+    text = list(LARGE_WARM_UP[-1])
+    for step in steps:
+        text = changed_large(text, step)
+        joined = "\n".join(text)
+        previous = analyse(path, joined, lines=lines, memo=memo, previous=previous)
+        assert _seen(previous) == _seen(analyse(path, joined))

@@ -1,0 +1,238 @@
+"""Reuse inside one program: an edit lowers again only the top-level statements it changed.
+
+`reuse.Lowerings` keeps a whole program's lowering while the program is unchanged. A long
+program (the editor's 512-line file is one MP) changes at every keystroke, so each program
+also keeps a `Statements` table: its top-level statements (a line, or a whole FOR / IF /
+WHILE / REPEAT block with everything inside it) as last lowered, each with what it emitted
+(macro lines, call sites, diagnostics) and what it did to the program's running state.
+
+Lowering carries state from one top-level statement to the next; a kept statement is used
+only when all of it that the statement read is as it was then (`Entered`):
+
+- the statement itself, equal (same text at the same place: spans are part of it);
+- the free temporaries and the labels left for WHILE loops (a statement may take some and
+  give some back: what it left is kept and restored);
+- whether the macro line before it returns a value (W106 of a SET_RVAR);
+- for each variable whose read it checked for W103, whether that variable was written
+  before it, and whether its W103 was already given: the statement's own writes and
+  warnings follow from these, so they are kept as what it adds.
+
+What does not change within one lowering of a program is checked once for the whole table:
+the build's context (`reuse.lowering_context`, which drops every kept program and with it
+its table), the program's kind and its label numbers. Block nesting is empty at the top
+level, and the W101 "unreachable" check between top-level statements is made every time.
+
+A back end derives per statement too (`Statement.derived_for`, the M8194H's W111): a
+statement's macro lines are the same objects while it is kept, so what follows from them
+and from the state they start from is kept beside them.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Hashable
+from typing import TYPE_CHECKING
+
+from mplang.lang import ast
+from mplang.lang.diagnostics import Diagnostic, DiagnosticSink, Span
+
+if TYPE_CHECKING:
+    from mplang.ir.lower import ProgramLowerer
+    from mplang.ir.macro import CallSite, MacroLine
+
+
+class Statement:
+    """One top-level statement as lowered: the state it entered with, what it emitted, and
+    the state it left."""
+
+    __slots__ = (
+        "after_return",
+        "calls",
+        "derived",
+        "diagnostics",
+        "free_after",
+        "free_temps",
+        "jumps",
+        "lines",
+        "node",
+        "read_state",
+        "reads",
+        "spare_after",
+        "spare_labels",
+        "warned",
+        "writes",
+    )
+
+    def __init__(self, node: ast.Node, free_temps: tuple[int, ...],
+                 spare_labels: tuple[int, ...], after_return: bool) -> None:
+        self.node = node
+        self.free_temps = free_temps
+        self.spare_labels = spare_labels
+        self.after_return = after_return
+        self.reads: tuple[int, ...] = ()  # variables whose W103 state it checked
+        self.read_state: tuple[tuple[bool, bool], ...] = ()  # (written, warned) on entry
+        # what it made and left (set by `_record`; empty ones shared: a long document
+        # keeps thousands of statements, every object more for the collector to walk)
+        self.lines: list[MacroLine] = []
+        self.calls: tuple[CallSite, ...] = ()
+        self.diagnostics: list[Diagnostic] | tuple[()] = ()
+        self.jumps = False
+        self.writes: frozenset[int] = _NONE
+        self.warned: frozenset[int] = _NONE
+        self.free_after: tuple[int, ...] = ()
+        self.spare_after: tuple[int, ...] = ()
+        self.derived: dict[str, tuple[Hashable, object]] | None = None
+
+    def fits(self, node: ast.Node, lowerer: ProgramLowerer) -> bool:
+        """Whether lowering `node` in `lowerer`'s present state gives what this gave."""
+        if not (self.node is node or self.node == node):
+            return False
+        if self.free_temps != tuple(lowerer.free_temps) or \
+                self.spare_labels != tuple(lowerer.spare_labels) or \
+                self.after_return != _after_return(lowerer):
+            return False
+        written, warned = lowerer.written, lowerer.warned_reads
+        return all((index in written, index in warned) == state
+                   for index, state in zip(self.reads, self.read_state, strict=True))
+
+    def derived_for(self, kind: str, key: Hashable, make: Callable[[], object]) -> object:
+        """What a back end derives from this statement's lines (`kind`) for `key`, what
+        else it read (the state its lines start from): kept for the last key only."""
+        if self.derived is None:
+            self.derived = {}
+        return derived_for(self.derived, kind, key, make)
+
+
+_NONE: frozenset[int] = frozenset()
+
+
+def derived_for(derived: dict[str, tuple[Hashable, object]], kind: str, key: Hashable,
+                make: Callable[[], object]) -> object:
+    """`derived[kind]` if it was made for `key`, else made by `make` and kept for `key`
+    alone: a kept lowering keeps one of each kind, not one per state it was seen in."""
+    kept = derived.get(kind)
+    if kept is not None and kept[0] == key:
+        return kept[1]
+    made = make()
+    derived[kind] = (key, made)
+    return made
+
+
+def _after_return(lowerer: ProgramLowerer) -> bool:
+    last = lowerer.last_command
+    return bool(last is not None and last.returns)
+
+
+class Statements:
+    """A program's top-level statements as last lowered, by the span of their first line;
+    `order` lists those of the latest lowering, in order (its macro lines are theirs,
+    concatenated)."""
+
+    def __init__(self) -> None:
+        self.kind: str | None = None
+        self.labels: tuple[tuple[str, int], ...] = ()
+        self.kept: dict[Span, Statement] = {}
+        self.order: list[Statement] = []
+
+    def start(self, lowerer: ProgramLowerer) -> None:
+        """A lowering of the program begins (its labels numbered): a table made for another
+        kind of program or other label numbers is dropped."""
+        labels = tuple(lowerer.labels.items())
+        if lowerer.kind != self.kind or labels != self.labels:
+            self.kept = {}
+            self.kind, self.labels = lowerer.kind, labels
+        self.order = []
+
+    def lower(self, node: ast.Node, lowerer: ProgramLowerer,
+              make: Callable[[ast.Node], bool]) -> bool:
+        """Lower the top-level statement `node` in `lowerer` (`make` lowers it afresh),
+        or replay the kept lowering that fits; True if control never falls through it."""
+        kept = self.kept.get(node.span)
+        if kept is not None and kept.fits(node, lowerer):
+            _replay(kept, lowerer)
+            self.order.append(kept)
+            return kept.jumps
+        made = _record(node, lowerer, make)
+        self.order.append(made)
+        return made.jumps
+
+    def finish(self) -> None:
+        """The lowering is over: statements it did not use are forgotten, and so is one
+        whose expression was too deep to lower (comparing it again could be as deep)."""
+        self.kept = {s.node.span: s for s in self.order
+                     if all(d.code != "E107" for d in s.diagnostics)}
+
+    def segments(self, lines: list[MacroLine]) -> list[tuple[Statement, int, int]] | None:
+        """(statement, first, end) of each statement's part of `lines` (the program's macro
+        lines as this table's last lowering made them), None when they are not exactly its
+        statements' lines (another pass added some)."""
+        out: list[tuple[Statement, int, int]] = []
+        first = 0
+        for statement in self.order:
+            end = first + len(statement.lines)
+            if end > len(lines) or (end > first and lines[first] is not statement.lines[0]):
+                return None
+            out.append((statement, first, end))
+            first = end
+        return out if first == len(lines) else None
+
+
+def _replay(kept: Statement, lowerer: ProgramLowerer) -> None:
+    """Do to `lowerer` what lowering the kept statement did."""
+    lowerer.out.lines.extend(kept.lines)
+    lowerer.out.calls.extend(kept.calls)
+    lowerer.sink.extend(kept.diagnostics)
+    lowerer.written |= kept.writes
+    lowerer.warned_reads |= kept.warned
+    lowerer.free_temps[:] = kept.free_after
+    lowerer.spare_labels[:] = kept.spare_after
+
+
+def _record(node: ast.Node, lowerer: ProgramLowerer, make: Callable[[ast.Node], bool]
+            ) -> Statement:
+    """Lower `node` afresh, noting the state it entered with and what it did (the
+    lowerer logs the variables it checks and adds: copying its sets would cost more than
+    most statements' lowering)."""
+    made = Statement(node, tuple(lowerer.free_temps), tuple(lowerer.spare_labels),
+                     _after_return(lowerer))
+    first_line, first_call = len(lowerer.out.lines), len(lowerer.out.calls)
+    own = DiagnosticSink()
+    shared, scope_sink = lowerer.sink, lowerer.scope.sink
+    log = lowerer.log = VariableLog()
+    lowerer.sink = lowerer.scope.sink = own
+    try:
+        made.jumps = make(node)
+    finally:
+        lowerer.sink, lowerer.scope.sink = shared, scope_sink
+        lowerer.log = None
+        shared.extend(own.items)
+    # the sets only grow: a variable was in one on entry if it is now and was not added
+    written, warned = lowerer.written, lowerer.warned_reads
+    made.reads = tuple(log.reads)
+    made.read_state = tuple((index in written and index not in log.writes,
+                             index in warned and index not in log.warned)
+                            for index in made.reads)
+    made.lines = lowerer.out.lines[first_line:]
+    if len(lowerer.out.calls) > first_call:
+        made.calls = tuple(lowerer.out.calls[first_call:])
+    if own.items:
+        made.diagnostics = own.items
+    if log.writes:
+        made.writes = frozenset(log.writes)
+    if log.warned:
+        made.warned = frozenset(log.warned)
+    free, spare = tuple(lowerer.free_temps), tuple(lowerer.spare_labels)
+    made.free_after = made.free_temps if free == made.free_temps else free
+    made.spare_after = made.spare_labels if spare == made.spare_labels else spare
+    return made
+
+
+class VariableLog:
+    """What one top-level statement's lowering did with the W103 state: the variables whose
+    state it checked, and those it added to the written and the warned ones."""
+
+    __slots__ = ("reads", "warned", "writes")
+
+    def __init__(self) -> None:
+        self.reads: set[int] = set()
+        self.writes: set[int] = set()
+        self.warned: set[int] = set()
