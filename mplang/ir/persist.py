@@ -27,6 +27,7 @@ from collections.abc import Callable, Hashable, Iterable
 from pathlib import Path
 from typing import Any
 
+from mplang.ir.blockmemo import Statements
 from mplang.ir.catalogue import Catalogue, Command
 from mplang.ir.macro import (
     BVarRef,
@@ -222,7 +223,8 @@ class StoredLowerings(Lowerings):
         self._used = []
 
     def lower(self, program: ast.Program, scope: Scope, sink: DiagnosticSink,
-              lower: Callable[[], LoweredProgram | None]) -> LoweredProgram | None:
+              lower: Callable[[Statements | None], LoweredProgram | None]
+              ) -> LoweredProgram | None:
         key = self._key(program, scope)
         loaded: dict[str, Hashable] | None = None
         if key is not None and self.recall(program.span) is None:
