@@ -17,7 +17,6 @@ import hashlib
 import os
 import pickle
 import sys
-import tempfile
 from pathlib import Path
 
 from mplang import __version__
@@ -86,6 +85,8 @@ def store(path: Path, key: str, value: object, *also: str) -> None:
     nothing when it cannot."""
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
+        import tempfile  # only a run that keeps something new needs it
+
         descriptor, scratch = tempfile.mkstemp(dir=path.parent, prefix=".", suffix=".tmp")
     except OSError:
         return

@@ -20,9 +20,8 @@ from __future__ import annotations
 
 import hashlib
 from functools import cache
-from importlib import resources
 
-from mplang.lang import ast, caches
+from mplang.lang import ast, caches, packagedata
 from mplang.lang.diagnostics import DiagnosticSink
 from mplang.lang.linecache import StatementCache
 
@@ -38,12 +37,11 @@ FORMAT = "front 3"
 def front_end_key() -> str:
     """What the parse of a text depends on besides the text: the grammar and the code of
     the modules that turn it into statements and diagnostics."""
-    parts: list[bytes] = [FORMAT.encode(), resources.files("mplang.grammar")
-                          .joinpath("mplang.lark").read_bytes()]
-    package = resources.files("mplang.lang")  # read so, they are found in a wheel too
-    for name in KEYED_MODULES:
+    parts: list[bytes] = [FORMAT.encode(), packagedata.read_bytes("mplang.grammar",
+                                                                   "mplang.lark")]
+    for name in KEYED_MODULES:  # read so, they are found in a wheel too
         try:
-            parts.append(package.joinpath(name + ".py").read_bytes())
+            parts.append(packagedata.read_bytes("mplang.lang", name + ".py"))
         except OSError:  # an install without sources: its version stands for them (STAMP)
             parts.append(name.encode())
     return caches.digest(*parts)
@@ -61,23 +59,27 @@ def parse(text: str, display: str, sink: DiagnosticSink, *, store: bool = True,
     directory = caches.user_cache_dir()
     if directory is None:  # still a line repeated in the text is parsed once
         return (lines or StatementCache()).parse(text, display, sink)
+    table = lines or StatementCache()
+    seeded = bool(table.lines_of(display))
+    if seeded and not store:  # the language server's buffers: its own table has the lines
+        return table.parse(text, display, sink)
     front = front_end_key()
     key = caches.digest(front, display, text)
     file_key = caches.digest(front, display, where)
     name = hashlib.sha256(f"{where}\0{display}".encode("utf-8", "surrogatepass")
                           ).hexdigest()[:32]
     path = directory / "front" / f"{name}.pickle"
-    table = lines or StatementCache()
     same = False
-    if not table.lines_of(display):
+    if not seeded:
         found = caches.load_keyed(path, (key, file_key))
         if found is not None and _well_formed(found[1]):
             table.seed(display, found[1])  # type: ignore[arg-type]
             same = found[0] == 0  # kept from this very text: nothing new to keep
     statements = table.parse(text, display, sink)
-    kept = table.distinct_of(display)
-    if store and not same and kept is not None:
-        caches.store(path, key, kept, file_key)
+    if store and not same:
+        kept = table.distinct_of(display)
+        if kept is not None:
+            caches.store(path, key, kept, file_key)
     return statements
 
 

@@ -17,15 +17,17 @@ import errno
 import os
 import stat
 from collections.abc import Callable, Iterator
-from importlib import resources
-from importlib.resources.abc import Traversable
 from itertools import compress
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from mplang.lang import ast, frontcache
 from mplang.lang.diagnostics import DiagnosticSink, Span
 from mplang.lang.linecache import StatementCache
 from mplang.lang.record import Record
+
+if TYPE_CHECKING:
+    from importlib.resources.abc import Traversable
 
 
 class SourceFile(Record):
@@ -57,7 +59,10 @@ LIBRARY_PACKAGE = "mplang.stdlib"
 
 
 def library_files() -> dict[str, Traversable]:
-    """The `.mp` files of the routine library, by file name."""
+    """The `.mp` files of the routine library, by file name (importlib.resources is
+    imported here: a build that INCLUDEs no library file never needs it)."""
+    from importlib import resources
+
     root = resources.files(LIBRARY_PACKAGE)
     return {entry.name: entry for entry in root.iterdir()
             if entry.name.endswith(".mp") and entry.is_file()}

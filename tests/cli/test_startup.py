@@ -53,11 +53,13 @@ NEVER_FOR_A_BUILD = ("lark", "difflib", "pymodbus.server", "aiohttp", "mplang.cl
                      "mplang.m8194h.run", "mplang.cli.commands.dap", "mplang.tools.dap",
                      "mplang.family.debug", "mplang.family.trace", "mplang.family.hostview",
                      "mplang.family.watch", "mplang.family.run_error", "pkgutil", "glob",
-                     "click.shell_completion", "mplang.tools.report")
+                     "click.shell_completion", "mplang.tools.report", "importlib.resources",
+                     "zipfile")
 """What `mpc lint` and `mpc flash --dry-run` whose files all hit the front cache, and `mpc
 status`, never need: the host view, pkgutil (the commands are listed from their
 directory), glob (for a file pattern only), click's shell completion (when the shell
-asks), the machine-read report formats."""
+asks), the machine-read report formats, importlib.resources and zipfile (the package's
+files are read from its directory; a library INCLUDE or a zip import needs them)."""
 
 NEVER_ON_A_HIT = ("tomllib",)
 """What a run whose catalogue comes from the cache an earlier run filled, without an
