@@ -20,6 +20,7 @@ from __future__ import annotations
 import asyncio
 import gc
 import logging
+import struct
 import sys
 import time
 from collections import deque
@@ -47,6 +48,7 @@ from mplang.m8194h.modbus import (
     READ_DISCRETE,
     READ_HOLDING,
     READ_INPUT,
+    WORDS,
     WRITE_COIL,
     WRITE_COILS,
     WRITE_REGISTER,
@@ -248,6 +250,21 @@ class DirectServe:
         holding = tuple((span.start, span.stop) for span in face.holding_spans())
         self.spans = {READ_HOLDING: holding, WRITE_REGISTERS: holding,
                       READ_INPUT: ((0, INPUT_SPAN),)}
+        # the quantities `DeviceDecoder` lets through (a function code it refuses: none)
+        modbus = face.controller.profile.raw["modbus"]
+        served = {int(fc) for fc in modbus["function_codes"]}
+        self.limits = {int(fc): int(n) for fc, n in modbus["quantity_limits"].items()
+                       if int(fc) in served and int(fc) in self.spans}
+        if WRITE_REGISTERS in self.limits:
+            self.limits[WRITE_REGISTERS] = min(self.limits[WRITE_REGISTERS],
+                                               MAX_WRITE_REGISTERS)
+
+    def _inside(self, fc: int, address: int, count: int) -> bool:
+        """The request lies inside one of the device's areas for its function code."""
+        for start, stop in self.spans[fc]:  # noqa: SIM110  a loop: no generator per request
+            if start <= address and address + count <= stop:
+                return True
+        return False
 
     def __call__(self, pdu: ModbusPDU) -> ModbusPDU | None:
         """The answer to `pdu`, or None: pymodbus's path serves it."""
@@ -266,10 +283,7 @@ class DirectServe:
         fc, address = pdu.function_code, pdu.address
         if self.unit is not None and pdu.dev_id != self.unit:
             return None
-        for start, stop in self.spans[fc]:
-            if start <= address and address + count <= stop:
-                break
-        else:
+        if not self._inside(fc, address, count):
             return None
         current = [0] * count if values is None else []
         refused = self.face.act(fc, address, address, count, current, values)
@@ -284,6 +298,38 @@ class DirectServe:
             answer = ReadHoldingRegistersResponse(registers=current)
         answer.dev_id, answer.transaction_id = pdu.dev_id, pdu.transaction_id
         return answer
+
+    def tcp(self, frame: bytes) -> bytes | None:
+        """The answer's bytes to `frame`, one whole Modbus TCP request of FC3, FC4 or FC16
+        that `DeviceDecoder` and `__call__` would serve here, read and answered without a
+        PDU object: the same `act`, the bytes pymodbus's framer makes of the answer (a
+        property test compares them). None for anything else (another function code, a
+        quantity or byte count the decoder refuses, an address outside the areas, a frame
+        that is not exactly one request): pymodbus's framer and `__call__` serve it."""
+        if len(frame) < 12 or frame[2] or frame[3] or \
+                (frame[4] << 8 | frame[5]) != len(frame) - 6:
+            return None
+        fc = frame[7]
+        limit = self.limits.get(fc)
+        address, count = struct.unpack_from(">HH", frame, 8)
+        if limit is None or not 1 <= count <= limit or not self._inside(fc, address, count):
+            return None
+        values: list[int] | None = None
+        if fc == WRITE_REGISTERS:
+            if len(frame) != 13 + 2 * count or frame[12] != 2 * count:
+                return None
+            values = list(WORDS[count].unpack_from(frame, 13))
+        elif len(frame) != 12:
+            return None
+        current = [0] * count if values is None else []
+        refused = self.face.act(fc, address, address, count, current, values)
+        if refused:
+            return frame[:4] + b"\x00\x03" + frame[6:7] + bytes((fc | 0x80, int(refused)))
+        if values is not None:  # the FC16 answer: the request's address and count
+            return frame[:4] + b"\x00\x06" + frame[6:12]
+        registers: bytes = WORDS[count].pack(*current)
+        return frame[:4] + struct.pack(">HBBB", 3 + 2 * count, frame[6], fc, 2 * count) + \
+            registers
 
 
 def rtu_frame_size(data: bytes) -> int:
@@ -452,7 +498,8 @@ async def serve_tcp(face: DeviceFace, host: str, port: int,
     from mplang.m8194h.ordered import serve_in_order
 
     server = ModbusTcpServer(face.device(0), address=(host, port), trace_packet=trace_packet)
-    serve_in_order(server, DirectServe(face, None))
+    direct = DirectServe(face, None)
+    serve_in_order(server, direct, direct.tcp)
     server.decoder = DeviceDecoder(face)  # before any connection: each framer takes it
     face.registers.connections = lambda: len(server.active_connections)
     await _listen(server, recording(server), serial=False)
