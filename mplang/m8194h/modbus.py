@@ -536,17 +536,21 @@ class DeviceLink:
         tid = ctx.getNextTID()
         pdu = FC16_HEAD.pack(WRITE_REGISTERS, address, count, len(payload))
         packet = ctx.framer.encode(pdu + payload, unit, tid)
-        if self.endpoint.host is not None:  # MBAP: tid, protocol, length 6, unit, PDU
-            self._echo = packet[:4] + b"\x00\x06" + packet[6:12]
+        tcp = self.endpoint.host is not None
+        if tcp:
             self._outstanding.add(tid)
         else:
-            self._echo = ctx.framer.encode(pdu[:5], unit, tid)
             self._line_outstanding += 1
-        self._echo_tid = tid
         ctx.request_dev_id, ctx.request_transaction_id = unit, tid  # as pdu_send sets them
         ctx.recv_buffer = b""
         future = self._await_answer(ctx)
         ctx.transport.write(packet)  # type: ignore[attr-defined]
+        # the awaited answer, made while the request is on its way (no answer is read
+        # before the next await): MBAP (tid, protocol, length 6, unit) and the request's
+        # first five PDU bytes; over RTU the slave, those bytes and their CRC
+        self._echo = packet[:4] + b"\x00\x06" + packet[6:12] if tcp else \
+            ctx.framer.encode(pdu[:5], unit, tid)
+        self._echo_tid = tid
         reply = await self._answer(ctx, future)
         if reply is not None and ((unit and reply.dev_id != unit) or
                                   (reply.transaction_id and reply.transaction_id != tid)):

@@ -54,6 +54,7 @@ from mplang.m8194h.modbus import (
     WRITE_REGISTER,
     WRITE_REGISTERS,
     QuietDecoder,
+    crc16,
 )
 from mplang.m8194h.openfail import OpenFailure, recording
 from mplang.m8194h.sim.controller import VirtualController
@@ -309,27 +310,50 @@ class DirectServe:
         if len(frame) < 12 or frame[2] or frame[3] or \
                 (frame[4] << 8 | frame[5]) != len(frame) - 6:
             return None
-        fc = frame[7]
+        answer = self._pdu(frame[7:])
+        if answer is None:
+            return None
+        return frame[:4] + (len(answer) + 1).to_bytes(2, "big") + frame[6:7] + answer
+
+    def rtu(self, frame: bytes) -> bytes | None:
+        """`tcp` for one whole Modbus RTU request to this slave (unit, PDU, CRC): its
+        answer framed as pymodbus's RTU framer frames it, or None (a broadcast, another
+        slave's request, a bad CRC, anything `tcp` leaves): pymodbus's path serves it."""
+        if len(frame) < 8 or frame[0] != self.unit or crc16(frame[:-2]) != frame[-2:]:
+            return None
+        answer = self._pdu(frame[1:-2])
+        if answer is None:
+            return None
+        body = frame[:1] + answer
+        return body + crc16(body)
+
+    def _pdu(self, pdu: bytes) -> bytes | None:
+        """The answer PDU to a request PDU the lean paths serve (see `tcp`), or None."""
+        fc = pdu[0]
         limit = self.limits.get(fc)
-        address, count = struct.unpack_from(">HH", frame, 8)
-        if limit is None or not 1 <= count <= limit or not self._inside(fc, address, count):
+        if limit is None or len(pdu) < 5:
+            return None
+        address, count = struct.unpack_from(">HH", pdu, 1)
+        if not 1 <= count <= limit or not self._inside(fc, address, count):
             return None
         values: list[int] | None = None
         if fc == WRITE_REGISTERS:
-            if len(frame) != 13 + 2 * count or frame[12] != 2 * count:
+            if len(pdu) != 6 + 2 * count or pdu[5] != 2 * count:
                 return None
-            values = list(WORDS[count].unpack_from(frame, 13))
-        elif len(frame) != 12:
+            values = list(WORDS[count].unpack_from(pdu, 6))
+        elif len(pdu) != 5:
             return None
         current = [0] * count if values is None else []
-        refused = self.face.act(fc, address, address, count, current, values)
-        if refused:
-            return frame[:4] + b"\x00\x03" + frame[6:7] + bytes((fc | 0x80, int(refused)))
-        if values is not None:  # the FC16 answer: the request's address and count
-            return frame[:4] + b"\x00\x06" + frame[6:12]
-        registers: bytes = WORDS[count].pack(*current)
-        return frame[:4] + struct.pack(">HBBB", 3 + 2 * count, frame[6], fc, 2 * count) + \
-            registers
+        try:
+            refused = self.face.act(fc, address, address, count, current, values)
+            if refused:
+                return bytes((fc | 0x80, int(refused)))
+            if values is not None:  # the FC16 answer: the request's address and count
+                return pdu[:5]
+            registers: bytes = WORDS[count].pack(*current)
+        except Exception:  # the device never falls over: SLAVE DEVICE FAILURE
+            return bytes((fc | 0x80, DEVICE_FAILURE))
+        return bytes((fc, 2 * count)) + registers
 
 
 def rtu_frame_size(data: bytes) -> int:
@@ -529,7 +553,8 @@ async def serve_rtu(face: DeviceFace, port: str, unit: int = 1, baudrate: int = 
     server = ModbusSerialServer(face.device(unit), framer=FramerType.RTU, port=port,
                                 baudrate=baudrate, parity=parity, stopbits=stopbits,
                                 bytesize=8, broadcast_enable=True, trace_packet=hook)
-    serve_in_order(server, DirectServe(face, unit))
+    direct = DirectServe(face, unit)
+    serve_in_order(server, direct, direct.rtu)
     server.decoder = DeviceDecoder(face, unit)
     await _listen(server, recording(server), serial=True)
     return server

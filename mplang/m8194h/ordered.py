@@ -91,11 +91,7 @@ class OrderedRequestHandler(ServerRequestHandler):
         seen = self.trace_packet(False, data)
         if self.lean is not None and seen == data and not self._queue and \
                 (self._worker is None or self._worker.done()):
-            try:
-                answer = self.lean(seen)
-            except Exception:  # the device never falls over: SLAVE DEVICE FAILURE
-                answer = seen[:4] + b"\x00\x03" + seen[6:7] + bytes(
-                    (seen[7] | 0x80, ExcCodes.DEVICE_FAILURE))
+            answer = self.lean(seen)
             if answer is not None:  # pymodbus's `pdu_send` of the same answer
                 self.send(self.trace_packet(True, answer))
                 return len(data)

@@ -15,7 +15,7 @@ import struct
 
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from pymodbus.framer import FramerSocket
+from pymodbus.framer import FramerRTU, FramerSocket
 from pymodbus.pdu import DecodePDU, ModbusPDU
 from pymodbus.simulator.simcore import SimCore
 
@@ -151,7 +151,7 @@ def test_the_quiet_decoder_decodes_as_pymodbus_does(server: bool, frame: bytes) 
 
 
 def tcp_frame(tid: int, unit: int, pdu: bytes) -> bytes:
-    return struct.pack(">HHHB", tid, 0, len(pdu) + 1, unit) + pdu
+    return FramerSocket(DecodePDU(False)).encode(pdu, unit, tid)
 
 
 BROKEN = st.one_of(  # whole frames the lean path must leave to the framer (or answer alike)
@@ -170,20 +170,24 @@ def lean_takes(face: DeviceFace, pdu: bytes) -> bool:
         inside(face, pdu)
 
 
-async def lean_and_framed(requests: list[tuple[bytes, int]]) -> None:
-    """Each TCP request to two devices: one answered by `DirectServe.tcp` (falling back to
-    the decoder, `__call__` and the datastore where it returns None, as a connection does),
-    the other by the fallback alone; the answers' bytes and the devices must agree."""
+async def lean_and_framed(requests: list[tuple[bytes, int]], rtu: bool = False) -> None:
+    """Each request (Modbus TCP, or RTU to slave 1) to two devices: one answered by
+    `DirectServe.tcp` / `.rtu` (falling back to the decoder, `__call__` and the datastore
+    where it returns None, as a connection does), the other by the fallback alone; the
+    answers' bytes and the devices must agree."""
     lean_face, framed_face = still_face(), still_face()
-    lean = DirectServe(lean_face, None)
-    framer = FramerSocket(DecodePDU(False))
+    slave = 1 if rtu else None
+    direct = DirectServe(lean_face, slave)
+    lean = direct.rtu if rtu else direct.tcp
+    framer = FramerRTU(DecodePDU(False)) if rtu else FramerSocket(DecodePDU(False))
     for number, (pdu_bytes, unit) in enumerate(requests):
-        frame = tcp_frame(number + 1, unit, pdu_bytes)
+        tid = 0 if rtu else number + 1
+        frame = framer.encode(pdu_bytes, unit, tid)
         answers = []
         for face in (lean_face, framed_face):
             if face is lean_face:
-                answer = lean.tcp(frame)
-                if lean_takes(face, pdu_bytes):
+                answer = lean(frame)
+                if lean_takes(face, pdu_bytes) and unit == (slave or unit):
                     assert answer is not None, frame.hex()
                 if answer is not None:
                     answers.append(answer)
@@ -192,11 +196,11 @@ async def lean_and_framed(requests: list[tuple[bytes, int]]) -> None:
             if pdu is None:
                 answers.append(b"undecodable")
                 continue
-            pdu.dev_id, pdu.transaction_id = unit, number + 1
-            reply = DirectServe(face, None)(pdu)
+            pdu.dev_id, pdu.transaction_id = unit, tid
+            reply = DirectServe(face, slave)(pdu)
             if reply is None:
                 reply = await pdu.datastore_update(SimCore(face.device(0)), pdu.dev_id)
-                reply.dev_id, reply.transaction_id = unit, number + 1
+                reply.dev_id, reply.transaction_id = unit, tid
             answers.append(framer.buildFrame(reply))
         assert answers[0] == answers[1], frame.hex()
     assert lean_face.requests == framed_face.requests
@@ -212,9 +216,9 @@ LIMITS = {3: 125, 4: 125, 16: 123}
 @settings(max_examples=40, deadline=None, derandomize=True,
           suppress_health_check=[HealthCheck.too_slow])
 @given(st.lists(st.tuples(st.one_of(REQUESTS, BROKEN), st.sampled_from([0, 1, 7, 255])),
-                min_size=1, max_size=10))
-def test_lean_tcp_answers_are_the_framers(requests: list[tuple[bytes, int]]) -> None:
-    asyncio.run(lean_and_framed(requests))
+                min_size=1, max_size=10), st.booleans())
+def test_lean_answers_are_the_framers(requests: list[tuple[bytes, int]], rtu: bool) -> None:
+    asyncio.run(lean_and_framed(requests, rtu))
 
 
 def test_the_lean_path_leaves_a_frame_that_is_not_one_whole_request() -> None:
@@ -226,3 +230,9 @@ def test_the_lean_path_leaves_a_frame_that_is_not_one_whole_request() -> None:
     for frame in (whole[:-1], whole + b"\x00", whole + whole,
                   whole[:2] + b"\x00\x01" + whole[4:], whole[:4] + b"\x00\x05" + whole[6:]):
         assert lean.tcp(frame) is None, frame.hex()
+    slave = DirectServe(still_face(), 1)
+    whole = FramerRTU(DecodePDU(False)).encode(read(4, 100, 1), 1, 0)
+    assert slave.rtu(whole) is not None
+    for frame in (whole[:-1], whole + whole, whole[:-1] + bytes([whole[-1] ^ 1]),
+                  b"\x02" + whole[1:]):  # cut, two, a bad CRC, another slave's
+        assert slave.rtu(frame) is None, frame.hex()
