@@ -28,7 +28,9 @@ from pymodbus.framer import FramerRTU, FramerType
 from pymodbus.pdu import DecodePDU, ModbusPDU
 from pymodbus.pdu.register_message import (
     ReadHoldingRegistersRequest,
+    ReadHoldingRegistersResponse,
     ReadInputRegistersRequest,
+    ReadInputRegistersResponse,
 )
 from pymodbus.transport.serialtransport import SerialTransport
 from serial import SerialException  # type: ignore[import-untyped]  # pyserial ships no type hints
@@ -134,7 +136,8 @@ FENCE_SETTLE_S = 0.002  # after a fence's barrier: events that came with its ans
 
 
 Client = AsyncModbusTcpClient | AsyncModbusSerialClient
-WORDS = [struct.Struct(f">{n}H") for n in range(MAX_WRITE_REGISTERS + 1)]  # FC16 payloads
+MAX_READ_REGISTERS = 125  # the Modbus limit for FC3 and FC4
+WORDS = [struct.Struct(f">{n}H") for n in range(MAX_READ_REGISTERS + 1)]  # register runs
 FC16_HEAD = struct.Struct(">BHHB")  # function code, address, count, byte count
 
 
@@ -171,6 +174,9 @@ class DeviceLink:
         self._waiting = False  # a request awaits its answer
         self._echo: bytes | None = None  # the answer an FC16 awaits, byte for byte (`_write`)
         self._echo_tid = 0  # its transaction id (TCP)
+        self._read_head: bytes | None = None  # the header the answer of a read awaits
+        self._read_size = 0  # that answer's length, header, registers and (RTU) CRC
+        self._read_kind: type[ModbusPDU] = ReadInputRegistersResponse
         self.opened = False  # the first connection succeeded
         self.reconnects = 0
         self.repeats = 0  # idempotent requests sent again after a link failure
@@ -280,19 +286,19 @@ class DeviceLink:
         watch = self._tee if tcp else self._tee_rtu
 
         def tee(data: bytes) -> None:
-            if data == self._echo and not self._received and not protocol.recv_buffer:
-                # the awaited FC16 answer, whole, in one read with nothing before it: what
-                # pymodbus's framer would decode to the answer awaited, counted as `watch`
-                # counts it, without decoding it (`_write`)
-                self._echo = None
-                if tcp:
-                    self._outstanding.discard(self._echo_tid)
-                elif self._line_outstanding:
-                    self._line_outstanding -= 1
-                future = protocol.response_future
-                if not future.done():
-                    future.set_result(None)
-                return
+            if not self._received and not protocol.recv_buffer:
+                reply = self._whole_answer(data, tcp)
+                if reply is not False:
+                    # the awaited answer, whole, in one read with nothing before it: what
+                    # pymodbus's framer would decode it to, counted as `watch` counts it
+                    if tcp:
+                        self._outstanding.discard(self._echo_tid)
+                    elif self._line_outstanding:
+                        self._line_outstanding -= 1
+                    future = protocol.response_future
+                    if not future.done():
+                        future.set_result(reply)
+                    return
             watch(data)
             received(data)
 
@@ -301,6 +307,22 @@ class DeviceLink:
         protocol.framer.decoder = QuietDecoder(False)
         self._client, self._lost, self._stale = client, lost, False
         self.opened = True
+
+    def _whole_answer(self, data: bytes, tcp: bool) -> ModbusPDU | bool | None:
+        """`data` as the whole answer awaited: None for an FC16's (`_write`), the read's
+        answer PDU for a read's (`_round_trip`: its header and length as awaited, over RTU
+        its CRC good), or False for anything else, which pymodbus's framer takes."""
+        if data == self._echo:
+            self._echo = None
+            return None
+        head = self._read_head
+        if head is None or len(data) != self._read_size or not data.startswith(head) or \
+                (not tcp and crc16(data[:-2]) != data[-2:]):
+            return False
+        self._read_head = None
+        count = data[len(head) - 1] // 2
+        return self._read_kind(registers=list(WORDS[count].unpack_from(data, len(head))),
+                               dev_id=self.endpoint.unit, transaction_id=self._echo_tid)
 
     def _unavailable(self, exc: BaseException | None) -> str:
         """The one-line reason a connection or port could not be opened."""
@@ -482,10 +504,21 @@ class DeviceLink:
         ctx = client.ctx
         if not ctx.transport:
             raise ConnectionException("not connected")
-        request.transaction_id = ctx.getNextTID()
+        request.transaction_id = tid = ctx.getNextTID()
         ctx.recv_buffer = b""
         future = self._await_answer(ctx)
         ctx.pdu_send(request)
+        fc, count = request.function_code, request.count
+        if fc in (READ_HOLDING, READ_INPUT) and 1 <= count <= MAX_READ_REGISTERS:
+            # the answer's header, known but for the registers (`_whole_answer`)
+            unit = self.endpoint.unit
+            self._read_head = struct.pack(">HHHBBB", tid, 0, 3 + 2 * count, unit, fc, 2 * count) \
+                if self.endpoint.host is not None else bytes((unit, fc, 2 * count))
+            self._read_size = len(self._read_head) + 2 * count + \
+                (0 if self.endpoint.host is not None else 2)
+            self._read_kind = ReadInputRegistersResponse if fc == READ_INPUT else \
+                ReadHoldingRegistersResponse
+            self._echo_tid = tid
         reply = await self._answer(ctx, future)
         assert reply is not None  # no echo was awaited
         if (request.dev_id and reply.dev_id != request.dev_id) or \
@@ -518,7 +551,7 @@ class DeviceLink:
             raise
         finally:
             timer.cancel()
-            self._echo = None
+            self._echo = self._read_head = None
         ctx.count_until_disconnect = ctx.max_until_disconnect
         return reply
 
