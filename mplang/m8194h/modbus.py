@@ -17,8 +17,10 @@ from __future__ import annotations
 import asyncio
 import logging
 import os
+import struct
 import time
 from collections.abc import Awaitable, Callable
+from typing import Any
 
 from pymodbus.client import AsyncModbusSerialClient, AsyncModbusTcpClient
 from pymodbus.exceptions import ConnectionException, ModbusException, ModbusIOException
@@ -26,8 +28,9 @@ from pymodbus.framer import FramerRTU, FramerType
 from pymodbus.pdu import DecodePDU, ModbusPDU
 from pymodbus.pdu.register_message import (
     ReadHoldingRegistersRequest,
+    ReadHoldingRegistersResponse,
     ReadInputRegistersRequest,
-    WriteMultipleRegistersRequest,
+    ReadInputRegistersResponse,
 )
 from pymodbus.transport.serialtransport import SerialTransport
 from serial import SerialException  # type: ignore[import-untyped]  # pyserial ships no type hints
@@ -49,7 +52,7 @@ SUBFUNCTION_FIRST = 8000  # holding: the sub-function window (appendix table 20;
 PYMODBUS_LOG = logging.getLogger("pymodbus.logging")  # the logger of pymodbus's `Log`
 
 
-def _expire(future: asyncio.Future[ModbusPDU]) -> None:
+def _expire(future: asyncio.Future[ModbusPDU | None]) -> None:
     """The answer's time is up: the request fails as pymodbus fails one it gave up on."""
     if not future.done():
         future.set_exception(ModbusIOException("no answer in time"))
@@ -133,6 +136,9 @@ FENCE_SETTLE_S = 0.002  # after a fence's barrier: events that came with its ans
 
 
 Client = AsyncModbusTcpClient | AsyncModbusSerialClient
+MAX_READ_REGISTERS = 125  # the Modbus limit for FC3 and FC4
+WORDS = [struct.Struct(f">{n}H") for n in range(MAX_READ_REGISTERS + 1)]  # register runs
+FC16_HEAD = struct.Struct(">BHHB")  # function code, address, count, byte count
 
 
 class DeviceLink:
@@ -166,6 +172,11 @@ class DeviceLink:
         self._received = b""  # TCP bytes received, not yet a whole answer
         self._barriers = 0
         self._waiting = False  # a request awaits its answer
+        self._echo: bytes | None = None  # the answer an FC16 awaits, byte for byte (`_write`)
+        self._echo_tid = 0  # its transaction id (TCP)
+        self._read_head: bytes | None = None  # the header the answer of a read awaits
+        self._read_size = 0  # that answer's length, header, registers and (RTU) CRC
+        self._read_kind: type[ModbusPDU] = ReadInputRegistersResponse
         self.opened = False  # the first connection succeeded
         self.reconnects = 0
         self.repeats = 0  # idempotent requests sent again after a link failure
@@ -271,9 +282,23 @@ class DeviceLink:
             raise LinkUnavailable(self._unavailable(failures[-1] if failures else None))
         protocol = client.ctx
         received = protocol.data_received
-        watch = self._tee if self.endpoint.host is not None else self._tee_rtu
+        tcp = self.endpoint.host is not None
+        watch = self._tee if tcp else self._tee_rtu
 
         def tee(data: bytes) -> None:
+            if not self._received and not protocol.recv_buffer:
+                reply = self._whole_answer(data, tcp)
+                if reply is not False:
+                    # the awaited answer, whole, in one read with nothing before it: what
+                    # pymodbus's framer would decode it to, counted as `watch` counts it
+                    if tcp:
+                        self._outstanding.discard(self._echo_tid)
+                    elif self._line_outstanding:
+                        self._line_outstanding -= 1
+                    future = protocol.response_future
+                    if not future.done():
+                        future.set_result(reply)
+                    return
             watch(data)
             received(data)
 
@@ -282,6 +307,22 @@ class DeviceLink:
         protocol.framer.decoder = QuietDecoder(False)
         self._client, self._lost, self._stale = client, lost, False
         self.opened = True
+
+    def _whole_answer(self, data: bytes, tcp: bool) -> ModbusPDU | bool | None:
+        """`data` as the whole answer awaited: None for an FC16's (`_write`), the read's
+        answer PDU for a read's (`_round_trip`: its header and length as awaited, over RTU
+        its CRC good), or False for anything else, which pymodbus's framer takes."""
+        if data == self._echo:
+            self._echo = None
+            return None
+        head = self._read_head
+        if head is None or len(data) != self._read_size or not data.startswith(head) or \
+                (not tcp and crc16(data[:-2]) != data[-2:]):
+            return False
+        self._read_head = None
+        count = data[len(head) - 1] // 2
+        return self._read_kind(registers=list(WORDS[count].unpack_from(data, len(head))),
+                               dev_id=self.endpoint.unit, transaction_id=self._echo_tid)
 
     def _unavailable(self, exc: BaseException | None) -> str:
         """The one-line reason a connection or port could not be opened."""
@@ -414,12 +455,12 @@ class DeviceLink:
         self._unsettle()
         return LinkTimeout(f"{describe}: no answer within {self.endpoint.timeout:g} s")
 
-    async def _exchange(self, request: Callable[[Client], Awaitable[ModbusPDU]],
+    async def _exchange(self, request: Callable[[Client], Awaitable[ModbusPDU | None]],
                         function_code: int, address: int,
                         matches: Callable[[ModbusPDU], bool], fence: bool = True
-                        ) -> ModbusPDU:
+                        ) -> ModbusPDU | None:
         """One request and its answer, or one of mplang's exceptions. An unsettled link
-        fences first."""
+        fences first. None: the answer was the FC16 echo `_write` awaited, byte for byte."""
         if fence and self._unsettled:
             await self.fence()
         client = await self._ready()
@@ -442,6 +483,8 @@ class DeviceLink:
             raise LinkLost(f"{self.endpoint.describe()}: {exc}") from None
         finally:
             self._waiting = False
+        if reply is None:
+            return None
         # an exception answer carries the function code (plus 0x80) but no address: a late
         # refusal of another function is told apart by that code alone
         if reply.function_code & 0x7F != function_code or \
@@ -457,18 +500,45 @@ class DeviceLink:
     async def _round_trip(self, client: Client, request: ModbusPDU) -> ModbusPDU:
         """One request and its answer through pymodbus's framer and PDUs, without its
         transaction manager (its lock, `wait_for` and repeat loop cost more CPU than the
-        request itself): one future, its timeout by `call_at`. A timeout counts toward
-        pymodbus's own rule, kept as it was: after `retries` + 4 unanswered requests in a
-        row a TCP connection is closed. ModbusIOException: no answer in time."""
+        request itself). ModbusIOException: no answer in time."""
         ctx = client.ctx
         if not ctx.transport:
             raise ConnectionException("not connected")
-        loop = asyncio.get_running_loop()
-        future: asyncio.Future[ModbusPDU] = loop.create_future()
-        request.transaction_id = ctx.getNextTID()
+        request.transaction_id = tid = ctx.getNextTID()
         ctx.recv_buffer = b""
-        ctx.response_future = future
+        future = self._await_answer(ctx)
         ctx.pdu_send(request)
+        fc, count = request.function_code, request.count
+        if fc in (READ_HOLDING, READ_INPUT) and 1 <= count <= MAX_READ_REGISTERS:
+            # the answer's header, known but for the registers (`_whole_answer`)
+            unit = self.endpoint.unit
+            self._read_head = struct.pack(">HHHBBB", tid, 0, 3 + 2 * count, unit, fc, 2 * count) \
+                if self.endpoint.host is not None else bytes((unit, fc, 2 * count))
+            self._read_size = len(self._read_head) + 2 * count + \
+                (0 if self.endpoint.host is not None else 2)
+            self._read_kind = ReadInputRegistersResponse if fc == READ_INPUT else \
+                ReadHoldingRegistersResponse
+            self._echo_tid = tid
+        reply = await self._answer(ctx, future)
+        assert reply is not None  # no echo was awaited
+        if (request.dev_id and reply.dev_id != request.dev_id) or \
+                (reply.transaction_id and reply.transaction_id != request.transaction_id):
+            raise ModbusIOException("the answer names another device or transaction")
+        return reply
+
+    @staticmethod
+    def _await_answer(ctx: object) -> asyncio.Future[ModbusPDU | None]:
+        """The one future the next answer resolves (pymodbus's `response_future`)."""
+        future: asyncio.Future[ModbusPDU | None] = asyncio.get_running_loop().create_future()
+        ctx.response_future = future  # type: ignore[attr-defined]
+        return future
+
+    async def _answer(self, ctx: Any, future: asyncio.Future[ModbusPDU | None]
+                      ) -> ModbusPDU | None:
+        """Await a request's answer, its timeout by `call_at`. A timeout counts toward
+        pymodbus's own rule, kept as it was: after `retries` + 4 unanswered requests in a
+        row a TCP connection is closed."""
+        loop = future.get_loop()
         timer = loop.call_at(loop.time() + self.endpoint.timeout, _expire, future)
         try:
             reply = await future
@@ -481,15 +551,48 @@ class DeviceLink:
             raise
         finally:
             timer.cancel()
-        if (request.dev_id and reply.dev_id != request.dev_id) or \
-                (reply.transaction_id and reply.transaction_id != request.transaction_id):
-            raise ModbusIOException("the answer names another device or transaction")
+            self._echo = self._read_head = None
         ctx.count_until_disconnect = ctx.max_until_disconnect
         return reply
 
-    async def _repeating(self, request: Callable[[Client], Awaitable[ModbusPDU]],
+    async def _write(self, client: Client, address: int, payload: bytes) -> ModbusPDU | None:
+        """An FC16 request of the registers packed in `payload`, framed by pymodbus's
+        framer from a PDU packed here (the bytes pymodbus's PDU encodes: a property test
+        compares them), without building or decoding a PDU object. The answer it awaits is
+        known byte for byte: when it arrives whole in one read, the tee resolves the
+        request with None; any other answer (an exception, another request's, one cut in
+        pieces) takes pymodbus's framer and PDUs, as every answer did before."""
+        ctx = client.ctx
+        if not ctx.transport:
+            raise ConnectionException("not connected")
+        unit, count = self.endpoint.unit, len(payload) // 2
+        tid = ctx.getNextTID()
+        pdu = FC16_HEAD.pack(WRITE_REGISTERS, address, count, len(payload))
+        packet = ctx.framer.encode(pdu + payload, unit, tid)
+        tcp = self.endpoint.host is not None
+        if tcp:
+            self._outstanding.add(tid)
+        else:
+            self._line_outstanding += 1
+        ctx.request_dev_id, ctx.request_transaction_id = unit, tid  # as pdu_send sets them
+        ctx.recv_buffer = b""
+        future = self._await_answer(ctx)
+        ctx.transport.write(packet)  # type: ignore[attr-defined]
+        # the awaited answer, made while the request is on its way (no answer is read
+        # before the next await): MBAP (tid, protocol, length 6, unit) and the request's
+        # first five PDU bytes; over RTU the slave, those bytes and their CRC
+        self._echo = packet[:4] + b"\x00\x06" + packet[6:12] if tcp else \
+            ctx.framer.encode(pdu[:5], unit, tid)
+        self._echo_tid = tid
+        reply = await self._answer(ctx, future)
+        if reply is not None and ((unit and reply.dev_id != unit) or
+                                  (reply.transaction_id and reply.transaction_id != tid)):
+            raise ModbusIOException("the answer names another device or transaction")
+        return reply
+
+    async def _repeating(self, request: Callable[[Client], Awaitable[ModbusPDU | None]],
                          function_code: int, address: int,
-                         matches: Callable[[ModbusPDU], bool]) -> ModbusPDU:
+                         matches: Callable[[ModbusPDU], bool]) -> ModbusPDU | None:
         """`_exchange`, repeated after a timeout, a lost link or a busy answer (exception
         0x06: not carried out): only for requests that do the same thing however often they
         arrive."""
@@ -507,25 +610,32 @@ class DeviceLink:
                 await asyncio.sleep(backoff(attempt, self.endpoint.timeout))
 
     @staticmethod
-    def _registers(values: list[int] | tuple[int, ...]) -> list[int]:
+    def _registers(values: list[int] | tuple[int, ...]) -> bytes:
+        """The registers of an FC16 write as its PDU carries them (big-endian words)."""
         if not 1 <= len(values) <= MAX_WRITE_REGISTERS:
             raise ValueError(f"an FC16 write takes 1..{MAX_WRITE_REGISTERS} registers, "
                              f"not {len(values)}")
-        registers = [int(v) for v in values]
-        if min(registers) < 0 or max(registers) > 0xFFFF:
-            raise ValueError("register values are 16-bit: 0..65535")
-        return registers
+        try:
+            return WORDS[len(values)].pack(*values)
+        except struct.error:
+            registers = [int(v) for v in values]  # a float, a numpy integer: as int() reads it
+            if min(registers) < 0 or max(registers) > 0xFFFF:
+                raise ValueError("register values are 16-bit: 0..65535") from None
+            return WORDS[len(registers)].pack(*registers)
+
+    def _written(self, address: int, payload: bytes
+                 ) -> tuple[Callable[[Client], Awaitable[ModbusPDU | None]],
+                            Callable[[ModbusPDU], bool]]:
+        """An FC16 request of `payload` at `address`, and what its answer must say."""
+        count = len(payload) // 2
+        return (lambda c: self._write(c, address, payload),
+                lambda r: r.address == address and r.count == count)
 
     async def write_frame(self, frame: list[int] | tuple[int, ...]) -> None:
         """One sub-function frame, FC16 at holding register 8000. Never repeated here: an
         unanswered frame may have been carried out (LinkTimeout / LinkLost say so)."""
-        values = self._registers(frame)
-        unit = self.endpoint.unit
-        await self._exchange(
-            lambda c: self._round_trip(c, WriteMultipleRegistersRequest(
-                address=SUBFUNCTION_FIRST, registers=values, dev_id=unit)),
-            WRITE_REGISTERS, SUBFUNCTION_FIRST,
-            lambda r: r.address == SUBFUNCTION_FIRST and r.count == len(values))
+        request, matches = self._written(SUBFUNCTION_FIRST, self._registers(frame))
+        await self._exchange(request, WRITE_REGISTERS, SUBFUNCTION_FIRST, matches)
 
     async def read_input(self, address: int, count: int) -> list[int]:
         """FC4: `count` input registers from `address` (repeated after link failures)."""
@@ -550,26 +660,17 @@ class DeviceLink:
         reply = await self._repeating(self._read_request(function_code, address, count),
                                       function_code, address,
                                       lambda r: len(r.registers) == count)
+        assert reply is not None  # only an FC16 answer is an echo
         return [int(v) for v in reply.registers[:count]]
 
     async def write_holding(self, address: int, values: list[int]) -> None:
         """FC16 to holding registers whose write is idempotent (the word order, variables),
         repeated after link failures. Not for register 8 (a call) or the frame window."""
-        registers = self._registers(values)
-        unit = self.endpoint.unit
-        await self._repeating(
-            lambda c: self._round_trip(c, WriteMultipleRegistersRequest(
-                address=address, registers=registers, dev_id=unit)),
-            WRITE_REGISTERS, address,
-            lambda r: r.address == address and r.count == len(registers))
+        request, matches = self._written(address, self._registers(values))
+        await self._repeating(request, WRITE_REGISTERS, address, matches)
 
     async def write_once(self, address: int, values: list[int]) -> None:
         """FC16 to holding registers whose write acts (register 8: a call), sent once: an
         unanswered one may have been carried out, so it is never repeated here."""
-        registers = self._registers(values)
-        unit = self.endpoint.unit
-        await self._exchange(
-            lambda c: self._round_trip(c, WriteMultipleRegistersRequest(
-                address=address, registers=registers, dev_id=unit)),
-            WRITE_REGISTERS, address,
-            lambda r: r.address == address and r.count == len(registers))
+        request, matches = self._written(address, self._registers(values))
+        await self._exchange(request, WRITE_REGISTERS, address, matches)

@@ -20,6 +20,7 @@ from __future__ import annotations
 import asyncio
 import gc
 import logging
+import struct
 import sys
 import time
 from collections import deque
@@ -47,11 +48,13 @@ from mplang.m8194h.modbus import (
     READ_DISCRETE,
     READ_HOLDING,
     READ_INPUT,
+    WORDS,
     WRITE_COIL,
     WRITE_COILS,
     WRITE_REGISTER,
     WRITE_REGISTERS,
     QuietDecoder,
+    crc16,
 )
 from mplang.m8194h.openfail import OpenFailure, recording
 from mplang.m8194h.sim.controller import VirtualController
@@ -248,6 +251,21 @@ class DirectServe:
         holding = tuple((span.start, span.stop) for span in face.holding_spans())
         self.spans = {READ_HOLDING: holding, WRITE_REGISTERS: holding,
                       READ_INPUT: ((0, INPUT_SPAN),)}
+        # the quantities `DeviceDecoder` lets through (a function code it refuses: none)
+        modbus = face.controller.profile.raw["modbus"]
+        served = {int(fc) for fc in modbus["function_codes"]}
+        self.limits = {int(fc): int(n) for fc, n in modbus["quantity_limits"].items()
+                       if int(fc) in served and int(fc) in self.spans}
+        if WRITE_REGISTERS in self.limits:
+            self.limits[WRITE_REGISTERS] = min(self.limits[WRITE_REGISTERS],
+                                               MAX_WRITE_REGISTERS)
+
+    def _inside(self, fc: int, address: int, count: int) -> bool:
+        """The request lies inside one of the device's areas for its function code."""
+        for start, stop in self.spans[fc]:  # noqa: SIM110  a loop: no generator per request
+            if start <= address and address + count <= stop:
+                return True
+        return False
 
     def __call__(self, pdu: ModbusPDU) -> ModbusPDU | None:
         """The answer to `pdu`, or None: pymodbus's path serves it."""
@@ -266,10 +284,7 @@ class DirectServe:
         fc, address = pdu.function_code, pdu.address
         if self.unit is not None and pdu.dev_id != self.unit:
             return None
-        for start, stop in self.spans[fc]:
-            if start <= address and address + count <= stop:
-                break
-        else:
+        if not self._inside(fc, address, count):
             return None
         current = [0] * count if values is None else []
         refused = self.face.act(fc, address, address, count, current, values)
@@ -284,6 +299,61 @@ class DirectServe:
             answer = ReadHoldingRegistersResponse(registers=current)
         answer.dev_id, answer.transaction_id = pdu.dev_id, pdu.transaction_id
         return answer
+
+    def tcp(self, frame: bytes) -> bytes | None:
+        """The answer's bytes to `frame`, one whole Modbus TCP request of FC3, FC4 or FC16
+        that `DeviceDecoder` and `__call__` would serve here, read and answered without a
+        PDU object: the same `act`, the bytes pymodbus's framer makes of the answer (a
+        property test compares them). None for anything else (another function code, a
+        quantity or byte count the decoder refuses, an address outside the areas, a frame
+        that is not exactly one request): pymodbus's framer and `__call__` serve it."""
+        if len(frame) < 12 or frame[2] or frame[3] or \
+                (frame[4] << 8 | frame[5]) != len(frame) - 6:
+            return None
+        answer = self._pdu(frame[7:])
+        if answer is None:
+            return None
+        return frame[:4] + (len(answer) + 1).to_bytes(2, "big") + frame[6:7] + answer
+
+    def rtu(self, frame: bytes) -> bytes | None:
+        """`tcp` for one whole Modbus RTU request to this slave (unit, PDU, CRC): its
+        answer framed as pymodbus's RTU framer frames it, or None (a broadcast, another
+        slave's request, a bad CRC, anything `tcp` leaves): pymodbus's path serves it."""
+        if len(frame) < 8 or frame[0] != self.unit or crc16(frame[:-2]) != frame[-2:]:
+            return None
+        answer = self._pdu(frame[1:-2])
+        if answer is None:
+            return None
+        body = frame[:1] + answer
+        return body + crc16(body)
+
+    def _pdu(self, pdu: bytes) -> bytes | None:
+        """The answer PDU to a request PDU the lean paths serve (see `tcp`), or None."""
+        fc = pdu[0]
+        limit = self.limits.get(fc)
+        if limit is None or len(pdu) < 5:
+            return None
+        address, count = struct.unpack_from(">HH", pdu, 1)
+        if not 1 <= count <= limit or not self._inside(fc, address, count):
+            return None
+        values: list[int] | None = None
+        if fc == WRITE_REGISTERS:
+            if len(pdu) != 6 + 2 * count or pdu[5] != 2 * count:
+                return None
+            values = list(WORDS[count].unpack_from(pdu, 6))
+        elif len(pdu) != 5:
+            return None
+        current = [0] * count if values is None else []
+        try:
+            refused = self.face.act(fc, address, address, count, current, values)
+            if refused:
+                return bytes((fc | 0x80, int(refused)))
+            if values is not None:  # the FC16 answer: the request's address and count
+                return pdu[:5]
+            registers: bytes = WORDS[count].pack(*current)
+        except Exception:  # the device never falls over: SLAVE DEVICE FAILURE
+            return bytes((fc | 0x80, DEVICE_FAILURE))
+        return bytes((fc, 2 * count)) + registers
 
 
 def rtu_frame_size(data: bytes) -> int:
@@ -452,7 +522,8 @@ async def serve_tcp(face: DeviceFace, host: str, port: int,
     from mplang.m8194h.ordered import serve_in_order
 
     server = ModbusTcpServer(face.device(0), address=(host, port), trace_packet=trace_packet)
-    serve_in_order(server, DirectServe(face, None))
+    direct = DirectServe(face, None)
+    serve_in_order(server, direct, direct.tcp)
     server.decoder = DeviceDecoder(face)  # before any connection: each framer takes it
     face.registers.connections = lambda: len(server.active_connections)
     await _listen(server, recording(server), serial=False)
@@ -482,7 +553,8 @@ async def serve_rtu(face: DeviceFace, port: str, unit: int = 1, baudrate: int = 
     server = ModbusSerialServer(face.device(unit), framer=FramerType.RTU, port=port,
                                 baudrate=baudrate, parity=parity, stopbits=stopbits,
                                 bytesize=8, broadcast_enable=True, trace_packet=hook)
-    serve_in_order(server, DirectServe(face, unit))
+    direct = DirectServe(face, unit)
+    serve_in_order(server, direct, direct.rtu)
     server.decoder = DeviceDecoder(face, unit)
     await _listen(server, recording(server), serial=True)
     return server

@@ -31,6 +31,9 @@ Address = tuple[str, int] | None
 Direct = Callable[[ModbusPDU], "ModbusPDU | None"]
 """Answers a request at once, without an await, or returns None when pymodbus's datastore
 must serve it (`modbus_server.DirectServe`)."""
+Lean = Callable[[bytes], "bytes | None"]
+"""Answers one whole request frame's bytes at once with the answer's bytes, or returns None
+when the framer and `Direct` must serve it (`modbus_server.DirectServe.tcp`)."""
 MAX_QUEUED = 256
 """Requests of one connection decoded and waiting to be served: past it, a client that sends
 without reading the answers has further frames dropped, as a device's full receive buffer
@@ -65,6 +68,8 @@ class OrderedRequestHandler(ServerRequestHandler):
     decoded and queued, and one task serves the queue in arrival order; bytes not yet
     decoded are kept when an answer is sent."""
 
+    lean: Lean | None = None  # set by `serve_in_order` where the server traces no PDUs
+
     def __init__(self, *args: object) -> None:
         super().__init__(*args)  # type: ignore[no-untyped-call]
         self._queue: deque[tuple[ModbusPDU, Address]] = deque()
@@ -84,6 +89,12 @@ class OrderedRequestHandler(ServerRequestHandler):
         """Decode every complete frame in `data` (the packet hook sees `data` once) and
         queue it; returns how many bytes were used."""
         seen = self.trace_packet(False, data)
+        if self.lean is not None and seen == data and not self._queue and \
+                (self._worker is None or self._worker.done()):
+            answer = self.lean(seen)
+            if answer is not None:  # pymodbus's `pdu_send` of the same answer
+                self.send(self.trace_packet(True, answer))
+                return len(data)
         used = 0
         while used < len(seen):
             try:
@@ -148,15 +159,20 @@ class OrderedRequestHandler(ServerRequestHandler):
         self.server_send(response, addr)  # type: ignore[no-untyped-call]
 
 
-def serve_in_order(server: object, direct: Direct | None = None) -> None:
+def serve_in_order(server: object, direct: Direct | None = None,
+                   lean: Lean | None = None) -> None:
     """Make `server` (a pymodbus TCP or serial server, not listening yet) hand every new
-    connection to an `OrderedRequestHandler`, which answers through `direct` first."""
+    connection to an `OrderedRequestHandler`, which answers whole frames through `lean`
+    first (not when the server traces PDUs: a lean answer has none), then decoded ones
+    through `direct`."""
 
     def connection() -> OrderedRequestHandler:
         handler = OrderedRequestHandler(
             server, server.trace_packet, server.trace_pdu,  # type: ignore[attr-defined]
             server.trace_connect)  # type: ignore[attr-defined]
         handler.direct = direct
+        if server.trace_pdu is None:  # type: ignore[attr-defined]
+            handler.lean = lean
         return handler
 
     server.callback_new_connection = connection  # type: ignore[attr-defined]

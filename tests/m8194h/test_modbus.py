@@ -6,6 +6,7 @@ from __future__ import annotations
 import asyncio
 import shutil
 import socket
+import struct
 import subprocess
 import sys
 from collections.abc import Awaitable, Callable
@@ -335,3 +336,74 @@ def test_an_mpc_process_serving_freezes_its_start_up_heap(process: str, after: s
                           text=True, timeout=120)
     assert done.returncode == 0, done.stderr
     assert done.stdout.split() == ["True", after]
+
+
+class Recorder(asyncio.Protocol):
+    """A Modbus TCP device that keeps every request's bytes and answers an FC16 with its
+    first 12 bytes (length 6), a read of n registers with 0x0101 * k for register k, whole
+    or, when `pieces`, in two reads."""
+
+    def __init__(self, pieces: bool) -> None:
+        self.pieces = pieces
+        self.requests: list[bytes] = []
+
+    def connection_made(self, transport: asyncio.BaseTransport) -> None:
+        self.transport = transport
+
+    def data_received(self, data: bytes) -> None:
+        self.requests.append(data)
+        answer = data[:4] + b"\x00\x06" + data[6:12]
+        if data[7] in (3, 4):
+            count = int.from_bytes(data[10:12], "big")
+            answer = data[:4] + struct.pack(f">HBBB{count}H", 3 + 2 * count, data[6], data[7],
+                                            2 * count, *(0x0101 * k for k in range(count)))
+        write = self.transport.write  # type: ignore[attr-defined]
+        if self.pieces:
+            write(answer[:5])
+            asyncio.get_running_loop().call_later(0.01, write, answer[5:])
+        else:
+            write(answer)
+
+
+@pytest.mark.parametrize("pieces", [False, True])
+def test_a_links_fc16_bytes_are_pymodbuss(pieces: bool) -> None:
+    """DeviceLink packs an FC16 itself: its bytes are those pymodbus's PDU and framer make,
+    and its answer, and a read's, is taken whole (the awaited header and length) or cut in
+    pieces (pymodbus's framer)."""
+    from pymodbus.framer import FramerSocket
+    from pymodbus.pdu import DecodePDU
+    from pymodbus.pdu.register_message import (
+        ReadHoldingRegistersRequest,
+        ReadInputRegistersRequest,
+        WriteMultipleRegistersRequest,
+    )
+
+    writes = [(8000, [0x0CD2, 0x7FFF, 2, 0, 5]), (8, [0]), (14, [1]), (3000, [0xFFFF] * 123)]
+
+    async def main() -> list[bytes]:
+        recorder = Recorder(pieces)
+        server = await asyncio.get_running_loop().create_server(lambda: recorder, "127.0.0.1", 0)
+        port = server.sockets[0].getsockname()[1]
+        try:
+            async with DeviceLink(Endpoint(host="127.0.0.1", port=port, unit=3)) as link:
+                await link.write_frame(writes[0][1])
+                await link.write_once(*writes[1])
+                await link.write_holding(*writes[2])
+                await link.write_holding(*writes[3])
+                assert await link.read_input(100, 15) == [0x0101 * k for k in range(15)]
+                assert await link.read_holding(14, 1) == [0]
+                assert link.settled and link.anomalies == 0
+        finally:
+            server.close()
+        return recorder.requests
+
+    framer = FramerSocket(DecodePDU(False))
+    expected = []
+    for tid, (address, values) in enumerate(writes, start=1):
+        request = WriteMultipleRegistersRequest(address=address, registers=values, dev_id=3,
+                                                transaction_id=tid)
+        expected.append(framer.buildFrame(request))
+    reads = [ReadInputRegistersRequest(address=100, count=15, dev_id=3, transaction_id=5),
+             ReadHoldingRegistersRequest(address=14, count=1, dev_id=3, transaction_id=6)]
+    expected += [framer.buildFrame(request) for request in reads]
+    assert asyncio.run(main()) == expected

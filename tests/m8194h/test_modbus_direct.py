@@ -15,11 +15,18 @@ import struct
 
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from pymodbus.framer import FramerRTU, FramerSocket
 from pymodbus.pdu import DecodePDU, ModbusPDU
 from pymodbus.simulator.simcore import SimCore
 
 from mplang.m8194h.modbus import QuietDecoder
-from mplang.m8194h.modbus_server import DeviceDecoder, DeviceFace, DirectServe, SimClock
+from mplang.m8194h.modbus_server import (
+    DeviceDecoder,
+    DeviceFace,
+    DirectServe,
+    SimClock,
+    malformed,
+)
 from mplang.m8194h.sim.controller import VirtualController
 from mplang.m8194h.sim.registers import INPUT_SPAN, SUBFUNCTION_FIRST
 
@@ -141,3 +148,91 @@ def test_the_quiet_decoder_decodes_as_pymodbus_does(server: bool, frame: bytes) 
     assert type(ours) is type(theirs)
     if ours is not None and theirs is not None:  # every field (some do not encode again)
         assert vars(ours) == vars(theirs)
+
+
+def tcp_frame(tid: int, unit: int, pdu: bytes) -> bytes:
+    return FramerSocket(DecodePDU(False)).encode(pdu, unit, tid)
+
+
+BROKEN = st.one_of(  # whole frames the lean path must leave to the framer (or answer alike)
+    st.builds(lambda pdu, cut: pdu[:cut], REQUESTS, st.integers(0, 6)),
+    st.builds(lambda pdu, extra: pdu + extra, REQUESTS, st.binary(min_size=1, max_size=3)),
+    st.builds(lambda fc, rest: bytes([fc]) + rest, st.sampled_from([1, 5, 6, 8, 15, 43]),
+              st.binary(max_size=8)),
+)
+
+
+def lean_takes(face: DeviceFace, pdu: bytes) -> bool:
+    """A request the lean path must answer: a well-formed FC3, FC4 or FC16 of exactly its
+    length inside the device's areas."""
+    return pdu[:1] in (b"\x03", b"\x04", b"\x10") and len(pdu) >= 5 and \
+        not malformed(pdu, LIMITS, frozenset()) and (pdu[0] == 16 or len(pdu) == 5) and \
+        inside(face, pdu)
+
+
+async def lean_and_framed(requests: list[tuple[bytes, int]], rtu: bool = False) -> None:
+    """Each request (Modbus TCP, or RTU to slave 1) to two devices: one answered by
+    `DirectServe.tcp` / `.rtu` (falling back to the decoder, `__call__` and the datastore
+    where it returns None, as a connection does), the other by the fallback alone; the
+    answers' bytes and the devices must agree."""
+    lean_face, framed_face = still_face(), still_face()
+    slave = 1 if rtu else None
+    direct = DirectServe(lean_face, slave)
+    lean = direct.rtu if rtu else direct.tcp
+    framer = FramerRTU(DecodePDU(False)) if rtu else FramerSocket(DecodePDU(False))
+    for number, (pdu_bytes, unit) in enumerate(requests):
+        tid = 0 if rtu else number + 1
+        frame = framer.encode(pdu_bytes, unit, tid)
+        answers = []
+        for face in (lean_face, framed_face):
+            if face is lean_face:
+                answer = lean(frame)
+                if lean_takes(face, pdu_bytes) and unit == (slave or unit):
+                    assert answer is not None, frame.hex()
+                if answer is not None:
+                    answers.append(answer)
+                    continue
+            pdu = DeviceDecoder(face).decode(pdu_bytes)
+            if pdu is None:
+                answers.append(b"undecodable")
+                continue
+            pdu.dev_id, pdu.transaction_id = unit, tid
+            reply = DirectServe(face, slave)(pdu)
+            if reply is None:
+                reply = await pdu.datastore_update(SimCore(face.device(0)), pdu.dev_id)
+                reply.dev_id, reply.transaction_id = unit, tid
+            answers.append(framer.buildFrame(reply))
+        assert answers[0] == answers[1], frame.hex()
+    assert lean_face.requests == framed_face.requests
+    assert [r.code for r in lean_face.refusals] == [r.code for r in framed_face.refusals]
+    for key, table in lean_face.controller.tables.items():
+        assert [line.frame for line in table.lines] == \
+            [line.frame for line in framed_face.controller.tables[key].lines]
+
+
+LIMITS = {3: 125, 4: 125, 16: 123}
+
+
+@settings(max_examples=40, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.too_slow])
+@given(st.lists(st.tuples(st.one_of(REQUESTS, BROKEN), st.sampled_from([0, 1, 7, 255])),
+                min_size=1, max_size=10), st.booleans())
+def test_lean_answers_are_the_framers(requests: list[tuple[bytes, int]], rtu: bool) -> None:
+    asyncio.run(lean_and_framed(requests, rtu))
+
+
+def test_the_lean_path_leaves_a_frame_that_is_not_one_whole_request() -> None:
+    """A length field that says more or less than the frame holds, a protocol id other
+    than 0, two requests in one read: the framer's to cut, not the lean path's."""
+    lean = DirectServe(still_face(), None)
+    whole = tcp_frame(1, 1, read(4, 100, 1))
+    assert lean.tcp(whole) is not None
+    for frame in (whole[:-1], whole + b"\x00", whole + whole,
+                  whole[:2] + b"\x00\x01" + whole[4:], whole[:4] + b"\x00\x05" + whole[6:]):
+        assert lean.tcp(frame) is None, frame.hex()
+    slave = DirectServe(still_face(), 1)
+    whole = FramerRTU(DecodePDU(False)).encode(read(4, 100, 1), 1, 0)
+    assert slave.rtu(whole) is not None
+    for frame in (whole[:-1], whole + whole, whole[:-1] + bytes([whole[-1] ^ 1]),
+                  b"\x02" + whole[1:]):  # cut, two, a bad CRC, another slave's
+        assert slave.rtu(frame) is None, frame.hex()
