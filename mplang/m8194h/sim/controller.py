@@ -23,6 +23,7 @@ from mplang.ir.macro import BVarRef, Operand, VarRef
 from mplang.m8194h.encode import Encoder
 from mplang.m8194h.sim import (
     axis_commands,
+    blocks,
     download,
     frame_check,
     initial_table,
@@ -252,6 +253,8 @@ class VirtualController:
                              line.operands, line.command.short_name not in PURE_COMMANDS)
                             for pc, line in enumerate(table.lines)]
         prepared = precompile.Prepared(table, program)
+        prepared.fused = blocks.fuse(self, table, prepared)
+        prepared.fused_time = self.line_time
         self.programs[key] = prepared
         return prepared
 

@@ -5,7 +5,8 @@ Quick lines (`precompile`: the variable and control-flow lines) run with the clo
 pc in locals, each returning the pc to go on at; both are written back to the controller
 and the frame before anything else can read them: a handler, `before_line`, an error, the
 end of the slice. Every other line goes through its handler with the state written back,
-and under a debugger (`before_line`) every line does, after the hook.
+and under a debugger (`before_line`) every line does, after the hook. A straight run of
+quick lines runs as one block (`blocks`) when all of it fits in the slice.
 """
 
 from __future__ import annotations
@@ -33,10 +34,27 @@ def run(vc: VirtualController, frame: Frame, horizon: float, steps: int,
         program = frame.program = vc.prepared(frame.table)
     lines = program.lines
     quick = program.quick if hook is None else program.blank
+    fused = program.fused if hook is None and program.fused_time == line_time \
+        else program.blank
     end_pc = len(lines)
     clock = vc.clock
     pc = frame.pc
     while clock < horizon and steps < max_steps:
+        block = fused[pc]
+        if block is not None:
+            run_block, count, span = block
+            if steps + count <= max_steps and clock + span < horizon:
+                steps += count
+                try:
+                    pc, clock = run_block(frame, clock)
+                except Exception as err:  # only from its last line (`blocks`)
+                    for _ in range(count):
+                        clock += line_time
+                    frame.pc = pc + count
+                    vc.clock = clock
+                    failed(vc, frame, pc + count - 1, err)
+                    return steps, False
+                continue
         fast = quick[pc]
         if fast is not None:
             steps += 1

@@ -61,9 +61,10 @@ class Prepared:
     """A table ready to run: `lines` (handler, operands, touches motion) for every line and
     `quick` (a `Fast` or None) per line plus one None for the closing line, so that the
     interpreter's quick path needs no bounds check; `blank` is `quick` with every entry
-    None (the debugger's: every line through its handler, after `before_line`)."""
+    None (the debugger's: every line through its handler, after `before_line`); `fused`
+    the blocks of straight lines (`blocks.fuse`) that start at each line, or None."""
 
-    __slots__ = ("blank", "lines", "quick", "table")
+    __slots__ = ("blank", "fused", "fused_time", "lines", "quick", "table")
 
     def __init__(self, table: MacroTable, lines: list[tuple[Handler | None,
                                                              tuple[Operand, ...], bool]]) -> None:
@@ -73,7 +74,9 @@ class Prepared:
             _skip(pc + 1) if handler is None else
             handler.fast if isinstance(handler, Quick) else None
             for pc, (handler, _ops, _motion) in enumerate(lines)] + [None]
-        self.blank: list[Fast | None] = [None] * (len(lines) + 1)
+        self.blank: list[Any] = [None] * (len(lines) + 1)
+        self.fused: list[Any] = self.blank  # `blocks.fuse`, made for a line time:
+        self.fused_time = -1.0  # `lines.run` takes them at that line time only
 
 
 def _skip(after: int) -> Fast:
@@ -103,7 +106,7 @@ def _source(vc: VirtualController, operand: Operand) -> Source | None:
     return [int(operand)], 0
 
 
-def _code(vc: VirtualController, operand: Operand) -> int | None:
+def constant_code(vc: VirtualController, operand: Operand) -> int | None:
     """A constant operator code, or None when it is read from a variable at run time."""
     if isinstance(operand, (VarRef, BVarRef, bool)) or \
             not isinstance(operand, (int, float)):
@@ -112,7 +115,7 @@ def _code(vc: VirtualController, operand: Operand) -> int | None:
 
 
 _CALC_SYMBOLS = ("+", "-", "*", "&", "|")
-_WRAP = "((({expr}) + 0x80000000) & 0xFFFFFFFF) - 0x80000000"  # wrap32, without a branch
+WRAP = "((({expr}) + 0x80000000) & 0xFFFFFFFF) - 0x80000000"  # wrap32, without a branch
 
 
 def _factories(template: str, symbols: tuple[str, ...]) -> dict[tuple[str, bool], Any]:
@@ -135,7 +138,7 @@ def make(lsrc, li, right, ri, values, dest, after):
         values[dest] = {wrap}
         return after
     return line
-'''.replace("{wrap}", _WRAP.replace("{expr}", "lsrc[li] {op} {right}")), _CALC_SYMBOLS)
+'''.replace("{wrap}", WRAP.replace("{expr}", "lsrc[li] {op} {right}")), _CALC_SYMBOLS)
 
 _COMPARE = _factories('''
 def make(lsrc, li, right, ri, after, target):
@@ -183,12 +186,9 @@ def _set_var(vc: VirtualController, pc: int, ops: tuple[Operand, ...]) -> Fast |
 def _calculate(vc: VirtualController, pc: int, ops: tuple[Operand, ...]) -> Fast | None:
     if len(ops) != 4 or not isinstance(ops[3], VarRef):
         return None
-    code = _code(vc, ops[1])
+    symbol = calc_symbol(vc, constant_code(vc, ops[1]))
     left, right = _source(vc, ops[0]), _right(vc, ops[2])
-    if code is None or left is None or right is None:
-        return None
-    symbol = vc.calc_symbols.get(code)
-    if symbol not in _CALC_SYMBOLS:  # division (its error) and unknown codes: the generic
+    if symbol is None or left is None or right is None:
         return None
     (lsrc, li), (rvalue, ri, constant) = left, right
     made: Fast = _CALCULATE[(symbol, constant)](lsrc, li, rvalue, ri, vc.vars, ops[3].index,
@@ -196,18 +196,30 @@ def _calculate(vc: VirtualController, pc: int, ops: tuple[Operand, ...]) -> Fast
     return made
 
 
-def _if(vc: VirtualController, table: MacroTable, pc: int,
-        ops: tuple[Operand, ...]) -> Fast | None:
-    if len(ops) != 3:
-        return None
-    code = _code(vc, ops[1])
-    left, right = _source(vc, ops[0]), _right(vc, ops[2])
-    if code is None or left is None or right is None or pc not in table.if_false:
+def compare_symbol(vc: VirtualController, code: int | None) -> str | None:
+    """IF's comparison symbol for a constant code (None: the generic handler's case)."""
+    if code is None:
         return None
     if code not in vc.cmp_symbols:
         code = ((code & 0xFF) << 8) | (code >> 8)  # the example's byte order (as `_if`)
     symbol = vc.cmp_symbols.get(code)
-    if symbol not in COMPARE:
+    return symbol if symbol in COMPARE else None
+
+
+def calc_symbol(vc: VirtualController, code: int | None) -> str | None:
+    """VAR_CALCULATE's operator symbol for a constant code, if a quick line runs it
+    (division, for its error, and unknown codes stay with the generic handler)."""
+    symbol = None if code is None else vc.calc_symbols.get(code)
+    return symbol if symbol in _CALC_SYMBOLS else None
+
+
+def _if(vc: VirtualController, table: MacroTable, pc: int,
+        ops: tuple[Operand, ...]) -> Fast | None:
+    if len(ops) != 3:
+        return None
+    symbol = compare_symbol(vc, constant_code(vc, ops[1]))
+    left, right = _source(vc, ops[0]), _right(vc, ops[2])
+    if symbol is None or left is None or right is None or pc not in table.if_false:
         return None
     (lsrc, li), (rvalue, ri, constant) = left, right
     made: Fast = _COMPARE[(symbol, constant)](lsrc, li, rvalue, ri, pc + 1,
@@ -274,7 +286,7 @@ def _jump(vc: VirtualController, table: MacroTable, pc: int, name: str,
             frame.loops.pop()
             return end
         return exit_for
-    label = _code(vc, ops[0]) if name == "GOTO" and len(ops) == 1 else None
+    label = constant_code(vc, ops[0]) if name == "GOTO" and len(ops) == 1 else None
     if label is not None and label in table.labels:
         to = table.labels[label] + 1
 

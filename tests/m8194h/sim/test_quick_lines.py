@@ -319,10 +319,15 @@ def test_lines_run_as_their_semantics_say(program: Program, budget: int) -> None
         steps += sliced.advance(3600.0, max_steps=budget, until_idle=True)
     assert (steps, sliced.clock, sliced.vars[:24]) == (len(ref.trace), clock, ref.vars[:24])
 
+    starts, t = [], 0.0  # the clock as each line starts
+    for _ in range(len(ref.trace)):
+        starts.append(t)
+        t += vc.line_time
     timed, steps, until = _controller(build), 0, 0.0  # cut every `budget` line times
     while timed.stack:
-        until += budget * vc.line_time
+        until += budget * vc.line_time * 0.7  # (horizons fall inside fused blocks too)
         steps += timed.advance(until)
+        assert steps == sum(1 for start in starts if start < until)  # each line it may
     assert (steps, timed.vars[:24]) == (len(ref.trace), ref.vars[:24])
 
     seen: list[tuple[int, float]] = []
@@ -371,3 +376,28 @@ def test_a_failing_quick_line_fails_as_its_handler_would() -> None:
     quick = _broken_loop(True)
     assert quick == _broken_loop(False)
     assert quick[:2] == (False, 1) and quick[5][3] == 2  # at the NEXT (slot line 2)
+
+
+def test_straight_lines_run_as_fused_blocks_that_slices_cut() -> None:
+    """A loop body of arithmetic and an IF runs as blocks (`blocks.fuse`); a line budget or
+    a horizon that ends inside a block runs its lines one by one up to exactly that line."""
+    source = ("MP 156\n  FOR 4\n    VAR1 = VAR1 + 3\n    VAR2 = VAR1 * 2\n"
+              "    IF VAR2 > 10\n      VAR2 = VAR2 - 10\n    END IF\n  NEXT\nEND MP\n")
+    build = compile_source(source)
+    vc = _controller(build)
+    fused = vc.prepared(vc.tables[("mp", 156)]).fused
+    assert [None if f is None else f[1] for f in fused] == [None, 3, None, None, 3, None,
+                                                            None, None]
+    whole = vc.run()
+    lt = vc.line_time
+    for budget in range(1, 8):
+        cut, steps, clocks = _controller(build), 0, []
+        while cut.stack:
+            steps += cut.advance(3600.0, max_steps=budget, until_idle=True)
+            clocks.append(cut.clock)
+        assert (steps, cut.clock, cut.vars[:3]) == (whole.steps, vc.clock, vc.vars[:3])
+        expected, t = [], 0.0
+        for _ in range(whole.steps):
+            t += lt
+            expected.append(t)
+        assert clocks[:-1] == expected[budget - 1::budget][:len(clocks) - 1]
