@@ -4,10 +4,11 @@ arithmetic costs one call per run of lines instead of one per line.
 A block starts where a run of lines may be entered (the first line, the line after any line
 that is not a straight line, and every jump target the table knows) and holds the straight
 lines that follow (SET_VAR and VAR_CALCULATE prepared as quick lines, and the lines that do
-nothing), ended by one more quick line that decides where to go on (IF, FOR, NEXT, ELSE,
-EXIT_FOR, GOTO) or by the first line that is not quick. The block is written out as Python
-source, one statement per line, and adds the line time to the clock once per line, in
-order, so that the clock after it is the one the lines run one by one would leave.
+nothing), ended by one more quick line that decides where to go on (IF and NEXT written
+out; FOR, ELSE, EXIT_FOR and GOTO called) or by the first line that is not quick. The block
+is written out as Python source, one statement per line, and adds the line time to the
+clock once per line, in order, so that the clock after it is the one the lines run one by
+one would leave.
 
 A straight line in a block cannot raise: its variables are checked to exist when the block
 is made and hold ints; only the closing quick line may (a NEXT whose loop is gone), so an
@@ -86,6 +87,22 @@ def _branch(vc: VirtualController, table: MacroTable, pc: int,
     return f"return ({pc + 1} if {left} {symbol} {right} else {table.if_false[pc] + 1}), c"
 
 
+def _next(pc: int) -> str:
+    """NEXT (already a quick line) as the block's last statements: `precompile._next`
+    written out, so that a loop's body and its NEXT are one call."""
+    return (f"start, ref, counter = _f.loops[-1]\n"
+            f"    if ref is not None:\n"
+            f"        V[ref.index] -= 1\n"
+            f"        remaining = V[ref.index]\n"
+            f"    else:\n"
+            f"        counter[0] -= 1\n"
+            f"        remaining = counter[0]\n"
+            f"    if remaining > 0:\n"
+            f"        return start + 1, c\n"
+            f"    _f.loops.pop()\n"
+            f"    return {pc + 1}, c")
+
+
 def _entries(table: MacroTable, straight: list[str | None]) -> set[int]:
     """The lines a run may enter a block at."""
     entries = {0}
@@ -123,7 +140,9 @@ def fuse(vc: VirtualController, table: MacroTable,
             pc += 1
         if pc < len(straight) and quick[pc] is not None and pc - start < LONGEST:
             branch = _branch(vc, table, pc, prepared.lines[pc][1]) \
-                if names[pc] == "IF" else None
+                if names[pc] == "IF" else _next(pc) \
+                if names[pc] == "NEXT" and isinstance(prepared.lines[pc][0],
+                                                      precompile.Quick) else None
             body.append(f"    c += lt\n    {branch or f'return T[{pc}](_f), c'}")
             pc += 1
         else:
