@@ -15,17 +15,15 @@ import hashlib
 import os
 import re
 import sys
-import tempfile
 from collections.abc import Callable
 from functools import cache
-from importlib import resources
 from typing import Any
 
 from lark import Lark, Token, Transformer
 from lark import __version__ as LARK_VERSION
 from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedToken, VisitError
 
-from mplang.lang import ast
+from mplang.lang import ast, packagedata
 from mplang.lang.caches import user_cache_dir
 from mplang.lang.diagnostics import DiagnosticSink, Span, make_span
 from mplang.lang.limits import (
@@ -34,7 +32,6 @@ from mplang.lang.limits import (
     number_too_long,
     too_deep,
 )
-from mplang.lang.syntax_hints import character_hint, token_hint
 from mplang.lang.tokenizer import FastLexer, Refused
 
 PARSE_HOOKS: list[Callable[[str], object]] = []
@@ -293,6 +290,8 @@ def cached_lark(grammar: str, name: str, **options: Any) -> Lark:
         return Lark(grammar, parser="lalr", cache=str(target), **options)
     try:
         directory.mkdir(parents=True, exist_ok=True)
+        import tempfile  # only a run that builds the tables needs it
+
         descriptor, scratch = tempfile.mkstemp(dir=directory, prefix=".lark-", suffix=".tmp")
         os.close(descriptor)
         os.unlink(scratch)  # lark writes it when it has built the tables
@@ -305,7 +304,9 @@ def cached_lark(grammar: str, name: str, **options: Any) -> Lark:
 
 
 def _grammar() -> str:
-    return resources.files("mplang.grammar").joinpath("mplang.lark").read_text("utf-8")
+    """The grammar's text, read as the front-end key reads it (`packagedata`: a parse on a
+    front-cache miss loads neither `importlib.resources` nor `zipfile`)."""
+    return packagedata.read_text("mplang.grammar", "mplang.lark")
 
 
 @cache
@@ -345,6 +346,10 @@ def _describe_expected(expected: set[str]) -> str:
 
 def _report(err: UnexpectedInput, file: str, line_no: int, text: str,
             sink: DiagnosticSink) -> None:
+    """A syntax error's E101, with the hint `syntax_hints` has for the line (imported here:
+    it reads its TOML table, which a parse of text without an error never needs)."""
+    from mplang.lang.syntax_hints import character_hint, token_hint
+
     col = err.column if isinstance(err.column, int) and err.column > 0 else 1
     if isinstance(err, UnexpectedToken) and err.token.type in ("_NL", "$END"):
         col = len(text.rstrip()) + 1  # point just past the last character
