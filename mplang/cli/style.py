@@ -119,15 +119,18 @@ class SourceLines:
 
 
 _SEVERITY_COLOR = {Severity.ERROR: "red", Severity.WARNING: "yellow"}
+_SEVERITY_WORD = {severity: severity.value for severity in Severity}  # not through the enum
 
 
 def render_diagnostic(diagnostic: Diagnostic, sources: SourceLines, color: bool) -> str:
     """The gcc-style first line, then (rustc/ruff style) the source line with a caret range
     under the span, related notes and the hint. Built as one string, painted only with
-    `color`: a whole device's check renders thousands."""
+    `color`: a whole device's check renders thousands, so the plain text is made without
+    a call per part."""
     span = diagnostic.span
     tint = _SEVERITY_COLOR.get(diagnostic.severity, "cyan")
-    where, label = str(span), f"{diagnostic.severity.value}[{diagnostic.code}]"
+    where = f"{span.file}:{span.line}:{span.col}"  # str(span), without the call
+    label = f"{_SEVERITY_WORD[diagnostic.severity]}[{diagnostic.code}]"
     if color:
         where, label = _paint(where, color, bold=True), _paint(label, color, tint, True)
     out = f"{where}: {label}: {diagnostic.message}" + _excerpt(
@@ -138,7 +141,8 @@ def render_diagnostic(diagnostic: Diagnostic, sources: SourceLines, color: bool)
         out += _excerpt(related.file, related.line, related.col, related.end_col, sources,
                         color, "cyan")
     if diagnostic.hint:
-        out += f"\n    {_paint('hint', color, 'cyan', True)}: {diagnostic.hint}"
+        hint = _paint("hint", color, "cyan", True) if color else "hint"
+        out += f"\n    {hint}: {diagnostic.hint}"
     return out
 
 
@@ -149,7 +153,9 @@ def _excerpt(file: str, number: int, col: int, end_col: int | None, sources: Sou
     text = sources.line(file, number)
     if text is None:
         return ""
-    text = text.expandtabs(1).rstrip()  # one column a character, as spans count them
+    if "\t" in text:
+        text = text.expandtabs(1)  # one column a character, as spans count them
+    text = text.rstrip()
     if len(text) > 200:
         return ""  # a generated line: the excerpt would help no one
     start = col if col > 1 else 1
@@ -157,11 +163,12 @@ def _excerpt(file: str, number: int, col: int, end_col: int | None, sources: Sou
     end = min(end, max(len(text) + 1, start + 1))
     shown = str(number)
     gutter = " " * len(shown)
-    bar, carets = "|", "^" * (end - start)
     if color:
-        bar, shown = _paint(bar, color, "blue", True), _paint(shown, color, "blue", True)
-        carets = _paint(carets, color, tint, True)
-    return f"\n {gutter} {bar}\n {shown} {bar} {text}\n {gutter} {bar} {' ' * (start - 1)}{carets}"
+        bar, shown = _paint("|", color, "blue", True), _paint(shown, color, "blue", True)
+        carets = _paint("^" * (end - start), color, tint, True)
+        return f"\n {gutter} {bar}\n {shown} {bar} {text}\n {gutter} {bar} " \
+               f"{' ' * (start - 1)}{carets}"
+    return f"\n {gutter} |\n {shown} | {text}\n {gutter} | {' ' * (start - 1)}{'^' * (end - start)}"
 
 
 WERROR_REASON = "failed: warnings are errors here (--werror, or werror = true in mpc.toml)"

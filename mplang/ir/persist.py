@@ -7,20 +7,27 @@ It is found by a key of everything its lowering reads: the program's text (the l
 its header to its end, by number and file name) and the build's context
 (`reuse.lowering_context`: CONST values, ALIASes, placement, the programs' names, the
 options), with the caller's `salt` (the catalogue, the code that lowers, encodes and warns)
-and mpc's and Python's version (`caches.STAMP`). The key names the entry's file and heads it,
-and is compared before the entry is unpickled (`caches.load`). An entry is held flat
-(tuples of numbers and strings, each catalogue command as its index) and made into records
-again when read: that unpickles several times faster. Entries live in the user
-cache dir (`lowered/`), written under a fresh name and renamed into place, so builds side
-by side never read half of one; a damaged, truncated or foreign entry is a miss, lowered
-again and replaced. `--no-cache` and `MPLANG_CACHE=off` turn the store off with the other
-caches. The directory stays bounded: past `LIMIT` entries the oldest ones (by the time
-they were written) that this build did not use are deleted.
+and mpc's and Python's version (`caches.STAMP`). An entry is held flat (tuples of numbers
+and strings, each catalogue command as its index) and made into records again when read:
+that unpickles several times faster.
+
+The entries of one source file's programs live in one pack (`lowered/`, a file per source
+file and directory it is built from), read in one go at the file's first program: a full
+device is one file read, not 177 opened. A pack maps each entry's key to its pickle, and
+a program's entry is unpickled only when its key is there; a damaged pack, or entry, is a
+miss, lowered again. A build that made or changed an entry writes the file's pack again
+whole (the entries it used, the unchanged ones as the bytes it read, then up to as many
+of the earlier ones, so that undoing an edit finds them), under a fresh name renamed into
+place, so builds side by side never read half of one. `--no-cache` and `MPLANG_CACHE=off`
+turn the store off with the other caches. The directory stays bounded: past `LIMIT`
+packs the oldest ones (by the time they were written) that this build did not use are
+deleted.
 """
 
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import os
 import pickle
 from collections.abc import Callable, Hashable, Iterable
@@ -43,11 +50,11 @@ from mplang.ir.scope import Scope
 from mplang.lang import ast, caches
 from mplang.lang.diagnostics import Diagnostic, DiagnosticSink, Severity, Span, make_span
 
-FORMAT = "lowered 3"
+FORMAT = "lowered 4"
 """Part of every key: change it when what an entry holds changes shape."""
 
-LIMIT = 4096
-"""Entries kept at most (a full device is 177 programs; each edit adds one or a few)."""
+LIMIT = 512
+"""Packs kept at most: source files built, each holding its programs' entries."""
 
 
 def code_key(directories: Iterable[Path]) -> str:
@@ -215,6 +222,7 @@ class StoredLowerings(Lowerings):
         self._build_key: str | None = None
         self._commands: tuple[Command, ...] = ()
         self._keys: dict[bytes, Hashable] = {}  # derived values' keys, by their pickle
+        self._packs: dict[str, dict[str, bytes]] = {}  # each file's pack, as read
         self._used: list[tuple[str, Lowered, dict[str, Hashable] | None]] = []
 
     def start(self, context: Context) -> None:
@@ -228,7 +236,7 @@ class StoredLowerings(Lowerings):
         key = self._key(program, scope)
         loaded: dict[str, Hashable] | None = None
         if key is not None and self.recall(program.span) is None:
-            found = self._load(key, program)
+            found = self._load(key, program, self._pack(program.span.file))
             if found is not None:
                 self.keep(found)
                 loaded = _derived_keys(found)
@@ -255,43 +263,71 @@ class StoredLowerings(Lowerings):
         return caches.digest(self._build_key, program.span.file, str(first),
                              "\n".join(lines[first - 1:last]))
 
-    def _load(self, key: str, program: ast.Program) -> Lowered | None:
+    def _pack(self, file: str) -> dict[str, bytes]:
+        """The pack of `file`'s programs, read at its first program ({} when absent or
+        damaged: every program of the file is then lowered)."""
+        pack = self._packs.get(file)
+        if pack is None:
+            pack = self._packs[file] = read_pack(self._pack_path(file)) or {}
+        return pack
+
+    def _pack_path(self, file: str) -> Path:
+        """Where `file`'s pack lives: named by the file as diagnostics show it and the
+        directory it is built from (two projects' `main.mp` apart)."""
+        name = hashlib.sha256(f"{os.getcwd()}\0{file}".encode("utf-8", "surrogatepass")
+                              ).hexdigest()[:32]
+        return self.directory / f"{name}.pack"
+
+    def _load(self, key: str, program: ast.Program, pack: dict[str, bytes]
+              ) -> Lowered | None:
         """The entry stored under `key`, as `program`'s lowering; None when absent or
         unreadable."""
-        found = caches.load(self.directory / f"{key}.pickle", key)
-        if found is None:
+        held = pack.get(key)
+        if held is None:
             return None
         try:
-            return _entry_in(found, program, self._commands, self._keys)
+            return _entry_in(pickle.loads(held), program, self._commands, self._keys)
         except Exception:  # a damaged entry of the right key: lowered again
             return None
 
     def save(self) -> None:
-        """Write the entries this build made, or gave a derived value they lacked; then
-        keep the store within `LIMIT`. Silently nothing where the directory cannot be
-        written."""
+        """Write again the pack of each file where this build made an entry, or gave one a
+        derived value it lacked; then keep the store within `LIMIT`. Silently nothing where
+        the directory cannot be written."""
         index = {id(command): n for n, command in enumerate(self._commands)}
-        wrote = False
+        made: dict[str, dict[str, bytes]] = {}  # each file's entries this build used
+        changed: set[str] = set()
         for key, entry, loaded in self._used:
+            file = entry.program.span.file
+            entries = made.setdefault(file, {})
             if loaded is not None and loaded == _derived_keys(entry):
+                entries[key] = self._pack(file)[key]  # as read: not pickled again
                 continue
             try:
-                flat = _entry_out(entry, index)
+                entries[key] = pickle.dumps(_entry_out(entry, index), pickle.HIGHEST_PROTOCOL)
             except (_Unstorable, KeyError):  # an operand or command of another kind
                 continue
-            caches.store(self.directory / f"{key}.pickle", key, flat)
-            wrote = True
-        if wrote:
-            self._evict({f"{key}.pickle" for key, _, _ in self._used})
+            changed.add(file)
+        for file in changed:
+            entries = made[file]
+            kept = len(entries)
+            for key, held in self._pack(file).items():  # earlier ones, up to as many again
+                if len(entries) >= 2 * kept:
+                    break
+                entries.setdefault(key, held)
+            caches.store(self._pack_path(file), PACK_KEY, entries)
+        if changed:
+            self._evict({self._pack_path(file).name for file in made})
 
     def _evict(self, used: set[str]) -> None:
-        """Past `LIMIT` entries, delete the oldest this build did not use, down to three
+        """Past `LIMIT` packs, delete the oldest this build did not use, down to three
         quarters of it (so that not every build past the limit deletes). The scratch files
-        of writers that never renamed theirs (killed) count as entries: they go as old."""
+        of writers that never renamed theirs (killed), and the entries of an earlier mpc
+        (one file each), count as packs: they go as old."""
         try:
             with os.scandir(self.directory) as found:
                 entries = [(e.stat().st_mtime_ns, e.name) for e in found
-                           if e.name.endswith((".pickle", ".tmp"))]
+                           if e.name.endswith((".pack", ".pickle", ".tmp"))]
         except OSError:
             return
         if len(entries) <= LIMIT:
@@ -301,6 +337,20 @@ class StoredLowerings(Lowerings):
             if name not in used:
                 with contextlib.suppress(OSError):
                     os.unlink(self.directory / name)
+
+
+PACK_KEY = caches.digest(FORMAT)
+"""The key heading every pack: a pack of another format, mpc or Python is not unpickled."""
+
+
+def read_pack(path: Path) -> dict[str, bytes] | None:
+    """The entries of the pack at `path` (each key's pickle), or None when it is absent,
+    damaged or of another format."""
+    found = caches.load(path, PACK_KEY)
+    if not isinstance(found, dict) or not all(
+            type(key) is str and type(held) is bytes for key, held in found.items()):
+        return None
+    return found
 
 
 def _derived_keys(entry: Lowered) -> dict[str, Hashable]:

@@ -15,17 +15,16 @@ import hashlib
 import os
 import re
 import sys
-import tempfile
 from collections.abc import Callable
 from functools import cache
-from importlib import resources
+from pathlib import Path
 from typing import Any
 
 from lark import Lark, Token, Transformer
 from lark import __version__ as LARK_VERSION
 from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedToken, VisitError
 
-from mplang.lang import ast
+from mplang.lang import ast, packagedata
 from mplang.lang.caches import user_cache_dir
 from mplang.lang.diagnostics import DiagnosticSink, Span, make_span
 from mplang.lang.limits import (
@@ -34,7 +33,6 @@ from mplang.lang.limits import (
     number_too_long,
     too_deep,
 )
-from mplang.lang.syntax_hints import character_hint, token_hint
 from mplang.lang.tokenizer import FastLexer, Refused
 
 PARSE_HOOKS: list[Callable[[str], object]] = []
@@ -282,17 +280,28 @@ def cached_lark(grammar: str, name: str, **options: Any) -> Lark:
 
     Lark checks the file against a hash of the grammar, its options and its own version and
     builds the tables when they differ or the file is damaged. It is written under a fresh
-    name and renamed into place, so a concurrent run never reads half of one."""
+    name and renamed into place, so a concurrent run never reads half of one. Beside it the
+    parser as lark made it is kept pickled (`_thaw`): read back three times as fast as lark
+    deserialises its tables, which is most of the parse of an edited line on a build."""
     directory = user_cache_dir()
     if directory is None:
         return Lark(grammar, parser="lalr", **options)
     key = hashlib.sha256(f"{grammar}\0{name}\0{LARK_VERSION}\0{sys.version_info[:2]}"
                          .encode()).hexdigest()[:20]
     target = directory / f"lark-{name}-{key}.pickle"
+    state = directory / f"lark-{name}-{key}.state"
+    state_key = _state_key(grammar, name, options)
+    thawed = _thaw(state, state_key, options.get("transformer"))
+    if thawed is not None:
+        return thawed
     if target.is_file():
-        return Lark(grammar, parser="lalr", cache=str(target), **options)
+        lark = Lark(grammar, parser="lalr", cache=str(target), **options)
+        _freeze(lark, state, state_key, options.get("transformer"))
+        return lark
     try:
         directory.mkdir(parents=True, exist_ok=True)
+        import tempfile  # only a run that builds the tables needs it
+
         descriptor, scratch = tempfile.mkstemp(dir=directory, prefix=".lark-", suffix=".tmp")
         os.close(descriptor)
         os.unlink(scratch)  # lark writes it when it has built the tables
@@ -301,11 +310,101 @@ def cached_lark(grammar: str, name: str, **options: Any) -> Lark:
     lark = Lark(grammar, parser="lalr", cache=scratch, **options)
     with contextlib.suppress(OSError):  # lark could not write it: built all the same
         os.replace(scratch, target)
+    _freeze(lark, state, state_key, options.get("transformer"))
+    return lark
+
+
+def _state_key(grammar: str, name: str, options: dict[str, Any]) -> str:
+    """What a pickled parser depends on: the grammar, lark's version, the options but the
+    transformer (given again when read) and the front end's code (the lexer's state is in
+    it: `frontcache.front_end_key` holds the tokenizer's and this module's source)."""
+    from mplang.lang import caches
+    from mplang.lang.frontcache import front_end_key
+
+    shown = sorted((k, repr(v)) for k, v in options.items() if k != "transformer")
+    return caches.digest("lark state 1", front_end_key(), grammar, name, LARK_VERSION,
+                         repr(shown))
+
+
+def _freeze(lark: Lark, path: Path, key: str, transformer: Transformer[Any, Any] | None
+            ) -> None:
+    """Keep `lark` pickled at `path` under `key`: its callbacks (lambdas lark makes from
+    the transformer) and the transformer left out, lark's Shift and Reduce (compared by
+    identity) and modules by name; silently nothing when it cannot."""
+    import io
+    import pickle
+    import types
+
+    from lark.parsers.lalr_analysis import Reduce, Shift
+
+    from mplang.lang import caches
+
+    named = {id(Shift): "Shift", id(Reduce): "Reduce", id(lark._callbacks): "callbacks",
+             id(lark._parse_tree_builder): "tree"}
+    if transformer is not None:
+        named[id(transformer)] = "transformer"
+
+    class _Pickler(pickle.Pickler):
+        def persistent_id(self, obj: Any) -> object:
+            name = named.get(id(obj))
+            if name is not None:
+                return name
+            if isinstance(obj, types.ModuleType):
+                return ("module", obj.__name__)
+            return None
+
+    stream = io.BytesIO()
+    try:
+        _Pickler(stream, protocol=pickle.HIGHEST_PROTOCOL).dump(lark)
+    except Exception:  # a lark that holds what cannot be pickled: lark's cache serves
+        return
+    caches.store(path, key, stream.getvalue())
+
+
+def _thaw(path: Path, key: str, transformer: Transformer[Any, Any] | None) -> Lark | None:
+    """The parser `_freeze` kept at `path` under `key`, its callbacks made again for
+    `transformer` (as lark makes them when it loads its tables); None when absent, damaged
+    or of another key."""
+    import importlib
+    import io
+    import pickle
+
+    from lark.parsers.lalr_analysis import Reduce, Shift
+
+    from mplang.lang import caches
+
+    held = caches.load(path, key)
+    if type(held) is not bytes:
+        return None
+    callbacks: dict[str, Any] = {}
+    known = {"Shift": Shift, "Reduce": Reduce, "transformer": transformer,
+             "callbacks": callbacks, "tree": None}
+
+    class _Unpickler(pickle.Unpickler):
+        def persistent_load(self, pid: Any) -> object:
+            if type(pid) is str and pid in known:
+                return known[pid]
+            if type(pid) is tuple and len(pid) == 2 and pid[0] == "module":
+                return importlib.import_module(pid[1])
+            raise pickle.UnpicklingError(f"unknown persistent id {pid!r}")
+
+    try:
+        lark = _Unpickler(io.BytesIO(held)).load()
+        if not isinstance(lark, Lark):
+            return None
+        lark.options.transformer = transformer
+        lark._prepare_callbacks()  # the callbacks lark's own load makes
+        callbacks.update(lark._callbacks)  # the one dict the parser's state shares
+        lark._callbacks = callbacks
+    except Exception:
+        return None
     return lark
 
 
 def _grammar() -> str:
-    return resources.files("mplang.grammar").joinpath("mplang.lark").read_text("utf-8")
+    """The grammar's text, read as the front-end key reads it (`packagedata`: a parse on a
+    front-cache miss loads neither `importlib.resources` nor `zipfile`)."""
+    return packagedata.read_text("mplang.grammar", "mplang.lark")
 
 
 @cache
@@ -345,6 +444,10 @@ def _describe_expected(expected: set[str]) -> str:
 
 def _report(err: UnexpectedInput, file: str, line_no: int, text: str,
             sink: DiagnosticSink) -> None:
+    """A syntax error's E101, with the hint `syntax_hints` has for the line (imported here:
+    it reads its TOML table, which a parse of text without an error never needs)."""
+    from mplang.lang.syntax_hints import character_hint, token_hint
+
     col = err.column if isinstance(err.column, int) and err.column > 0 else 1
     if isinstance(err, UnexpectedToken) and err.token.type in ("_NL", "$END"):
         col = len(text.rstrip()) + 1  # point just past the last character

@@ -85,6 +85,8 @@ def test_lint_parses_with_lark_on_a_miss_and_without_it_on_a_hit(tmp_path: Path)
     source = _source(tmp_path)
     first = _modules_after("lint", str(source), cwd=tmp_path)
     assert "lark" in first and "mplang.lang.parser" in first
+    # the grammar is read from the package's directory, as the front-end key reads it
+    assert _loaded(first, ("importlib.resources", "zipfile")) == []
     again = _modules_after("lint", str(source), cwd=tmp_path)
     assert "mplang.lang.frontcache" in again
     assert _loaded(again, (*NEVER_FOR_A_BUILD, *NEVER_ON_A_HIT, "mplang.lang.parser",

@@ -64,6 +64,27 @@ def test_excerpt_is_left_out_where_the_source_cannot_be_read() -> None:
     assert shown.splitlines()[1:] == ["   |", " 2 |  A B", "   |    ^", "    hint: h"]
 
 
+def test_plain_rendering_is_the_painted_one_without_its_colour_codes() -> None:
+    """The plain text (a whole device's warnings) is made on a path of its own: it says
+    exactly what the painted text says, for every part a diagnostic can have."""
+    import click
+
+    known = style.SourceLines({"a.mp": ["MP 1 x", "\tSET_V X, 1   ", "  " + "A" * 210,
+                                        "  VAR1 = 2"]})
+    cases = [
+        Diagnostic("W103", Severity.WARNING, "read first", Span("a.mp", 2, 2, 7), hint="h"),
+        Diagnostic("E101", Severity.ERROR, "m", Span("a.mp", 4, 3, None),
+                   related=((Span("a.mp", 2, 9, 30), "there"), (Span("b.mp", 1, 1), "gone"))),
+        Diagnostic("W2", Severity.WARNING, "long", Span("a.mp", 3, 0, 2)),
+        Diagnostic("W1", Severity.WARNING, "past the end", Span("a.mp", 4, 40, 44)),
+    ]
+    for diagnostic in cases:
+        plain = style.render_diagnostic(diagnostic, known, False)
+        painted = style.render_diagnostic(diagnostic, known, True)
+        assert plain == click.unstyle(painted) and plain != painted
+    assert style.render_diagnostic(cases[0], known, False).splitlines()[2] == " 2 |  SET_V X, 1"
+
+
 def test_colour_follows_color_option_and_no_color(tmp_path: Path) -> None:
     bad = write(tmp_path, "bad.mp", UNKNOWN_NAME)
     _, out, err = run("--color", "always", "lint", bad)

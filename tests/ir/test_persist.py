@@ -1,12 +1,14 @@
 """Lowerings kept on disk between runs (mplang.ir.persist): a build that reads them gives
 exactly what a build with every cache off gives, after any sequence of edits, in process
-and as `mpc build` processes; an edit of one program writes that program's entry alone;
-damaged, truncated and foreign entries are ignored and made again; the store stays
-bounded. Entries are told by their files, never by time."""
+and as `mpc build` processes; an edit of one program makes that program's entry alone (its
+file's pack written again, the others' entries byte for byte as they were); damaged,
+truncated and foreign packs and entries are ignored and made again; the store stays
+bounded. Entries are told by their packs' contents, never by time."""
 
 from __future__ import annotations
 
 import os
+import pickle
 import subprocess
 import sys
 from pathlib import Path
@@ -39,10 +41,17 @@ def _stored(path: Path, text: str) -> BuildResult:
     return compile_paths([path], texts={path: text})
 
 
-def _entries(cache: Path) -> set[str]:
+def _packs(cache: Path) -> dict[str, dict[str, bytes]]:
+    """Each pack's entries, by the pack's name."""
     folder = cache / "lowered"
-    return {p.name for p in folder.iterdir() if p.suffix == ".pickle"} if folder.is_dir() \
-        else set()
+    found = {p.name: persist.read_pack(p) for p in folder.glob("*.pack")} \
+        if folder.is_dir() else {}
+    return {name: pack for name, pack in found.items() if pack is not None}
+
+
+def _entries(cache: Path) -> set[str]:
+    """The keys of every entry kept."""
+    return {key for pack in _packs(cache).values() for key in pack}
 
 
 @pytest.fixture
@@ -73,9 +82,15 @@ def test_an_edit_writes_the_entry_of_the_program_it_changed_alone(tmp_path: Path
     assert len(before) == 3
     assert seen(_stored(path, THREE)) == first
     assert _entries(cache_dir) == before
+    (kept,) = _packs(cache_dir).values()
     edited = THREE.replace("VAR1 = 5", "VAR1 = 6")
     assert seen(_stored(path, edited)) == seen(_fresh(path, edited))
     assert len(_entries(cache_dir) - before) == 1
+    (pack,) = _packs(cache_dir).values()  # one file, one pack, written again
+    assert set(pack) >= before  # the entry before the edit is kept, to undo it
+    assert sum(pack[key] == held for key, held in kept.items()) == 3
+    assert seen(_stored(path, THREE)) == first  # undone: nothing to write
+    assert _packs(cache_dir) == {name: pack for name in _packs(cache_dir)}
     # a CONST is read by every program: changing it makes every entry again
     again = THREE.replace("2000", "2500")
     now = _entries(cache_dir)
@@ -92,7 +107,7 @@ def test_caches_off_writes_no_entry(tmp_path: Path, cache_dir: Path,
 
 
 @pytest.mark.parametrize("damage", ["truncated", "garbage", "foreign", "empty", "shape",
-                                    "command"])
+                                    "command", "entry", "entries"])
 def test_a_damaged_entry_is_ignored_and_made_again(tmp_path: Path, cache_dir: Path,
                                                    damage: str) -> None:
     path = tmp_path / "three.mp"
@@ -110,11 +125,18 @@ def test_a_damaged_entry_is_ignored_and_made_again(tmp_path: Path, cache_dir: Pa
         elif damage == "empty":
             entry.write_bytes(b"")
         elif damage == "shape":  # the right key over a value of another shape
-            caches.store(entry, head.decode(), {"not": "an entry"})
+            caches.store(entry, head.decode(), {"not": "a pack"})
+        elif damage == "entries":  # a pack of entries not of an entry's shape
+            caches.store(entry, head.decode(), {key: pickle.dumps({"not": "an entry"})
+                                                for key in persist.read_pack(entry) or {}})
+        elif damage == "entry":  # each entry cut short in a pack that reads
+            caches.store(entry, head.decode(), {key: held[:len(held) // 2] for key, held
+                                                in (persist.read_pack(entry) or {}).items()})
         else:  # a catalogue command that does not exist
             at = ("three.mp", 2, 1, None)
-            caches.store(entry, head.decode(), (("mp", 1, "first", "three.mp", at, at,
-                                                 [(99_999, (), at)], []), [], {}))
+            flat = (("mp", 1, "first", "three.mp", at, at, [(99_999, (), at)], []), [], {})
+            caches.store(entry, head.decode(), {key: pickle.dumps(flat) for key
+                                                in persist.read_pack(entry) or {}})
     damaged = {p.name: p.read_bytes() for p in (cache_dir / "lowered").iterdir()}
     assert seen(_stored(path, THREE)) == expected
     remade = {p.name: p.read_bytes() for p in (cache_dir / "lowered").iterdir()}
@@ -129,18 +151,23 @@ def test_the_store_stays_bounded(tmp_path: Path, cache_dir: Path,
     monkeypatch.setattr(persist, "LIMIT", 8)
     path = tmp_path / "three.mp"
     (cache_dir / "lowered").mkdir(parents=True)
-    for number in range(6):  # left by writers killed before they renamed them
-        (cache_dir / "lowered" / f".left{number}.tmp").write_bytes(b"half")
-        os.utime(cache_dir / "lowered" / f".left{number}.tmp", (1, 1))
-    for number in range(12):
+    for number in range(6):  # left by writers killed before they renamed them, and
+        # an earlier mpc's entries
+        for name in (f".left{number}.tmp", f"{number}.pickle"):
+            (cache_dir / "lowered" / name).write_bytes(b"half")
+            os.utime(cache_dir / "lowered" / name, (1, 1))
+    for number in range(12):  # a pack each file; a pack holds at most twice its programs
         text = THREE.replace("VAR1 = 5", f"VAR1 = {number}").replace("300", f"3{number}")
-        assert seen(_stored(path, text)) == seen(_fresh(path, text))
-        assert len(_entries(cache_dir)) <= 8
+        for each in (path, tmp_path / f"other{number}.mp"):
+            assert seen(_stored(each, text)) == seen(_fresh(each, text))
+        assert len(list((cache_dir / "lowered").iterdir())) <= 8
+        assert all(len(pack) <= 6 for pack in _packs(cache_dir).values())
     assert not list((cache_dir / "lowered").glob("*.tmp"))
+    assert not list((cache_dir / "lowered").glob("*.pickle"))
     # what the last build used is kept: building it again writes nothing
-    kept = _entries(cache_dir)
+    kept = {p.name: p.read_bytes() for p in (cache_dir / "lowered").iterdir()}
     _stored(path, text)
-    assert _entries(cache_dir) == kept
+    assert {p.name: p.read_bytes() for p in (cache_dir / "lowered").iterdir()} == kept
 
 
 def _mpc(cwd: Path, cache: Path, *args: str) -> subprocess.CompletedProcess[bytes]:

@@ -13,6 +13,7 @@ from click.testing import CliRunner
 from mplang.cli import main
 from mplang.ir import catalogue
 from mplang.lang import caches, frontcache, parser
+from mplang.lang.diagnostics import DiagnosticSink
 from mplang.m8194h.compiler import compile_paths
 
 MAIN = 'INCLUDE "a.mp"\nINCLUDE "b.mp"\nMP 1\n  X_SPEED = A + B\nEND MP\n'
@@ -192,3 +193,42 @@ def test_an_unwritable_lark_table_cache_only_costs_time(tmp_path: Path,
     monkeypatch.setenv("MPLANG_CACHE", str(blocker / "cache"))
     built = parser.cached_lark(parser._grammar(), "nowhere", start="start")
     assert built.parse("MP 1\nEND MP\n").data == "start"
+
+
+def test_the_kept_parser_parses_as_lark_builds_it(cache_dir: Path) -> None:
+    """The fast parser kept pickled (`parser._freeze`) and read back by a later run gives
+    the statements, spans and all, that a parser lark builds with every cache off."""
+    text = "\n".join((Path(__file__).parents[2] / "samples" / name).read_text("utf-8")
+                     for name in ("pick_and_place.mp", "machine.mp", "expressions.mp"))
+    parser._fast_parser.cache_clear()
+    try:
+        parser._fast_parser()  # builds the tables, keeps them and the parser
+        (state,) = cache_dir.glob("lark-fast-*.state")
+        parser._fast_parser.cache_clear()
+        thawed, _ = parser._fast_parser()
+        assert type(thawed.parser.lexer) is parser.FastLexer
+        # read back from the kept parser: lark's own cache would have made it anew
+        assert thawed.source_path != "<deserialized>"
+        assert thawed._callbacks is thawed.parser.parser.parser.callbacks
+        kept = parser.parse_text(text, "s.mp", DiagnosticSink())
+        caches.turn_off(True)
+        parser._fast_parser.cache_clear()
+        assert parser.parse_text(text, "s.mp", DiagnosticSink()) == kept
+        assert parser._fast_parser()[0] is not thawed
+    finally:
+        caches.turn_off(False)
+        parser._fast_parser.cache_clear()
+    assert state.is_file()
+
+
+@pytest.mark.parametrize("damage", [b"", b"damaged", None])
+def test_a_damaged_kept_parser_is_made_again(cache_dir: Path, damage: bytes | None) -> None:
+    grammar = parser._grammar()
+    parser.cached_lark(grammar, "kept", start="start")
+    (state,) = cache_dir.glob("lark-kept-*.state")
+    good = state.read_bytes()
+    damaged = good[:len(good) // 2] if damage is None else damage
+    state.write_bytes(damaged)
+    again = parser.cached_lark(grammar, "kept", start="start")
+    assert again.parse("MP 1\nEND MP\n").data == "start"
+    assert state.read_bytes() not in (damaged, b"")  # kept again, whole
