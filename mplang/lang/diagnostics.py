@@ -130,6 +130,31 @@ _SAME_KEY = attrgetter("code", "span.file", "span.line", "span.col", "span.end_c
 tuple read and hashed in C (equal exactly when code, `Span` and message are)."""
 
 
+class Run(list[Diagnostic]):
+    """Diagnostics a build keeps for the next (a program's, as lowered or as a back end
+    judged it), added to later builds' sinks whole: its sink keys are made once, on its
+    first `DiagnosticSink.extend`. Never changed once made (`keys` checks its length)."""
+
+    __slots__ = ("_keys",)
+
+    def __init__(self, diagnostics: Iterable[Diagnostic] = ()) -> None:
+        super().__init__(diagnostics)
+        self._keys: tuple[int, frozenset[tuple[str, str, int, int, int | None, str]]] | None \
+            = None
+
+    def keys(self) -> frozenset[tuple[str, str, int, int, int | None, str]] | None:
+        """What a sink tells these diagnostics apart by; None when two of them are the same
+        one (the run then enters one by one, as `add` would take it)."""
+        made = self._keys
+        if made is None or made[0] != len(self):
+            made = (len(self), frozenset(map(_SAME_KEY, self)))
+            self._keys = made
+        return made[1] if len(made[1]) == made[0] else None
+
+    def __reduce__(self) -> tuple[type[Run], tuple[list[Diagnostic]]]:
+        return (Run, (list(self),))  # the keys are made again where it is loaded
+
+
 class DiagnosticSink:
     """Collects diagnostics; the compiler never stops at the first problem."""
 
@@ -147,8 +172,15 @@ class DiagnosticSink:
 
     def extend(self, diagnostics: Iterable[Diagnostic]) -> None:
         """Add diagnostics an earlier build made (the part of it an edit left alone), the
-        same objects, each once as `add` would."""
+        same objects, each once as `add` would. A `Run` none of whose diagnostics the sink
+        holds yet enters whole, its keys made and hashed when it was first added."""
         seen, items = self._seen, self.items
+        if type(diagnostics) is Run:
+            keys = diagnostics.keys()
+            if keys is not None and keys.isdisjoint(seen):
+                seen |= keys  # a set's stored hashes: nothing hashed again
+                items += diagnostics
+                return
         for diagnostic in diagnostics:
             count = len(seen)
             seen.add(_SAME_KEY(diagnostic))  # hashed once

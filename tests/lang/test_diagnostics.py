@@ -8,7 +8,7 @@ import pickle
 
 import pytest
 
-from mplang.lang.diagnostics import Diagnostic, DiagnosticSink, Severity, Span
+from mplang.lang.diagnostics import Diagnostic, DiagnosticSink, Run, Severity, Span
 
 # Made by the `@dataclass(frozen=True)` Diagnostic, from `_sample()` below.
 DATACLASS_PICKLE_5 = bytes.fromhex(
@@ -93,3 +93,43 @@ def test_a_span_with_and_without_an_end_column_are_two_places() -> None:
     sink.add("E202", Span("a.mp", 2, 7, 9), "m")
     sink.extend([Diagnostic("E202", Severity.ERROR, "m", Span("a.mp", 2, 7, 9))])
     assert [d.span.end_col for d in sink.items] == [None, 9]
+
+
+def _run(*lines: int) -> Run:
+    return Run(Diagnostic("W103", Severity.WARNING, "m", Span("a.mp", n)) for n in lines)
+
+
+def test_a_run_enters_whole_and_each_diagnostic_once() -> None:
+    """A kept run enters a sink as `add` would take its diagnostics one by one: whole when
+    the sink holds none of them, else without those it holds (or that it holds twice)."""
+    run = _run(1, 2, 3)
+    fresh = DiagnosticSink()
+    fresh.extend(run)
+    assert fresh.items == list(run) and all(a is b for a, b in zip(fresh.items, run, strict=True))
+    fresh.extend(run)  # its keys made once, and now all in the sink
+    assert len(fresh.items) == 3
+    overlapping = DiagnosticSink()
+    overlapping.add("W103", Span("a.mp", 2), "m")
+    overlapping.extend(run)
+    assert [d.span.line for d in overlapping.items] == [2, 1, 3]
+    twice = DiagnosticSink()
+    twice.extend(_run(4, 4, 5))
+    assert [d.span.line for d in twice.items] == [4, 5]
+    after = DiagnosticSink()
+    after.extend(run)
+    after.add("W103", Span("a.mp", 1), "m")  # a later `add` sees what the run brought
+    assert len(after.items) == 3
+
+
+def test_a_run_s_keys_follow_its_diagnostics() -> None:
+    """Keys made before the run grew are not taken for it: a sink that holds the added one
+    does not get it twice."""
+    run = _run(1)
+    DiagnosticSink().extend(run)  # its keys made
+    run.append(_run(7)[0])
+    sink = DiagnosticSink()
+    sink.add("W103", Span("a.mp", 7), "m")
+    sink.extend(run)
+    assert [d.span.line for d in sink.items] == [7, 1]
+    copied = pickle.loads(pickle.dumps(run))
+    assert type(copied) is Run and copied == run
