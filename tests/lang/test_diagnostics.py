@@ -5,6 +5,7 @@ pickled syntax diagnostics, so an entry written before still loads as the same v
 from __future__ import annotations
 
 import pickle
+from collections.abc import Callable
 
 import pytest
 
@@ -121,15 +122,34 @@ def test_a_run_enters_whole_and_each_diagnostic_once() -> None:
     assert len(after.items) == 3
 
 
-def test_a_run_s_keys_follow_its_diagnostics() -> None:
-    """Keys made before the run grew are not taken for it: a sink that holds the added one
-    does not get it twice."""
-    run = _run(1)
-    DiagnosticSink().extend(run)  # its keys made
-    run.append(_run(7)[0])
-    sink = DiagnosticSink()
-    sink.add("W103", Span("a.mp", 7), "m")
-    sink.extend(run)
-    assert [d.span.line for d in sink.items] == [7, 1]
+@pytest.mark.parametrize("change", [
+    lambda run: run.append(_run(7)[0]), lambda run: run.__setitem__(0, _run(7)[0]),
+    lambda run: run.__delitem__(0), lambda run: run.sort(), lambda run: run.__iadd__(run),
+    lambda run: run.clear(), lambda run: run.pop()])
+def test_a_run_s_keys_cannot_go_stale(change: Callable[[Run], object]) -> None:
+    """Its keys are made once: a run refuses every change, so they hold what it holds."""
+    run = _run(1, 2)
+    DiagnosticSink().extend(run)
+    with pytest.raises(TypeError, match="not changed"):
+        change(run)
+    assert [d.span.line for d in run] == [1, 2] and run.keys() is not None
     copied = pickle.loads(pickle.dumps(run))
     assert type(copied) is Run and copied == run
+
+
+def test_sorted_with_runs_is_sorted_as_one_by_one() -> None:
+    """A sink that took runs whole sorts as one that took each diagnostic by `add`: by
+    sort key, stably; a run's keys are its diagnostics' as they are when sorted."""
+    later, first = _run(9, 3), _run(5, 1)
+    sink = DiagnosticSink()
+    sink.add("E202", Span("a.mp", 4), "m")
+    sink.extend(later)
+    sink.extend(Run())
+    sink.add("E202", Span("a.mp", 3), "m")
+    sink.extend(first)
+    expected = sorted(sink.items, key=Diagnostic.sort_key)
+    assert sink.sorted() == expected and [d.span.line for d in expected] == [1, 3, 3, 4, 5, 9]
+    moved = sink.items.pop(1)  # the sink's list changed: a run no longer where it entered
+    sink.items.append(moved)
+    assert sink.sorted() == expected
+    assert [d.span.line for d in sink.sorted()] == [1, 3, 3, 4, 5, 9]
