@@ -91,9 +91,8 @@ class LoweredProgram(Record):
         self.end_span = end_span
         self.lines = [] if lines is None else lines
         self.calls = [] if calls is None else calls
-
-    # (the lines list, its length, what its lines cost): not a field, never compared
-    _cost: tuple[list[MacroLine], int, int] | None = None
+        # not a field, never compared: (the lines list, its length, what its lines cost)
+        self._cost: tuple[list[MacroLine], int, int] | None = None
 
     def lines_used(self, close_counts: bool) -> int:
         """The device lines the program takes. Summed once per lines list and length: a
