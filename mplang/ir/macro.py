@@ -91,9 +91,27 @@ class LoweredProgram(Record):
         self.end_span = end_span
         self.lines = [] if lines is None else lines
         self.calls = [] if calls is None else calls
+        # not a field, never compared: (the lines list, its length, what its lines cost)
+        self._cost: tuple[list[MacroLine], int, int] | None = None
 
     def lines_used(self, close_counts: bool) -> int:
-        return sum(line.command.line_cost for line in self.lines) + (1 if close_counts else 0)
+        """The device lines the program takes. Summed once per lines list and length: a
+        program kept between an editor's builds is linked every build, its lines the
+        same; later passes only add lines (interrupt wiring), which changes the length."""
+        lines, cost = self.lines, self._cost
+        if cost is None or cost[0] is not lines or cost[1] != len(lines):
+            cost = self._cost = (lines, len(lines),
+                                 sum(line.command.line_cost for line in lines))
+        return cost[2] + (1 if close_counts else 0)
+
+    def copied(self) -> LoweredProgram:
+        """A copy for one build, with its own lists (later passes add lines and set the
+        slot) and the cost of its lines as summed for this one (every field of
+        `LoweredProgram`, written out: `dataclasses.replace` costs ten times as much)."""
+        made = LoweredProgram(self.kind, self.slot, self.name, self.source, self.span,
+                              self.end_span, list(self.lines), list(self.calls))
+        made._cost = (made.lines, len(made.lines), self.lines_used(False))
+        return made
 
     @property
     def label(self) -> str:

@@ -35,7 +35,7 @@ from mplang.ir.blockmemo import Statement, Statements, derived_for
 from mplang.ir.macro import CallSite, LoweredProgram, MacroLine
 from mplang.ir.scope import Scope
 from mplang.lang import ast
-from mplang.lang.diagnostics import Diagnostic, DiagnosticSink, Span, make_span
+from mplang.lang.diagnostics import Diagnostic, DiagnosticSink, Run, Span, make_span
 from mplang.lang.structure import BlockMemo
 
 _NAMES_A_LINE = re.compile(r"\blines? \d|:\d")
@@ -73,7 +73,7 @@ class _Shift:
         anything else holds no line (frames, the programs a program names)."""
         if isinstance(value, list) and value and all(isinstance(d, Diagnostic)
                                                      for d in value):
-            return [self.diagnostic(d) for d in value]
+            return Run(map(self.diagnostic, value))
         return value
 
 
@@ -120,7 +120,7 @@ class Lowered:
                     [MacroLine(line.command, line.operands, shift.span(line.span))
                      for line in result.lines],
                     [CallSite(call.target, shift.span(call.span)) for call in result.calls])
-            made = Lowered(program, result, [shift.diagnostic(d) for d in self.diagnostics],
+            made = Lowered(program, result, Run(map(shift.diagnostic, self.diagnostics)),
                            {kind: (key, shift.derived(value))
                             for kind, (key, value) in self.derived.items()})
         except _Unmovable:
@@ -131,14 +131,8 @@ class Lowered:
         return made
 
     def copy(self) -> LoweredProgram | None:
-        """The lowered program for one build: later passes add lines (interrupt wiring) and
-        set the slot (the linker), so each build gets its own lists and fields (every field
-        of `LoweredProgram`, written out: `dataclasses.replace` costs ten times as much)."""
-        kept = self.result
-        if kept is None:
-            return None
-        return LoweredProgram(kept.kind, kept.slot, kept.name, kept.source, kept.span,
-                              kept.end_span, list(kept.lines), list(kept.calls))
+        """The lowered program for one build (`LoweredProgram.copied`)."""
+        return None if self.result is None else self.result.copied()
 
 
 Context = tuple[object, ...]
@@ -197,7 +191,7 @@ class Lowerings:
                 result = lower(statements)
             finally:
                 scope.sink = shared
-            kept = Lowered(program, result, own.items, statements=statements)
+            kept = Lowered(program, result, Run(own.items), statements=statements)
         self._now[program.span] = kept
         sink.extend(kept.diagnostics)
         copy = kept.copy()

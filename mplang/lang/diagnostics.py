@@ -10,6 +10,7 @@ from __future__ import annotations
 import re
 from collections.abc import Iterable
 from operator import attrgetter
+from typing import NoReturn
 
 from mplang.lang.record import FrozenRecord
 from mplang.lang.rules import RULES
@@ -130,12 +131,48 @@ _SAME_KEY = attrgetter("code", "span.file", "span.line", "span.col", "span.end_c
 tuple read and hashed in C (equal exactly when code, `Span` and message are)."""
 
 
+class Run(list[Diagnostic]):
+    """Diagnostics a build keeps for the next (a program's, as lowered or as a back end
+    judged it), added to later builds' sinks whole: its sink keys and sort keys are made
+    once, on its first build. A list that refuses change, so they never go stale."""
+
+    __slots__ = ("_keys", "_order")
+
+    def __init__(self, diagnostics: Iterable[Diagnostic] = ()) -> None:
+        super().__init__(diagnostics)
+        self._keys: frozenset[tuple[str, str, int, int, int | None, str]] | None = None
+        self._order: list[tuple[str, int, int, str]] | None = None
+
+    def keys(self) -> frozenset[tuple[str, str, int, int, int | None, str]] | None:
+        """What a sink tells these diagnostics apart by; None when two of them are the same
+        one (the run then enters one by one, as `add` would take it)."""
+        if self._keys is None:
+            self._keys = frozenset(map(_SAME_KEY, self))
+        return self._keys if len(self._keys) == len(self) else None
+
+    def sort_keys(self) -> list[tuple[str, int, int, str]]:
+        """Each diagnostic's `Diagnostic.sort_key`, made once (a sink sorts every build)."""
+        if self._order is None:
+            self._order = list(map(_SORT_KEY, self))
+        return self._order
+
+    def _refuse(self, *args: object, **kwargs: object) -> NoReturn:
+        raise TypeError("a kept run of diagnostics is not changed: copy it to a list")
+
+    append = extend = insert = pop = remove = clear = sort = reverse = _refuse
+    __setitem__ = __delitem__ = __iadd__ = __imul__ = _refuse
+
+    def __reduce__(self) -> tuple[type[Run], tuple[list[Diagnostic]]]:
+        return (Run, (list(self),))  # the keys are made again where it is loaded
+
+
 class DiagnosticSink:
     """Collects diagnostics; the compiler never stops at the first problem."""
 
     def __init__(self) -> None:
         self.items: list[Diagnostic] = []
         self._seen: set[tuple[str, str, int, int, int | None, str]] = set()
+        self._runs: list[tuple[int, Run]] = []  # runs that entered whole, where they start
 
     def add(self, code: str, span: Span, message: str, hint: str = "",
             related: tuple[tuple[Span, str], ...] = ()) -> None:
@@ -147,8 +184,17 @@ class DiagnosticSink:
 
     def extend(self, diagnostics: Iterable[Diagnostic]) -> None:
         """Add diagnostics an earlier build made (the part of it an edit left alone), the
-        same objects, each once as `add` would."""
+        same objects, each once as `add` would. A `Run` none of whose diagnostics the sink
+        holds yet enters whole, its keys made and hashed when it was first added."""
         seen, items = self._seen, self.items
+        if type(diagnostics) is Run:
+            keys = diagnostics.keys()
+            if keys is not None and keys.isdisjoint(seen):
+                seen |= keys  # a set's stored hashes: nothing hashed again
+                if diagnostics:
+                    self._runs.append((len(items), diagnostics))
+                items += diagnostics
+                return
         for diagnostic in diagnostics:
             count = len(seen)
             seen.add(_SAME_KEY(diagnostic))  # hashed once
@@ -164,7 +210,23 @@ class DiagnosticSink:
         return [d for d in self.items if d.severity is Severity.WARNING]
 
     def sorted(self) -> list[Diagnostic]:
-        return sorted(self.items, key=_SORT_KEY)
+        """The diagnostics by `Diagnostic.sort_key`, stably: the keys of the runs that
+        entered whole are the ones each run made once, the others are made here."""
+        items = self.items
+        if not self._runs:
+            return sorted(items, key=_SORT_KEY)
+        keys: list[tuple[str, int, int, str]] = []
+        at = 0
+        for start, run in self._runs:
+            end = start + len(run)
+            if end > len(items) or not run or items[start] is not run[0] or \
+                    items[end - 1] is not run[-1]:
+                return sorted(items, key=_SORT_KEY)  # not as it entered: made here
+            keys += map(_SORT_KEY, items[at:start])
+            keys += run.sort_keys()
+            at = end
+        keys += map(_SORT_KEY, items[at:])
+        return list(map(items.__getitem__, sorted(range(len(items)), key=keys.__getitem__)))
 
 
 def suppressed(diagnostic: Diagnostic, sources: dict[str, list[str]]) -> bool:

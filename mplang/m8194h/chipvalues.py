@@ -20,7 +20,7 @@ from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
-from mplang.lang.diagnostics import Diagnostic, DiagnosticSink
+from mplang.lang.diagnostics import Diagnostic, DiagnosticSink, Run
 
 if TYPE_CHECKING:
     from mplang.ir.blockmemo import Statement
@@ -235,7 +235,7 @@ def warn_changed(programs: Iterable[LoweredProgram], init: LoweredProgram | None
                 _warn_lines(program, list(start), rules, own, memo)
             else:
                 _warn_segments(program, segments, list(start), rules, own, memo)
-            return own.items
+            return Run(own.items)
 
         found = entry.derived_for("W111", key, warn)
         assert isinstance(found, list)
@@ -257,7 +257,7 @@ def _warn_segments(program: LoweredProgram, segments: list[tuple[Statement, int,
             inner = _MaxV(entered[0])
             inner.axis1 = entered[1]
             _warn_reading(program.lines[first:end], inner, rules, own, memo)
-            return own.items, inner.axes, inner.axis1
+            return Run(own.items), inner.axes, inner.axis1
 
         found = statement.derived_for("W111", (rules, tuple(reading.axes), reading.axis1),
                                       warn)

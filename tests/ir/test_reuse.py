@@ -17,8 +17,11 @@ from sourceedits import (
     seen,
 )
 
+from mplang.ir import catalogue as catalogue_module
+from mplang.ir.macro import LoweredProgram, MacroLine
 from mplang.ir.reuse import BuildMemo
 from mplang.lang import ast
+from mplang.lang.diagnostics import Span
 from mplang.lang.linecache import StatementCache
 from mplang.m8194h.compiler import BuildResult, compile_paths
 
@@ -230,3 +233,22 @@ def test_an_edit_inside_a_program_matches_again_only_the_block_it_changed(tmp_pa
     differs = [i for i, (a, b) in enumerate(zip(before, after, strict=True)) if a is not b]
     assert len(differs) == 1 and isinstance(after[differs[0]], ast.ForBlock)
     assert [type(n) for n in before] == [type(n) for n in after]
+
+
+def test_lines_used_follows_the_lines_of_a_kept_program() -> None:
+    """A kept program's cost, summed once, is taken by its copies while their lines are the
+    ones copied: lines added as interrupt wiring adds them, or another list of lines of the
+    same length, are summed again."""
+    catalogue = catalogue_module.load()
+    one, two = (next(c for c in catalogue.commands if c.line_cost == cost) for cost in (1, 2))
+    span = Span("a.mp", 1)
+    kept = LoweredProgram("mp", 1, "p", "a.mp", span, span,
+                          [MacroLine(one, (), span), MacroLine(one, (), span)])
+    assert kept.lines_used(False) == 2 and kept.lines_used(True) == 3
+    copy = kept.copied()
+    assert copy.lines is not kept.lines and copy.lines_used(False) == 2
+    copy.lines[0:0] = [MacroLine(two, (), span)]  # as `ir.configure` wires an interrupt
+    assert copy.lines_used(False) == 4 and kept.lines_used(False) == 2
+    copy.lines = [MacroLine(two, (), span)] * 3  # the same length, other lines
+    assert copy.lines_used(False) == 6
+    assert kept.copied().lines_used(True) == 3

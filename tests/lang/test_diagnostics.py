@@ -5,10 +5,11 @@ pickled syntax diagnostics, so an entry written before still loads as the same v
 from __future__ import annotations
 
 import pickle
+from collections.abc import Callable
 
 import pytest
 
-from mplang.lang.diagnostics import Diagnostic, DiagnosticSink, Severity, Span
+from mplang.lang.diagnostics import Diagnostic, DiagnosticSink, Run, Severity, Span
 
 # Made by the `@dataclass(frozen=True)` Diagnostic, from `_sample()` below.
 DATACLASS_PICKLE_5 = bytes.fromhex(
@@ -93,3 +94,62 @@ def test_a_span_with_and_without_an_end_column_are_two_places() -> None:
     sink.add("E202", Span("a.mp", 2, 7, 9), "m")
     sink.extend([Diagnostic("E202", Severity.ERROR, "m", Span("a.mp", 2, 7, 9))])
     assert [d.span.end_col for d in sink.items] == [None, 9]
+
+
+def _run(*lines: int) -> Run:
+    return Run(Diagnostic("W103", Severity.WARNING, "m", Span("a.mp", n)) for n in lines)
+
+
+def test_a_run_enters_whole_and_each_diagnostic_once() -> None:
+    """A kept run enters a sink as `add` would take its diagnostics one by one: whole when
+    the sink holds none of them, else without those it holds (or that it holds twice)."""
+    run = _run(1, 2, 3)
+    fresh = DiagnosticSink()
+    fresh.extend(run)
+    assert fresh.items == list(run) and all(a is b for a, b in zip(fresh.items, run, strict=True))
+    fresh.extend(run)  # its keys made once, and now all in the sink
+    assert len(fresh.items) == 3
+    overlapping = DiagnosticSink()
+    overlapping.add("W103", Span("a.mp", 2), "m")
+    overlapping.extend(run)
+    assert [d.span.line for d in overlapping.items] == [2, 1, 3]
+    twice = DiagnosticSink()
+    twice.extend(_run(4, 4, 5))
+    assert [d.span.line for d in twice.items] == [4, 5]
+    after = DiagnosticSink()
+    after.extend(run)
+    after.add("W103", Span("a.mp", 1), "m")  # a later `add` sees what the run brought
+    assert len(after.items) == 3
+
+
+@pytest.mark.parametrize("change", [
+    lambda run: run.append(_run(7)[0]), lambda run: run.__setitem__(0, _run(7)[0]),
+    lambda run: run.__delitem__(0), lambda run: run.sort(), lambda run: run.__iadd__(run),
+    lambda run: run.clear(), lambda run: run.pop()])
+def test_a_run_s_keys_cannot_go_stale(change: Callable[[Run], object]) -> None:
+    """Its keys are made once: a run refuses every change, so they hold what it holds."""
+    run = _run(1, 2)
+    DiagnosticSink().extend(run)
+    with pytest.raises(TypeError, match="not changed"):
+        change(run)
+    assert [d.span.line for d in run] == [1, 2] and run.keys() is not None
+    copied = pickle.loads(pickle.dumps(run))
+    assert type(copied) is Run and copied == run
+
+
+def test_sorted_with_runs_is_sorted_as_one_by_one() -> None:
+    """A sink that took runs whole sorts as one that took each diagnostic by `add`: by
+    sort key, stably; a run's keys are its diagnostics' as they are when sorted."""
+    later, first = _run(9, 3), _run(5, 1)
+    sink = DiagnosticSink()
+    sink.add("E202", Span("a.mp", 4), "m")
+    sink.extend(later)
+    sink.extend(Run())
+    sink.add("E202", Span("a.mp", 3), "m")
+    sink.extend(first)
+    expected = sorted(sink.items, key=Diagnostic.sort_key)
+    assert sink.sorted() == expected and [d.span.line for d in expected] == [1, 3, 3, 4, 5, 9]
+    moved = sink.items.pop(1)  # the sink's list changed: a run no longer where it entered
+    sink.items.append(moved)
+    assert sink.sorted() == expected
+    assert [d.span.line for d in sink.sorted()] == [1, 3, 3, 4, 5, 9]
