@@ -316,13 +316,19 @@ def cached_lark(grammar: str, name: str, **options: Any) -> Lark:
 
 def _state_key(grammar: str, name: str, options: dict[str, Any]) -> str:
     """What a pickled parser depends on: the grammar, lark's version, the options but the
-    transformer (given again when read) and the front end's code (the lexer's state is in
-    it: `frontcache.front_end_key` holds the tokenizer's and this module's source)."""
+    transformer (given again when read) and the code whose objects its state holds (the
+    lexer's: this module's and the tokenizer's source, read as `frontcache` reads them; not
+    through `frontcache`, which imports the statement cache, which imports this module)."""
     from mplang.lang import caches
-    from mplang.lang.frontcache import front_end_key
 
+    code: list[bytes] = []
+    for module in ("parser", "tokenizer"):
+        try:
+            code.append(packagedata.read_bytes("mplang.lang", module + ".py"))
+        except OSError:  # an install without sources: mpc's version (in every key) stands
+            code.append(module.encode())
     shown = sorted((k, repr(v)) for k, v in options.items() if k != "transformer")
-    return caches.digest("lark state 1", front_end_key(), grammar, name, LARK_VERSION,
+    return caches.digest("lark state 2", *code, grammar, name, LARK_VERSION,
                          repr(shown))
 
 
