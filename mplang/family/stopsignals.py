@@ -35,6 +35,9 @@ def on_stop_signals(callback: Callable[[], object]) -> Iterator[None]:
     previous: dict[signal.Signals, signal.Handlers | Callable[..., object] | int | None] = {}
     try:
         for sig in signals:
+            # remove_signal_handler puts back Python's default, not what was there (an
+            # ignored SIGINT, a host program's own handler): keep it to put it back.
+            previous[sig] = signal.getsignal(sig)
             loop.add_signal_handler(sig, callback)
             installed.append(sig)
     except NotImplementedError:  # Windows' loops: a plain handler that wakes the loop
@@ -50,4 +53,6 @@ def on_stop_signals(callback: Callable[[], object]) -> Iterator[None]:
         for sig in installed:
             loop.remove_signal_handler(sig)
         for sig, old in previous.items():
-            signal.signal(sig, old)
+            if old is not None:  # None: a handler not set from Python, nothing to restore
+                with contextlib.suppress(ValueError, OSError):
+                    signal.signal(sig, old)

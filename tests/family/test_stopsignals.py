@@ -1,6 +1,7 @@
 """mplang.family.stopsignals: Ctrl-C and SIGTERM stop an asyncio command with the loop's
 signal handlers (Unix) and without them (Windows' loops, reproduced by the Windows-like
-Python of tests/data/windowslike), and the handlers before it come back after it."""
+Python of tests/data/windowslike), and the handlers before it come back after it: Python's
+default, an ignored signal (a background job's SIGINT) or a host program's own handler."""
 
 from __future__ import annotations
 
@@ -25,10 +26,14 @@ async def main(sig):
         await asyncio.wait_for(stop.wait(), 60)
     return stop.is_set()
 
+def own(number, frame):
+    pass
+
 for sig in (signal.SIGINT, signal.SIGTERM):
-    before = signal.getsignal(sig)
-    stopped = asyncio.run(main(sig))
-    print(sig.name, "stopped" if stopped else "running", signal.getsignal(sig) is before)
+    for before in (signal.getsignal(sig), signal.SIG_IGN, own):
+        signal.signal(sig, before)
+        stopped = asyncio.run(main(sig))
+        print(sig.name, "stopped" if stopped else "running", signal.getsignal(sig) is before)
 """
 
 
@@ -46,4 +51,6 @@ def test_ctrl_c_and_sigterm_stop_and_leave_the_handlers_as_they_were(windows_lik
     done = subprocess.run([sys.executable, "-c", SCRIPT], env=env, capture_output=True,
                           text=True, timeout=120)
     assert done.returncode == 0, done.stderr
-    assert done.stdout.splitlines() == ["SIGINT stopped True", "SIGTERM stopped True"]
+    # Each signal with Python's default before, then ignored, then a handler of the host's.
+    assert done.stdout.splitlines() == (["SIGINT stopped True"] * 3
+                                        + ["SIGTERM stopped True"] * 3)
