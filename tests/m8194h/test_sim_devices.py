@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import asyncio
 import json
+import random
 import signal
 import socket
 import subprocess
@@ -31,8 +32,10 @@ WORD_ORDER_REGISTER = 14  # holding register: the device's word order (0 or 1)
 
 
 def free_ports(count: int) -> int:
-    """The first of `count` consecutive loopback ports nobody listens on (probed)."""
-    for base in range(21_000, 60_000, count + 7):
+    """The first of `count` consecutive loopback ports nobody listens on (probed), from a
+    random start: two tests probing from the same port at once would pick the same ones."""
+    start = random.randrange(21_000, 50_000)
+    for base in [*range(start, 60_000, count + 7), *range(21_000, start, count + 7)]:
         probes = [socket.socket() for _ in range(count)]
         try:
             for offset, probe in enumerate(probes):
@@ -48,7 +51,23 @@ def free_ports(count: int) -> int:
 
 def start_devices(count: int, memory: Path, *args: str
                   ) -> tuple[subprocess.Popen[str], list[int], str]:
-    """`mpc sim --devices COUNT` from a free port; the process, its ports, what it said."""
+    """`mpc sim --devices COUNT` from a free port; the process, its ports, what it said.
+    Ports probed free can be taken before mpc sim binds them (another test, another
+    process): then it is started again on other ports."""
+    for _attempt in range(4):
+        try:
+            return _start_devices_once(count, memory, *args)
+        except PortTaken:
+            continue
+    return _start_devices_once(count, memory, *args)
+
+
+class PortTaken(AssertionError):
+    """mpc sim could not listen: a probed port was taken in the meantime."""
+
+
+def _start_devices_once(count: int, memory: Path, *args: str
+                        ) -> tuple[subprocess.Popen[str], list[int], str]:
     first = free_ports(count)
     proc = subprocess.Popen([sys.executable, "-m", "mplang", "sim", "--tcp",
                              f"127.0.0.1:{first}", "--devices", str(count), "--memory",
@@ -64,7 +83,10 @@ def start_devices(count: int, memory: Path, *args: str
             if len(ports) == count:
                 return proc, ports, "".join(lines)
     proc.wait(10)
-    raise AssertionError(f"mpc sim did not start (exit {proc.returncode}): {''.join(lines)}")
+    said = "".join(lines)
+    if "port already in use" in said:
+        raise PortTaken(said)
+    raise AssertionError(f"mpc sim did not start (exit {proc.returncode}): {said}")
 
 
 def stop_devices(proc: subprocess.Popen[str]) -> str:
