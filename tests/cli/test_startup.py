@@ -65,10 +65,12 @@ NEVER_ON_A_HIT = ("tomllib",)
 """What a run whose catalogue comes from the cache an earlier run filled, without an
 mpc.toml, never needs: tomllib (the TOML files are parsed on a miss only)."""
 
-NEVER_FOR_A_LINT = ("hashlib", "_hashlib")
-"""What `mpc lint` never needs: hashlib and OpenSSL's _hashlib behind it (keys and build ids
-are `mplang.lang.digest`'s). `mpc flash` loads them with filelock, which imports
-`secrets`."""
+NEVER_FOR_A_LINT = ("hashlib", "_hashlib", "platformdirs", "tempfile", "shutil", "random")
+"""What `mpc lint` that hits its caches never needs: hashlib and OpenSSL's _hashlib behind
+it (keys and build ids are `mplang.lang.digest`'s; `mpc flash` loads them with filelock,
+which imports `secrets`), and, where MPLANG_CACHE or XDG_CACHE_HOME names the cache,
+platformdirs and the tempfile, shutil and random it imports (nothing is written on a
+hit)."""
 
 
 def _loaded(modules: set[str], prefixes: tuple[str, ...]) -> list[str]:
