@@ -32,11 +32,16 @@ def _modules_after(*args: str, cwd: Path | None = None) -> set[str]:
     return set(json.loads(done.stderr.strip().splitlines()[-1]))
 
 
+NEVER_FOR_VERSION = ("dataclasses", "hashlib", "_hashlib", "platformdirs", "tempfile", "pickle")
+"""What `mpc --version` and `mpc --help` never need either: no record or cache is read."""
+
+
 @pytest.mark.parametrize("args", [("--version",), ("--help",)])
 def test_version_and_help_load_nothing_heavy(args: tuple[str, ...]) -> None:
     loaded = _modules_after(*args)
     assert "mplang.cli" in loaded
     assert not [m for m in loaded if m.startswith(HEAVY)]
+    assert _loaded(loaded, NEVER_FOR_VERSION) == []
 
 
 def test_lint_does_not_load_the_virtual_controller(tmp_path: Path) -> None:
