@@ -36,6 +36,7 @@ import importlib
 import os
 import re
 import sys
+from functools import cache
 from pathlib import Path
 from typing import Any
 
@@ -113,10 +114,11 @@ def _tolerant_output() -> None:
             reconfigure(errors="backslashreplace")
 
 
+@cache
 def _command_modules() -> list[str]:
     """The modules of `mplang.cli.commands`, read from its directory (pkgutil only for a
     package that is not one: a zip import), as pkgutil names them: a file of a module suffix,
-    or a directory with an `__init__`."""
+    or a directory with an `__init__`. Read once a process: resolving a command asks twice."""
     from importlib.machinery import all_suffixes
 
     directory = commands.__path__[0]

@@ -8,7 +8,6 @@ import errno
 import os
 import sys
 from collections.abc import Callable, Sequence
-from dataclasses import replace
 from functools import wraps
 from pathlib import Path
 from typing import Any, Protocol, TypeVar
@@ -682,8 +681,7 @@ def _setup(ctx: click.Context, paths: list[Path], project: project_module.Projec
     listed = {p.resolve() for p in project.sources}
     # Pins name programs of the project's sources: a build of only some of them keeps none.
     pins = project.pins if keep_pins or listed <= {p.resolve() for p in paths} else ()
-    options = replace(
-        options,
+    options = options.replace(
         target=target if _given(ctx, "target") or project.target is None else project.target,
         word_order=options.word_order if _given(ctx, "word_order") else project.word_order,
         temps=temp_vars if _given(ctx, "temp_vars") or project.temp_vars is None

@@ -20,7 +20,6 @@ import asyncio
 import logging
 import threading
 from collections.abc import Coroutine, Iterator, MutableMapping
-from dataclasses import replace
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -90,7 +89,7 @@ def plan(tcp: str | None = None, serial: str | None = None, *,
         paths = tuple(Path(p) for p in sources)
         if not paths:
             raise ValueError("sources=[] names no file")
-    options = replace(options, target=target or options.target)
+    options = options.replace(target=target or options.target)
     family = family_of_target(options.target)
     if family is None:
         raise ValueError(f"unknown target {options.target!r}")

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -140,8 +140,8 @@ class AsyncController:
                 raise HostError(f"cannot read {plan.image}: {exc.strerror or exc}") from None
             except ValueError as exc:
                 raise HostError(f"{plan.image}: {exc}") from None
-        options = plan.options if plan.word_order_fixed else replace(plan.options,
-                                                                      word_order=order)
+        options = plan.options if plan.word_order_fixed else plan.options.replace(
+            word_order=order)
         build, view = self.side.build_view(list(plan.paths), options)
         self.build = build
         if not build.ok:

@@ -27,7 +27,6 @@ deleted.
 from __future__ import annotations
 
 import contextlib
-import hashlib
 import os
 import pickle
 from collections.abc import Callable, Hashable, Iterable
@@ -49,6 +48,7 @@ from mplang.ir.reuse import Context, Lowered, Lowerings
 from mplang.ir.scope import Scope
 from mplang.lang import ast, caches
 from mplang.lang.diagnostics import Diagnostic, DiagnosticSink, Severity, Span, make_span
+from mplang.lang.digest import sha256
 
 FORMAT = "lowered 4"
 """Part of every key: change it when what an entry holds changes shape."""
@@ -274,7 +274,7 @@ class StoredLowerings(Lowerings):
     def _pack_path(self, file: str) -> Path:
         """Where `file`'s pack lives: named by the file as diagnostics show it and the
         directory it is built from (two projects' `main.mp` apart)."""
-        name = hashlib.sha256(f"{os.getcwd()}\0{file}".encode("utf-8", "surrogatepass")
+        name = sha256(f"{os.getcwd()}\0{file}".encode("utf-8", "surrogatepass")
                               ).hexdigest()[:32]
         return self.directory / f"{name}.pack"
 

@@ -9,7 +9,6 @@ and the editor's budget display share.
 from __future__ import annotations
 
 import contextlib
-from dataclasses import dataclass
 
 from mplang.ir.blockmemo import Statements
 from mplang.ir.configure import (
@@ -42,14 +41,25 @@ class SlotPin(FrozenRecord):
         self.__dict__.update(name=name, kind=kind, slot=slot, span=span)
 
 
-@dataclass(frozen=True)
-class Options:
-    word_order: int | None = None  # None: the device default
-    target: str = "et"  # "et" (ET-M8194H, TCP), "rs" (RS-M8194H, RTU), or another family's
-    temps: range = DEFAULT_TEMPS
-    allow_outside_includes: bool = False
-    pins: tuple[SlotPin, ...] = ()  # slot pins of a project file (mpc.toml [slots])
-    var_pool: range = DEFAULT_VAR_POOL  # where unpinned `VAR name` declarations go
+class Options(FrozenRecord):
+    """The build settings of a project or the command line; `replace` gives a changed copy
+    (`dataclasses.replace` does not take a record)."""
+
+    word_order: int | None  # None: the device default
+    target: str  # "et" (ET-M8194H, TCP), "rs" (RS-M8194H, RTU), or another family's
+    temps: range
+    allow_outside_includes: bool
+    pins: tuple[SlotPin, ...]  # slot pins of a project file (mpc.toml [slots])
+    var_pool: range  # where unpinned `VAR name` declarations go
+    _fields = __match_args__ = ("word_order", "target", "temps", "allow_outside_includes",
+                                "pins", "var_pool")
+
+    def __init__(self, word_order: int | None = None, target: str = "et",
+                 temps: range = DEFAULT_TEMPS, allow_outside_includes: bool = False,
+                 pins: tuple[SlotPin, ...] = (), var_pool: range = DEFAULT_VAR_POOL) -> None:
+        self.__dict__.update(word_order=word_order, target=target, temps=temps,
+                             allow_outside_includes=allow_outside_includes, pins=pins,
+                             var_pool=var_pool)
 
 
 def _lower_init(unit: ast.Unit, scope: Scope, sink: DiagnosticSink, target: str

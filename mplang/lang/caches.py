@@ -13,13 +13,13 @@ only slower, never different.
 from __future__ import annotations
 
 import contextlib
-import hashlib
 import os
 import pickle
 import sys
 from pathlib import Path
 
 from mplang import __version__
+from mplang.lang.digest import sha256
 from mplang.lang.userdirs import cache_home
 
 OFF_WORDS = ("", "0", "off", "no", "false")
@@ -49,7 +49,7 @@ def user_cache_dir() -> Path | None:
 
 def digest(*parts: str | bytes) -> str:
     """A key from the inputs a cached result depends on (and STAMP)."""
-    hasher = hashlib.sha256(STAMP.encode())
+    hasher = sha256(STAMP.encode())
     for part in parts:
         hasher.update(b"\0")
         hasher.update(part.encode("utf-8", "surrogatepass") if isinstance(part, str) else part)

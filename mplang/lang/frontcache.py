@@ -18,11 +18,11 @@ parsed, a text's repeated lines once (a `linecache.StatementCache` for the run).
 
 from __future__ import annotations
 
-import hashlib
 from functools import cache
 
 from mplang.lang import ast, caches, packagedata
 from mplang.lang.diagnostics import DiagnosticSink
+from mplang.lang.digest import sha256
 from mplang.lang.linecache import StatementCache
 
 KEYED_MODULES = ("ast", "diagnostics", "limits", "linecache", "parser", "tokenizer")
@@ -66,7 +66,7 @@ def parse(text: str, display: str, sink: DiagnosticSink, *, store: bool = True,
     front = front_end_key()
     key = caches.digest(front, display, text)
     file_key = caches.digest(front, display, where)
-    name = hashlib.sha256(f"{where}\0{display}".encode("utf-8", "surrogatepass")
+    name = sha256(f"{where}\0{display}".encode("utf-8", "surrogatepass")
                           ).hexdigest()[:32]
     path = directory / "front" / f"{name}.pickle"
     same = False

@@ -11,7 +11,6 @@ good lines still reach the later passes. Lark's tables come from the user cache 
 from __future__ import annotations
 
 import contextlib
-import hashlib
 import os
 import re
 import sys
@@ -27,6 +26,7 @@ from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedTok
 from mplang.lang import ast, packagedata
 from mplang.lang.caches import user_cache_dir
 from mplang.lang.diagnostics import DiagnosticSink, Span, make_span
+from mplang.lang.digest import sha256
 from mplang.lang.limits import (
     MAX_EXPRESSION_DEPTH,
     expression_depth,
@@ -286,7 +286,7 @@ def cached_lark(grammar: str, name: str, **options: Any) -> Lark:
     directory = user_cache_dir()
     if directory is None:
         return Lark(grammar, parser="lalr", **options)
-    key = hashlib.sha256(f"{grammar}\0{name}\0{LARK_VERSION}\0{sys.version_info[:2]}"
+    key = sha256(f"{grammar}\0{name}\0{LARK_VERSION}\0{sys.version_info[:2]}"
                          .encode()).hexdigest()[:20]
     target = directory / f"lark-{name}-{key}.pickle"
     state = directory / f"lark-{name}-{key}.state"

@@ -5,6 +5,12 @@ default flash record; parse tables and front-end results), as each platform has 
 
 `XDG_STATE_HOME` and `XDG_CACHE_HOME`, set to an absolute path, are honoured on every
 platform, so a user (or a test) moves them the same way everywhere.
+
+platformdirs is imported when a variable does not answer: on Unix its module imports
+`tempfile` (for the runtime directory's fallback), and with it `shutil`, `bz2`, `lzma` and
+`random`, a tenth of a `mpc lint` that hits its caches. Importing the platform's module
+(`platformdirs.unix`) directly would not avoid that: the package, and the same module, are
+imported either way.
 """
 
 from __future__ import annotations
@@ -12,8 +18,6 @@ from __future__ import annotations
 import os
 from collections.abc import Callable
 from pathlib import Path
-
-import platformdirs
 
 
 def _home(variable: str, platform_dir: Callable[[], str]) -> Path | None:
@@ -29,11 +33,23 @@ def _home(variable: str, platform_dir: Callable[[], str]) -> Path | None:
     return Path(found) if os.path.isabs(found) else None
 
 
+def _platform_state_dir() -> str:
+    import platformdirs  # only when XDG_STATE_HOME does not answer (the module's docstring)
+
+    return platformdirs.user_state_dir()
+
+
+def _platform_cache_dir() -> str:
+    import platformdirs  # only when XDG_CACHE_HOME does not answer (the module's docstring)
+
+    return platformdirs.user_cache_dir()
+
+
 def state_home() -> Path | None:
     """The user's state directory (mpc's own is its `mpc` folder)."""
-    return _home("XDG_STATE_HOME", platformdirs.user_state_dir)
+    return _home("XDG_STATE_HOME", _platform_state_dir)
 
 
 def cache_home() -> Path | None:
     """The user's cache directory (mpc's own is its `mplang` folder)."""
-    return _home("XDG_CACHE_HOME", platformdirs.user_cache_dir)
+    return _home("XDG_CACHE_HOME", _platform_cache_dir)

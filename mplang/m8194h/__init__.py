@@ -12,7 +12,6 @@ The package satisfies the family face (`mplang.family.face.Family`) like `mplang
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -122,7 +121,7 @@ __all__ = [
 def compile_mp(paths: list[Path], options: Options, target: str, *,
                texts: dict[Path, str] | None = None) -> BuildResult:
     """Compile `.mp` sources for `target` ("et" or "rs"); `texts` read instead of files."""
-    return compile_paths(paths, replace(options, target=target), texts=texts)
+    return compile_paths(paths, options.replace(target=target), texts=texts)
 
 
 def check_native(paths: list[Path], target: str | None = None) -> BuildResult:

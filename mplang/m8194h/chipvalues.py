@@ -17,10 +17,10 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Iterator
-from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from mplang.lang.diagnostics import Diagnostic, DiagnosticSink, Run
+from mplang.lang.record import FrozenRecord
 
 if TYPE_CHECKING:
     from mplang.ir.blockmemo import Statement
@@ -39,18 +39,42 @@ def _nearest(x: float) -> int:
     return math.floor(x + 0.5)
 
 
-@dataclass(frozen=True)
-class ChipRules:
-    """How the chip holds a setting, as a function of the axis's MAX_V."""
+class ChipRules(FrozenRecord):
+    """How the chip holds a setting, as a function of the axis's MAX_V. Equal (and hashed)
+    by its numbers, not by `parameters`: the virtual controller keys its plans by them."""
 
-    speed_steps: int = 8000
-    acceleration_divisor: int = 64
-    acceleration_max_factor: int = 125
-    acceleration_rounding: str = "nearest"
-    jerk_min_factor: float = 0.0119211
-    jerk_max: int = 2_000_000_000
+    speed_steps: int
+    acceleration_divisor: int
+    acceleration_max_factor: int
+    acceleration_rounding: str
+    jerk_min_factor: float
+    jerk_max: int
     #: command short name -> parameter name -> "speed" | "acceleration" | "jerk"
-    parameters: dict[str, dict[str, str]] = field(default_factory=dict, compare=False)
+    parameters: dict[str, dict[str, str]]
+    _fields = __match_args__ = ("speed_steps", "acceleration_divisor", "acceleration_max_factor",
+                                "acceleration_rounding", "jerk_min_factor", "jerk_max",
+                                "parameters")
+    _compared = _fields[:-1]
+
+    def __init__(self, speed_steps: int = 8000, acceleration_divisor: int = 64,
+                 acceleration_max_factor: int = 125, acceleration_rounding: str = "nearest",
+                 jerk_min_factor: float = 0.0119211, jerk_max: int = 2_000_000_000,
+                 parameters: dict[str, dict[str, str]] | None = None) -> None:
+        self.__dict__.update(
+            speed_steps=speed_steps, acceleration_divisor=acceleration_divisor,
+            acceleration_max_factor=acceleration_max_factor,
+            acceleration_rounding=acceleration_rounding, jerk_min_factor=jerk_min_factor,
+            jerk_max=jerk_max, parameters={} if parameters is None else parameters)
+
+    def _values(self) -> tuple[Any, ...]:
+        return tuple(getattr(self, name) for name in self._compared)
+
+    def __eq__(self, other: object) -> bool:
+        if other.__class__ is not self.__class__:
+            return NotImplemented
+        return self._values() == other._values()
+
+    __hash__ = FrozenRecord.__hash__  # defining __eq__ would drop it
 
     @classmethod
     def from_profile(cls, raw: dict[str, Any]) -> ChipRules:
@@ -128,8 +152,7 @@ class ChipRules:
         return f"a jerk is at least MAX_V*{self.jerk_min_factor:g} with MAX_V {max_v:g}"
 
 
-@dataclass(frozen=True)
-class Changed:
+class Changed(FrozenRecord):
     """A constant argument the chip will hold as another value."""
 
     index: int  # the operand's position
@@ -139,6 +162,12 @@ class Changed:
     used: float
     max_v: float
     reason: str
+    _fields = __match_args__ = ("index", "param", "kind", "given", "used", "max_v", "reason")
+
+    def __init__(self, index: int, param: str, kind: str, given: float, used: float,
+                 max_v: float, reason: str) -> None:
+        self.__dict__.update(index=index, param=param, kind=kind, given=given, used=used,
+                             max_v=max_v, reason=reason)
 
 
 def changed_arguments(rules: ChipRules, command: str, params: Iterable[str],

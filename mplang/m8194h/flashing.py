@@ -100,9 +100,9 @@ class _Images:
             raise CommandError("usage", "nothing to flash: give FILE..., or list sources in "
                                "mpc.toml ([project] sources or the target's own)")
         options = self.options if device.word_order is None \
-            else replace(self.options, word_order=device.word_order)
+            else self.options.replace(word_order=device.word_order)
         if device.target is not None:
-            options = replace(options, target=device.target)
+            options = options.replace(target=device.target)
         key = (tuple(paths), options.word_order, options.target)
         if key not in self._cache:
             self._cache[key] = self._build(paths, options, device.word_order is not None)
@@ -138,8 +138,8 @@ class _Images:
 
         def build_for(order: int) -> flashing.FlashImage:
             """Sources without a chosen word order follow the device's: the same build."""
-            return flashing.image_from_build(compile_paths(paths, replace(options,
-                                                                          word_order=order)))
+            return flashing.image_from_build(compile_paths(
+                paths, options.replace(word_order=order)))
         return image, build_for
 
 

@@ -7,7 +7,6 @@ gives any of `FORMATS`, `to_json()` the image."""
 
 from __future__ import annotations
 
-import hashlib
 import json
 from collections.abc import Callable
 from json import dumps
@@ -17,6 +16,7 @@ from mplang.ir import catalogue as catalogue_module
 from mplang.ir.lower import Variable
 from mplang.ir.macro import LoweredProgram, MacroLine
 from mplang.lang.diagnostics import Diagnostic, Severity, Span
+from mplang.lang.digest import sha256
 from mplang.lang.record import Record
 from mplang.m8194h.link import Placement
 
@@ -159,7 +159,7 @@ class BuildResult(Record):
 
     def build_id(self) -> str:
         """Content hash of what would be downloaded: the same image, the same id."""
-        digest = hashlib.sha256()
+        digest = sha256()
         content: list[object] = [self.word_order, [p.frames for p in self.programs]]
         if self.init is not None:
             content.append({"init": self.init.frames})

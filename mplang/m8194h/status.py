@@ -16,7 +16,6 @@ import asyncio
 import json
 import logging
 from collections.abc import Callable
-from dataclasses import replace
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -305,9 +304,9 @@ class Builds:
             if len(paths) != 1:
                 raise CommandError("usage", "give one image JSON, or .mp sources, not both")
             return _load(images[0]), []
-        options = replace(self.job.options, word_order=order)
+        options = self.job.options.replace(word_order=order)
         if device.target is not None:
-            options = replace(options, target=device.target)
+            options = options.replace(target=device.target)
         result = compile_paths(paths, options)
         self.ui.checked(result)
         return flashing.image_from_build(result), list(result.variables)

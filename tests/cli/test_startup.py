@@ -32,11 +32,16 @@ def _modules_after(*args: str, cwd: Path | None = None) -> set[str]:
     return set(json.loads(done.stderr.strip().splitlines()[-1]))
 
 
+NEVER_FOR_VERSION = ("dataclasses", "hashlib", "_hashlib", "platformdirs", "tempfile", "pickle")
+"""What `mpc --version` and `mpc --help` never need either: no record or cache is read."""
+
+
 @pytest.mark.parametrize("args", [("--version",), ("--help",)])
 def test_version_and_help_load_nothing_heavy(args: tuple[str, ...]) -> None:
     loaded = _modules_after(*args)
     assert "mplang.cli" in loaded
     assert not [m for m in loaded if m.startswith(HEAVY)]
+    assert _loaded(loaded, NEVER_FOR_VERSION) == []
 
 
 def test_lint_does_not_load_the_virtual_controller(tmp_path: Path) -> None:
@@ -65,6 +70,13 @@ NEVER_ON_A_HIT = ("tomllib",)
 """What a run whose catalogue comes from the cache an earlier run filled, without an
 mpc.toml, never needs: tomllib (the TOML files are parsed on a miss only)."""
 
+NEVER_FOR_A_LINT = ("hashlib", "_hashlib", "platformdirs", "tempfile", "shutil", "random")
+"""What `mpc lint` that hits its caches never needs: hashlib and OpenSSL's _hashlib behind
+it (keys and build ids are `mplang.lang.digest`'s; `mpc flash` loads them with filelock,
+which imports `secrets`), and, where MPLANG_CACHE or XDG_CACHE_HOME names the cache,
+platformdirs and the tempfile, shutil and random it imports (nothing is written on a
+hit)."""
+
 
 def _loaded(modules: set[str], prefixes: tuple[str, ...]) -> list[str]:
     """The modules of `modules` that are one of `prefixes` or inside one."""
@@ -89,7 +101,8 @@ def test_lint_parses_with_lark_on_a_miss_and_without_it_on_a_hit(tmp_path: Path)
     assert _loaded(first, ("importlib.resources", "zipfile")) == []
     again = _modules_after("lint", str(source), cwd=tmp_path)
     assert "mplang.lang.frontcache" in again
-    assert _loaded(again, (*NEVER_FOR_A_BUILD, *NEVER_ON_A_HIT, "mplang.lang.parser",
+    assert _loaded(again, (*NEVER_FOR_A_BUILD, *NEVER_ON_A_HIT, *NEVER_FOR_A_LINT,
+                           "mplang.lang.parser",
                            "mplang.lang.tokenizer", "mplang.m8194h.sim", "pymodbus",
                            "pygls")) == []
 

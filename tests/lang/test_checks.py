@@ -10,7 +10,6 @@ lines) and the sources it lists.
 from __future__ import annotations
 
 import re
-from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -72,7 +71,7 @@ def test_check_project(path: Path) -> None:
     project = load_project(path)
     options = Options(pins=project.pins)
     if project.var_pool is not None:
-        options = replace(options, var_pool=project.var_pool)
+        options = options.replace(var_pool=project.var_pool)
     result = compile_paths(list(project.sources), options)
     files = [path, *project.sources]
     want = {(f.name, code, line) for f in files for code, line, _ in expected(f)}

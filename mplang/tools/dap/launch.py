@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -131,9 +131,9 @@ def _project(path: Path, target: str | None) -> tuple[list[Path], Options]:
                       word_order=project.word_order, pins=project.pins,
                       allow_outside_includes=bool(project.allow_outside_includes))
     if project.temp_vars is not None:
-        options = replace(options, temps=project.temp_vars)
+        options = options.replace(temps=project.temp_vars)
     if project.var_pool is not None:
-        options = replace(options, var_pool=project.var_pool)
+        options = options.replace(var_pool=project.var_pool)
     return list(project.sources), options
 
 

@@ -300,7 +300,7 @@ def _analyse(path: Path, text: str, context: BuildContext, open_texts: Mapping[P
     sources and the files' index, and each is a few lines."""
     family = _family_of(context.options.target)
     # a FATEK or CSIM project: its .mp files are M8194H language, checked by that family
-    options = context.options if family is None else replace(context.options, target="et")
+    options = context.options if family is None else context.options.replace(target="et")
     resolved = path.resolve()
     texts = OpenTexts(open_texts)
     texts[resolved] = text
