@@ -8,7 +8,8 @@ program:
    by us or by someone else) is sent the matching close frame and must read ready (0) again.
    If that close stored a truncated program in another slot, the slot is emptied (create +
    close) so that no half program can be called.
-2. Create, every line, close: one FC16 at holding register 8000 per frame.
+2. Create, every line, close: one FC16 at holding register 8000 per frame. Over RTU a
+   read of register 100 goes between two frames of one length (`_separate`).
 3. Read 100-114: ready again, registers 110/111 name this slot, 114 (download error) is 0.
 
 Failures, and what is done about them:
@@ -460,7 +461,10 @@ class Flasher:
                 mark = self._anomalies()
                 await self._make_ready(program)
                 result.downloads += 1
-                for index in range(len(program.frames)):
+                frames, rtu = program.frames, self.link.endpoint.host is None
+                for index in range(len(frames)):
+                    if rtu and index and len(frames[index]) == len(frames[index - 1]):
+                        await self._separate()
                     await self._send(program, result, index)
                 await self._verify(program, result, mark)
                 break
@@ -626,6 +630,15 @@ class Flasher:
                     result.busy_waits += 1
                 await asyncio.sleep(pause)
                 waited += pause
+
+    async def _separate(self) -> None:
+        """Over RTU, a read between two frames of one length. Their FC16 answers are the
+        same bytes (the address and the register count), so a line frame the link repeats
+        while it loses the next one leaves one answer standing in for the other: the device
+        holds a line twice and misses one, and nothing else tells (registers 110-114 hold no
+        line count). A read's answer differs from a write's, so that pair of faults now
+        meets an answer of the wrong kind and the program is downloaded again."""
+        await self.link.read_input(STATE_REGISTER, 1)
 
     async def _send(self, program: FlashProgram, result: ProgramResult, index: int) -> None:
         frame = program.frames[index]
