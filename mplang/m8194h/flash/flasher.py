@@ -8,7 +8,8 @@ program:
    by us or by someone else) is sent the matching close frame and must read ready (0) again.
    If that close stored a truncated program in another slot, the slot is emptied (create +
    close) so that no half program can be called.
-2. Create, every line, close: one FC16 at holding register 8000 per frame.
+2. Create, every line, close: one FC16 at holding register 8000 per frame. Over RTU a
+   read of register 100 goes between two frames of one length (`_separate`).
 3. Read 100-114: ready again, registers 110/111 name this slot, 114 (download error) is 0.
 
 Failures, and what is done about them:
@@ -460,8 +461,7 @@ class Flasher:
                 mark = self._anomalies()
                 await self._make_ready(program)
                 result.downloads += 1
-                for index in range(len(program.frames)):
-                    await self._send(program, result, index)
+                await self._frames(program, result)
                 await self._verify(program, result, mark)
                 break
             except (LinkTimeout, LinkLost) as exc:
@@ -596,44 +596,82 @@ class Flasher:
                                f"{status})")
         self._note(f"{kind.upper()}{slot} held a truncated program: emptied it")
 
-    async def _write(self, frame: list[int], result: ProgramResult | None) -> None:
+    async def _write(self, frame: list[int], result: ProgramResult | None,
+                     refused: DeviceException | None = None) -> None:
         """One frame; a busy device (exception 0x06, or cause 0xC1 DPRAM full) gets the same
         frame again after growing pauses. Any other refusal raises Refused, with the cause in
-        words."""
+        words. `refused`: the device's answer to the frame sent already (`_frames`)."""
         waited = 0.0
         attempt = 0
         while True:
-            try:
-                await self.link.write_frame(frame)
-                return
-            except DeviceException as exc:
-                cause = None
-                if exc.code == ILLEGAL_FUNCTION:
-                    (cause,) = await self.link.read_input(CAUSE_REGISTER, 1)
-                if exc.code != DEVICE_BUSY and cause != DPRAM_FULL:
-                    reason = exc.name if cause is None else (
-                        f"{exc.name}, cause not recorded (input register {CAUSE_REGISTER} "
-                        "reads 0: another client's request may have reset it)" if cause == 0
-                        else f"{exc.name}, cause {cause:#04x} ("
-                        f"{self.profile.illegal_function_causes.get(cause, 'unknown cause')})")
-                    raise Refused(exc, cause, reason) from None
-                attempt += 1
-                pause = backoff(attempt, BUSY_PAUSE_MAX_S, BUSY_PAUSE_FIRST_S)
-                if waited + pause > self.options.busy_timeout:
-                    raise FlashFailure("interrupted", f"the device stayed busy for "
-                                       f"{waited:.1f} s") from None
-                if result is not None:
-                    result.busy_waits += 1
-                await asyncio.sleep(pause)
-                waited += pause
+            if refused is None:
+                try:
+                    await self.link.write_frame(frame)
+                    return
+                except DeviceException as answer:
+                    refused = answer
+            exc, refused = refused, None
+            cause = None
+            if exc.code == ILLEGAL_FUNCTION:
+                (cause,) = await self.link.read_input(CAUSE_REGISTER, 1)
+            if exc.code != DEVICE_BUSY and cause != DPRAM_FULL:
+                reason = exc.name if cause is None else (
+                    f"{exc.name}, cause not recorded (input register {CAUSE_REGISTER} "
+                    "reads 0: another client's request may have reset it)" if cause == 0
+                    else f"{exc.name}, cause {cause:#04x} ("
+                    f"{self.profile.illegal_function_causes.get(cause, 'unknown cause')})")
+                raise Refused(exc, cause, reason) from None
+            attempt += 1
+            pause = backoff(attempt, BUSY_PAUSE_MAX_S, BUSY_PAUSE_FIRST_S)
+            if waited + pause > self.options.busy_timeout:
+                raise FlashFailure("interrupted", f"the device stayed busy for "
+                                   f"{waited:.1f} s") from None
+            if result is not None:
+                result.busy_waits += 1
+            await asyncio.sleep(pause)
+            waited += pause
 
-    async def _send(self, program: FlashProgram, result: ProgramResult, index: int) -> None:
+    async def _frames(self, program: FlashProgram, result: ProgramResult) -> None:
+        """Every frame of `program`, create to close. A line the device accepts at once is
+        sent and counted here, without `_send`'s coroutine: the flasher's own time a frame
+        is part of a flash's floor. Anything else (the create and the close, a refusal, a
+        busy device, no answer) is `_send`'s, as it is for every frame."""
+        frames, write = program.frames, self.link.write_frame
+        last, rtu = len(frames) - 1, self.link.endpoint.host is None
+        for index in range(len(frames)):
+            if rtu and index and len(frames[index]) == len(frames[index - 1]):
+                await self._separate()
+            if not 0 < index < last:
+                await self._send(program, result, index)
+                continue
+            try:
+                await write(frames[index])
+            except (LinkTimeout, LinkLost):
+                self._unanswered = 1
+                raise
+            except DeviceException as exc:
+                await self._send(program, result, index, exc)
+                continue
+            self.report.frames_written += 1
+            self._accepted += 1
+
+    async def _separate(self) -> None:
+        """Over RTU, a read between two frames of one length. Their FC16 answers are the
+        same bytes (the address and the register count), so a line frame the link repeats
+        while it loses the next one leaves one answer standing in for the other: the device
+        holds a line twice and misses one, and nothing else tells (registers 110-114 hold no
+        line count). A read's answer differs from a write's, so that pair of faults now
+        meets an answer of the wrong kind and the program is downloaded again."""
+        await self.link.read_input(STATE_REGISTER, 1)
+
+    async def _send(self, program: FlashProgram, result: ProgramResult, index: int,
+                    refused: DeviceException | None = None) -> None:
         frame = program.frames[index]
         if index == 0:
             self._opened = (program.kind, program.slot)  # from here on it may be open
         try:
             try:
-                await self._write(frame, result)
+                await self._write(frame, result, refused)
             except (LinkTimeout, LinkLost):
                 self._unanswered = 1
                 raise

@@ -40,6 +40,7 @@ class Pending:
 
     table: MacroTable
     structure: Structure
+    budget: int  # the slot's lines (profile), looked up once: every line is checked against it
     line: int = 0
     failure: DownloadError | None = None
 
@@ -68,7 +69,7 @@ def create(vc: VirtualController, command: Command, operands: tuple[Operand, ...
         return OUT_OF_RANGE
     slot = int(operands[0])  # type: ignore[arg-type]
     table = MacroTable(kind, slot)
-    vc.pending = Pending(table, Structure(table, vc.profile))
+    vc.pending = Pending(table, Structure(table, vc.profile), vc.profile.budget(kind, slot) or 0)
     vc.state = kind
     vc.chip_state = 6
     return 0
@@ -130,8 +131,7 @@ def _refusal(vc: VirtualController, pending: Pending, frame: list[int],
     cause = vc.initial_table.refusal(command, operands)  # "IT ... not inside MP" RS 990
     if cause:
         return cause, NOT_WRITTEN, code
-    budget = vc.profile.budget(kind, pending.table.slot) or 0
-    if pending.line + command.line_cost > budget:
+    if pending.line + command.line_cost > pending.budget:
         return OVER_BUDGET, 0x01, code
     return 0, 0, code
 
@@ -162,8 +162,7 @@ def close(vc: VirtualController) -> int:
     cause = 0
     if failure is None:
         table = pending.table
-        budget = vc.profile.budget(table.kind, table.slot) or 0
-        failure = validate(table, budget, vc.catalogue, vc.close_counts)
+        failure = validate(table, pending.budget, vc.catalogue, vc.close_counts)
         if failure is not None:  # found at the close: register 102 says why
             cause = OVER_BUDGET if failure.code == 0x01 else structure_cause(vc, failure.code)
     _finish(vc, failure)

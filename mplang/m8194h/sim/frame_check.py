@@ -38,6 +38,16 @@ class BadParameter:
 def check(command: Command, operands: tuple[Operand, ...], profile: Profile) -> BadParameter | None:
     """The first parameter of a decoded frame the device refuses, or None."""
     for param, operand in zip(command.params, operands, strict=True):
+        # the common cases first, without the reasons' work: a variable that exists, an
+        # integer in its set or range
+        if type(operand) is VarRef:
+            if 0 <= operand.index < _var_count(profile):
+                continue
+        elif type(operand) is int and param.kind not in ("var", "bvar"):
+            allowed, low, high = _values(param, profile)
+            if operand in allowed if allowed is not None else \
+                    (low is None or operand >= low) and (high is None or operand <= high):
+                continue
         reason = _refusal(param, operand, profile)
         if reason is not None:
             error = {"cmp_op": WRONG_IF_OPERATOR, "calc_op": WRONG_CALC_OPERATOR}.get(
@@ -67,17 +77,14 @@ def _refusal(param: Param, operand: Operand, profile: Profile) -> str | None:
             return f"{operand} is not a number"
         return _outside(operand, param.min, param.max)
     value = int(operand)
-    allowed = _allowed(param, profile)
+    allowed, low, high = _values(param, profile)
     if allowed is not None:
         return None if value in allowed else f"{value:#x} is not one of the values it takes"
-    low, high = param.min, param.max
     if param.kind == "bvar" and low is None and high is None:
         return f"{value} is not a byte variable (bVARn is sent as 0x80 + n)"
-    if param.wire == 2 and param.kind == "int":
-        # a 32-bit data value the manual bounds by +-2,000,000,000 (e.g. RS 2451, 2705)
-        low = profile.var("immediate_min") if low is None else low
-        high = profile.var("immediate_max") if high is None else high
-    return _outside(value, low, high)
+    if (low is not None and value < low) or (high is not None and value > high):
+        return _outside(value, low, high)
+    return None
 
 
 def _outside(value: float, low: float | None, high: float | None) -> str | None:
@@ -87,20 +94,44 @@ def _outside(value: float, low: float | None, high: float | None) -> str | None:
     return None
 
 
-_ALLOWED: dict[tuple[int, int], tuple[Param, Profile, frozenset[int] | None]] = {}
+Values = tuple[frozenset[int] | None, float | None, float | None]
+"""The integers a parameter takes: a closed set of them (None: a range), and the range's
+bounds (None: open on that side)."""
+_ALLOWED: dict[tuple[int, int], tuple[Param, Profile, Values]] = {}
 
 
-def _allowed(param: Param, profile: Profile) -> frozenset[int] | None:
-    """The only values of a parameter that has a closed set of them (None: a range); worked
-    out once per parameter and profile (every downloaded line asks)."""
+def _values(param: Param, profile: Profile) -> Values:
+    """What `_refusal` checks an integer against, worked out once per parameter and profile:
+    every downloaded line asks, and the device's per-line cost is a flash's floor."""
     key = (id(param), id(profile))
     known = _ALLOWED.get(key)
     if known is not None and known[0] is param and known[1] is profile:
         return known[2]
     values = _allowed_now(param, profile)
-    allowed = None if values is None else frozenset(values)
-    _ALLOWED[key] = (param, profile, allowed)
-    return allowed
+    low, high = param.min, param.max
+    if param.wire == 2 and param.kind == "int":
+        # a 32-bit data value the manual bounds by +-2,000,000,000 (e.g. RS 2451, 2705)
+        low = profile.var("immediate_min") if low is None else low
+        high = profile.var("immediate_max") if high is None else high
+    worked_out: Values = (None if values is None else frozenset(values), low, high)
+    _ALLOWED[key] = (param, profile, worked_out)
+    return worked_out
+
+
+_VAR_COUNT: dict[int, tuple[Profile, int]] = {}
+
+
+def _var_count(profile: Profile) -> int:
+    """VAR0..VARn-1 (RS 2394, 10144): n, looked up once per profile."""
+    known = _VAR_COUNT.get(id(profile))
+    if known is None or known[0] is not profile:
+        known = _VAR_COUNT[id(profile)] = (profile, profile.var("count"))
+    return known[1]
+
+
+def _allowed(param: Param, profile: Profile) -> frozenset[int] | None:
+    """The only values of a parameter that has a closed set of them (None: a range)."""
+    return _values(param, profile)[0]
 
 
 def _allowed_now(param: Param, profile: Profile) -> set[int] | None:
