@@ -38,7 +38,7 @@ from mplang.lang import ast
 from mplang.lang.diagnostics import Diagnostic, DiagnosticSink, Run, Span, make_span
 from mplang.lang.structure import BlockMemo
 
-_NAMES_A_LINE = re.compile(r"\blines? \d|:\d")
+NAMES_A_LINE = re.compile(r"\blines? \d|:\d")
 """A line number in a diagnostic's text ("of line 12", "first at a.mp:12"): such a text
 is not shifted with its span, so its program is lowered again when it moves."""
 
@@ -61,7 +61,7 @@ class _Shift:
 
     def diagnostic(self, item: Diagnostic) -> Diagnostic:
         texts = [item.message, item.hint, *(note for _, note in item.related)]
-        if any(_NAMES_A_LINE.search(text) for text in texts):
+        if any(NAMES_A_LINE.search(text) for text in texts):
             raise _Unmovable
         made = Diagnostic(item.code, item.severity, item.message, self.span(item.span),
                           item.hint, tuple((self.span(s), note) for s, note in item.related))

@@ -194,6 +194,12 @@ class BlockMemo:
         self._blocks_before, self._blocks_now = self._blocks_now, {}
 
 
+def has_lone_cr(text: str) -> bool:
+    """Whether `text` has a carriage return that does not end a line: the parse then
+    numbers its lines otherwise, and its lines are not `text.split("\n")`."""
+    return "\r" in text and _LONE_CR.search(text) is not None
+
+
 def build_unit(sources: SourceSet, sink: DiagnosticSink, memo: BlockMemo | None = None
                ) -> ast.Unit:
     """The files' statements matched into programs and configuration blocks; `memo`, kept
@@ -203,8 +209,8 @@ def build_unit(sources: SourceSet, sink: DiagnosticSink, memo: BlockMemo | None 
         memo.start()
     for source in sources.files:
         # the lines' texts, as the parse numbers them (a lone carriage return: no texts)
-        texts = source.text.split("\n") if memo is not None and not (
-            "\r" in source.text and _LONE_CR.search(source.text)) else None
+        texts = source.text.split("\n") if memo is not None and \
+            not has_lone_cr(source.text) else None
         _build_file(source.statements, source.display, unit, sink, memo, texts)
     if memo is not None:
         memo.turn()

@@ -19,6 +19,7 @@ from mplang.ir.lower import Scope
 from mplang.ir.macro import LoweredProgram, ProgramRef
 from mplang.ir.persist import StoredLowerings, code_key
 from mplang.ir.reuse import BuildMemo, Lowerings
+from mplang.ir.textmemo import TextMemo
 from mplang.ir.unit import DEFAULT_TEMPS, Options, lower_unit
 from mplang.lang import ast, caches
 from mplang.lang.diagnostics import DiagnosticSink, suppressed
@@ -26,7 +27,7 @@ from mplang.lang.followon import settle_includes
 from mplang.lang.heap import collection_paused
 from mplang.lang.linecache import StatementCache
 from mplang.lang.sources import SourceSet, load_sources
-from mplang.lang.structure import build_unit
+from mplang.lang.structure import build_unit, has_lone_cr
 from mplang.m8194h.chipvalues import warn_changed
 from mplang.m8194h.encode import Encoder
 from mplang.m8194h.image import (
@@ -95,10 +96,13 @@ def compile_sources(paths: list[Path], sources: SourceSet, sink: DiagnosticSink,
     `sink`); `lowering`, when given, receives the scope, lowered programs and placements.
     `encode=False` checks only (an editor's diagnostics): the result holds no image."""
     catalogue = catalogue_module.load()
-    kept = memo.lowerings if memo is not None else _stored(sources)
+    texts = {f.display: f.text.split("\n") for f in sources.files}
+    kept = memo.lowerings if memo is not None else _stored(texts)
     with collection_paused():
         unit = build_unit(sources, sink, memo.blocks if memo is not None else None)
-        result = _finish(unit, catalogue, sink, options, lowering, kept, encode)
+        result = _finish(unit, catalogue, sink, options, lowering, kept, encode,
+                         TextMemo({f.display: texts[f.display] for f in sources.files
+                                   if not has_lone_cr(f.text)}))
     if isinstance(kept, StoredLowerings):
         kept.save()
     result.sources = {f.display: f.text.splitlines() for f in sources.files}
@@ -115,14 +119,13 @@ def compile_sources(paths: list[Path], sources: SourceSet, sink: DiagnosticSink,
     return result
 
 
-def _stored(sources: SourceSet) -> StoredLowerings | None:
+def _stored(texts: dict[str, list[str]]) -> StoredLowerings | None:
     """The lowerings of a build without a memo (a command's one build): kept on disk
-    between runs (`mplang.ir.persist`), unless caching is off."""
+    between runs (`mplang.ir.persist`), unless caching is off. `texts`: each file's lines."""
     directory = caches.user_cache_dir()
     if directory is None:
         return None
-    return StoredLowerings(directory, {f.display: f.text.split("\n") for f in sources.files},
-                           _salt())
+    return StoredLowerings(directory, texts, _salt())
 
 
 @cache
@@ -169,11 +172,13 @@ def _check_filled(placements: list[Placement], wired: list[Wire],
 
 def _finish(unit: object, catalogue: Catalogue, sink: DiagnosticSink,
             options: Options, lowering: Lowering | None = None,
-            kept: Lowerings | None = None, encode: bool = True) -> BuildResult:
+            kept: Lowerings | None = None, encode: bool = True,
+            text_memo: TextMemo | None = None) -> BuildResult:
     assert isinstance(unit, ast.Unit)
     profile = catalogue.profile
     word_order = profile.word_order_default if options.word_order is None else options.word_order
     scope = Scope.declared(unit, catalogue, sink, options.var_pool, options.temps)
+    scope.text_memo = text_memo
     lowered_unit = lower_unit(unit, scope, sink, options, kept)
     lowered, init = lowered_unit.programs, lowered_unit.init
     wiring, triggers = lowered_unit.wiring, lowered_unit.triggers
