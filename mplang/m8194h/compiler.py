@@ -16,7 +16,7 @@ from mplang.ir import catalogue as catalogue_module
 from mplang.ir.catalogue import Catalogue
 from mplang.ir.configure import TriggerTable, Wire
 from mplang.ir.lower import Scope
-from mplang.ir.macro import LoweredProgram, ProgramRef
+from mplang.ir.macro import LoweredProgram, MacroLine, ProgramRef
 from mplang.ir.persist import StoredLowerings, code_key
 from mplang.ir.reuse import BuildMemo, Lowerings
 from mplang.ir.textmemo import TextMemo
@@ -204,11 +204,12 @@ def _finish(unit: object, catalogue: Catalogue, sink: DiagnosticSink,
         result.triggers = TriggerImage(triggers.source, triggers.span.line, [
             t.to_json(slot_of(t.mp) if t.mp is not None else None) for t in triggers.entries])
 
+    encoded: dict[tuple[int, int], tuple[MacroLine, list[int]]] = {}
     for placement in sorted(placements, key=lambda p: (p.program.kind != "mp", p.slot)):
         program = placement.program
         line_no = 0
         lines: list[LineFrames] = []
-        frames = _frames(program, encoder, slot_of, kept)
+        frames = _frames(program, encoder, slot_of, kept, encoded)
         for line, frame in zip(program.lines, frames, strict=True):
             lines.append(LineFrames(line, line_no, frame))
             line_no += line.command.line_cost
@@ -219,14 +220,16 @@ def _finish(unit: object, catalogue: Catalogue, sink: DiagnosticSink,
 
 
 def _frames(program: LoweredProgram, encoder: Encoder,
-            slot_of: Callable[[ProgramRef], int | None], kept: Lowerings | None
-            ) -> list[list[int]]:
+            slot_of: Callable[[ProgramRef], int | None], kept: Lowerings | None,
+            encoded: dict[tuple[int, int], tuple[MacroLine, list[int]]]) -> list[list[int]]:
     """The frames of a program's lines. A program lowered as in the last build (and given no
     lines by the wiring since) is encoded as then when the programs it names are in the same
-    slots and the word order is the same: those are all a frame reads besides its line."""
+    slots and the word order is the same: those are all a frame reads besides its line.
+    `encoded`, one build's: lines that share their command and operands objects (a statement
+    lowered once for several places, `mplang.ir.textmemo`) are encoded once."""
     entry = kept.entry(program) if kept is not None else None
     if entry is None or entry.result is None or len(entry.result.lines) != len(program.lines):
-        return [encoder.frame(line, slot_of) for line in program.lines]
+        return [_frame(line, encoder, slot_of, encoded) for line in program.lines]
     refs = entry.derived_for("refs", None, lambda: tuple(dict.fromkeys(
         o for line in program.lines for o in line.operands if isinstance(o, ProgramRef))))
     assert isinstance(refs, tuple)
@@ -235,3 +238,18 @@ def _frames(program: LoweredProgram, encoder: Encoder,
                               lambda: [encoder.frame(line, slot_of) for line in program.lines])
     assert isinstance(found, list)
     return [list(frame) for frame in found]
+
+
+def _frame(line: MacroLine, encoder: Encoder, slot_of: Callable[[ProgramRef], int | None],
+           encoded: dict[tuple[int, int], tuple[MacroLine, list[int]]]) -> list[int]:
+    """`encoder.frame(line, slot_of)`, once per command and operands objects in a build (its
+    slots and word order are one): told by identity, the line kept beside its frame so that
+    neither object is freed and its id taken by another while the build runs."""
+    key = (id(line.command), id(line.operands))
+    found = encoded.get(key)
+    if found is not None and found[0].command is line.command and \
+            found[0].operands is line.operands:
+        return list(found[1])
+    frame = encoder.frame(line, slot_of)
+    encoded[key] = (line, frame)
+    return list(frame)
