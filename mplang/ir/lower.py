@@ -13,7 +13,7 @@ re-exported (`__all__`).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 
 from mplang.ir.blockmemo import Statements
 from mplang.ir.fold import apply_operator, wrap32
@@ -332,9 +332,9 @@ class ProgramLowerer(OperandLowerer):
         """Number the program's labels: numeric ones keep their number, names take the lowest
         free numbers in order of definition."""
         defined: dict[str, Span] = {}
-        for node in _statements(body):
-            if not isinstance(node, ast.LabelStmt):
-                continue
+        found: list[ast.LabelStmt] = []
+        _labels(body, found)
+        for node in found:
             key = node.label.upper()
             if key in defined:
                 self.sink.add("E322", node.span, f"label {node.label} is defined twice",
@@ -428,13 +428,17 @@ class ProgramLowerer(OperandLowerer):
         self.emit_command(command, (ref,), node.span)
 
 
-def _statements(body: list[ast.Node]) -> Iterator[ast.Node]:
+def _labels(body: list[ast.Node], found: list[ast.LabelStmt]) -> None:
+    """The LABEL statements of `body` and the blocks in it, in order, added to `found`
+    (a plain walk: generators nested as deep as the blocks cost more than a program's
+    labels are worth)."""
     for node in body:
-        yield node
-        if isinstance(node, ast.ForBlock):
-            yield from _statements(node.body)
-        elif isinstance(node, ast.IfBlock):
-            yield from _statements(node.then)
-            yield from _statements(node.otherwise or [])
-        elif isinstance(node, ast.WhileBlock | ast.RepeatBlock):
-            yield from _statements(node.body)
+        if type(node) is ast.LabelStmt:
+            found.append(node)
+        elif type(node) is ast.IfBlock:
+            _labels(node.then, found)
+            if node.otherwise:
+                _labels(node.otherwise, found)
+        elif type(node) is ast.ForBlock or type(node) is ast.WhileBlock or \
+                type(node) is ast.RepeatBlock:
+            _labels(node.body, found)

@@ -23,6 +23,11 @@ BLOCK_WORD = {"mp": "END MP", "isr": "END ISR", "for": "NEXT", "if": "END IF",
 CONFIG_KINDS = ("init", "interrupts", "triggers")
 CONFIG_HEADERS = (ast.InitHeader, ast.InterruptsHeader, ast.TriggersHeader)
 STRAY_CLOSE = {"for": "E304", "if": "E308", "while": "E315", "repeat": "E315"}
+_MATCHED = frozenset({*CONFIG_HEADERS, ast.End, ast.OnStmt, ast.Const, ast.Alias, ast.VarDecl,
+                      ast.Include, ast.ProgramHeader, ast.ForStmt, ast.IfStmt, ast.WhileStmt,
+                      ast.RepeatStmt, ast.Next, ast.Else})
+"""The statement classes `_build_file` matches by a case of their own; any other statement
+inside a program is a line of its innermost block (most of a build's lines)."""
 _LONE_CR = re.compile(r"\r(?!\n)")
 
 
@@ -373,9 +378,14 @@ def _build_file(statements: list[ast.Statement], file: str, unit: ast.Unit,
                 index += len(found[0])
                 continue
         index += 1
-        statement = normalise(raw)
-        if stack and stack[0].kind in CONFIG_KINDS and config_line(statement):
-            continue
+        statement = normalise(raw) if type(raw) is ast.Command else raw
+        if stack:
+            if stack[0].kind in CONFIG_KINDS:
+                if config_line(statement):
+                    continue
+            elif type(statement) not in _MATCHED:  # the last case below, taken first
+                stack[-1].target.append(statement)
+                continue
         match statement:
             case ast.InitHeader() | ast.InterruptsHeader() | ast.TriggersHeader():
                 kind = {ast.InitHeader: "init", ast.InterruptsHeader: "interrupts",
