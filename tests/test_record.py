@@ -22,7 +22,8 @@ CONVERTED = ("mplang.ir.macro", "mplang.ir.configure", "mplang.ir.scope", "mplan
              "mplang.family.hostview", "mplang.family.registry", "mplang.m8194h.image",
              "mplang.m8194h.link", "mplang.tools.project", "mplang.cli.common",
              "mplang.cli.families", "mplang.ir.catalogue", "mplang.family.face",
-             "mplang.family.run_error", "mplang.lang.diagnostics")
+             "mplang.family.run_error", "mplang.lang.diagnostics", "mplang.lang.structure",
+             "mplang.ir.reuse", "mplang.m8194h.compiler")
 """Modules that no longer define a dataclass: importing them creates none."""
 
 PARTLY = {"mplang.ir.unit": {"Options"}}

@@ -9,7 +9,6 @@ that one run lists all of them. The raw command spellings of block commands (`EN
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass, field
 
 from mplang.lang import ast
 from mplang.lang.diagnostics import Diagnostic, DiagnosticSink, Span
@@ -31,16 +30,19 @@ inside a program is a line of its innermost block (most of a build's lines)."""
 _LONE_CR = re.compile(r"\r(?!\n)")
 
 
-@dataclass
 class _Open:
-    """A block being built: the program, a FOR or an IF (with its two branches)."""
+    """A block being built: the program, a FOR or an IF (with its two branches). A slots
+    class, not a dataclass: creating one at import costs every command's start."""
 
-    kind: str  # "mp" | "isr" | "for" | "if" | "while" | "repeat"
-    head: ast.Statement
-    body: list[ast.Node] = field(default_factory=list)
-    otherwise: list[ast.Node] | None = None
-    else_span: Span | None = None
-    dropped: bool = False  # nested beyond MAX_BLOCK_DEPTH: reported, left out of the tree
+    __slots__ = ("body", "dropped", "else_span", "head", "kind", "otherwise")
+
+    def __init__(self, kind: str, head: ast.Statement) -> None:
+        self.kind = kind  # "mp" | "isr" | "for" | "if" | "while" | "repeat"
+        self.head = head
+        self.body: list[ast.Node] = []
+        self.otherwise: list[ast.Node] | None = None
+        self.else_span: Span | None = None
+        self.dropped = False  # nested beyond MAX_BLOCK_DEPTH: reported, left out of the tree
 
     @property
     def target(self) -> list[ast.Node]:
@@ -92,15 +94,18 @@ def _operator_text(expr: ast.Expr) -> str:
     return "?"
 
 
-@dataclass
 class _Built:
     """A program as one build matched it: its statements, from its header to its END, the
-    program and what matching them reported."""
+    program and what matching them reported (a slots class, as `_Open`)."""
 
-    statements: list[ast.Statement]
-    program: ast.Program
-    diagnostics: list[Diagnostic]
-    texts: list[str] = field(default_factory=list)  # its lines' texts, header to END
+    __slots__ = ("diagnostics", "program", "statements", "texts")
+
+    def __init__(self, statements: list[ast.Statement], program: ast.Program,
+                 diagnostics: list[Diagnostic], texts: list[str] | None = None) -> None:
+        self.statements = statements
+        self.program = program
+        self.diagnostics = diagnostics
+        self.texts: list[str] = [] if texts is None else texts  # its lines, header to END
 
 
 class BlockMemo:

@@ -8,7 +8,6 @@ from __future__ import annotations
 import gc
 import sys
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from functools import cache
 from pathlib import Path
 
@@ -45,14 +44,18 @@ __all__ = ["DEFAULT_TEMPS", "IMAGE_FORMAT", "BuildMemo", "BuildResult", "InitIma
            "compile_source", "compile_sources"]
 
 
-@dataclass
 class Lowering:
     """What a build worked out on the way to its image, for a tool that shows more than the
-    image from the same one pass (the language server: slot budgets, constant values)."""
+    image from the same one pass (the language server: slot budgets, constant values). A
+    slots class, not a dataclass: creating one at import costs every build command's start."""
 
-    scope: Scope | None = None
-    programs: list[LoweredProgram] = field(default_factory=list)
-    placements: list[Placement] = field(default_factory=list)
+    __slots__ = ("placements", "programs", "scope")
+
+    def __init__(self, scope: Scope | None = None, programs: list[LoweredProgram] | None = None,
+                 placements: list[Placement] | None = None) -> None:
+        self.scope = scope
+        self.programs: list[LoweredProgram] = [] if programs is None else programs
+        self.placements: list[Placement] = [] if placements is None else placements
 
 
 def compile_paths(paths: list[Path], options: Options = Options(), *,
