@@ -119,8 +119,7 @@ def compile_sources(paths: list[Path], sources: SourceSet, sink: DiagnosticSink,
     with collection_paused():
         unit = build_unit(sources, sink, memo.blocks if memo is not None else None)
         result = _finish(unit, catalogue, sink, options, lowering, kept, encode,
-                         TextMemo({f.display: texts[f.display] for f in sources.files
-                                   if not has_lone_cr(f.text)}))
+                         TextMemo(_memo_texts(sources, texts)))
     if isinstance(kept, StoredLowerings):
         kept.save()
     result.sources = {f.display: f.text.splitlines() for f in sources.files}
@@ -135,6 +134,19 @@ def compile_sources(paths: list[Path], sources: SourceSet, sink: DiagnosticSink,
         [d for d in result.diagnostics
          if d.span.file not in marked or not suppressed(d, result.sources)], result.sources)
     return result
+
+
+def _memo_texts(sources: SourceSet, texts: dict[str, list[str]]) -> dict[str, list[str]]:
+    """The lines by which `ir.textmemo` may key the statements of each file, by the name
+    its spans carry: not a file whose lines are not as the parse numbered them (a lone
+    carriage return), nor a name two different texts share."""
+    seen: dict[str, str] = {}
+    clash: set[str] = set()
+    for source in sources.files:
+        if seen.setdefault(source.display, source.text) != source.text:
+            clash.add(source.display)
+    return {display: texts[display] for display, text in seen.items()
+            if display not in clash and not has_lone_cr(text)}
 
 
 def _stored(texts: dict[str, list[str]]) -> StoredLowerings | None:

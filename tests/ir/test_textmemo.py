@@ -5,12 +5,14 @@ that no two lines share a text) gives the same diagnostics and frames."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from mplang.lang import caches
 from mplang.lang.diagnostics import Diagnostic
-from mplang.m8194h.compiler import BuildResult, compile_source
+from mplang.m8194h.compiler import BuildResult, compile_paths, compile_source
 
 
 def build(text: str) -> BuildResult:
@@ -104,3 +106,26 @@ def test_shared_lowerings_are_those_of_distinct_lines(
         text += [f"{kind.upper()} {slot}", *body, f"END {kind.upper()}"]
     joined = "\n".join(text) + "\n"
     assert seen(build(joined)) == seen(build(numbered(joined)))
+
+
+def test_an_included_file_lowers_its_own_lines(tmp_path: Path) -> None:
+    """The same text in an included file and in the file including it: each lowered where
+    it stands, its spans naming its own file."""
+    body = ["MP {slot}", "  VAR5 = 1", *IF_BLOCK, "END MP", "MP {other}", *IF_BLOCK, "END MP", ""]
+    results = []
+    for numbering in (False, True):
+        library = "\n".join(body).format(slot=3, other=4)
+        main = 'INCLUDE "lib.mp"\n' + "\n".join(body).format(slot=1, other=2)
+        if numbering:
+            library, main = numbered(library), numbered(main)
+        (tmp_path / "lib.mp").write_text(library)
+        (tmp_path / "main.mp").write_text(main)
+        caches.turn_off(True)
+        try:
+            result = compile_paths([tmp_path / "main.mp"])
+        finally:
+            caches.turn_off(False)
+        files = {d.span.file.rsplit("/", 1)[-1] for d in result.diagnostics if d.code == "W103"}
+        assert files == {"lib.mp", "main.mp"}
+        results.append(seen(result))
+    assert results[0] == results[1]
