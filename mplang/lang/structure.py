@@ -384,12 +384,22 @@ def _build_file(statements: list[ast.Statement], file: str, unit: ast.Unit,
                 continue
         index += 1
         statement = normalise(raw) if type(raw) is ast.Command else raw
-        if stack:
+        klass = type(statement)
+        if stack:  # the commonest cases below, taken first: most of a build's lines
             if stack[0].kind in CONFIG_KINDS:
                 if config_line(statement):
                     continue
-            elif type(statement) not in _MATCHED:  # the last case below, taken first
+            elif klass not in _MATCHED:
                 stack[-1].target.append(statement)
+                continue
+            elif klass is ast.IfStmt or klass is ast.ForStmt:
+                open_block("if" if klass is ast.IfStmt else "for", statement)
+                continue
+            elif klass is ast.Next:
+                close_block("for", statement.span)
+                continue
+            elif isinstance(statement, ast.End) and statement.what in ("if", "for"):
+                close_block(statement.what, statement.span)
                 continue
         match statement:
             case ast.InitHeader() | ast.InterruptsHeader() | ast.TriggersHeader():
