@@ -3,9 +3,11 @@ it; never asserted, and never a test.
 
 1. the full-device image (every MP and ISR slot filled to its budget, ~5,900 lines) compiled
    warm in this process with every cache off, with the parse's share (target <= 100 ms). A
-   build parses each distinct line of a text once (`mplang.lang.linecache`), and this image
-   repeats its lines a great deal, so the share of distinct lines is printed beside it, and
-   the same image with every line made distinct (a comment numbering it) is built too;
+   build parses each distinct line of a text once (`mplang.lang.linecache`) and lowers each
+   distinct top-level statement once per state it enters (`mplang.ir.textmemo`), and this
+   image repeats its lines a great deal, so the share of distinct lines is printed beside
+   it, and the same image with every line made distinct (a comment numbering it) is built
+   too;
 2. `mpc build` of that image as a process, beyond `mpc --version` (target <= 120 ms): right
    after a one-number edit of the source (the front cache holds the text before it), with
    the caches warm (a re-build: the front end's and the programs' lowerings, kept on disk by

@@ -23,7 +23,8 @@ CONVERTED = ("mplang.ir.macro", "mplang.ir.configure", "mplang.ir.scope", "mplan
              "mplang.m8194h.link", "mplang.tools.project", "mplang.cli.common",
              "mplang.cli.families", "mplang.ir.catalogue", "mplang.family.face",
              "mplang.family.run_error", "mplang.lang.diagnostics", "mplang.ir.unit",
-             "mplang.m8194h.chipvalues")
+             "mplang.m8194h.chipvalues", "mplang.lang.structure", "mplang.ir.reuse",
+             "mplang.m8194h.compiler")
 """Modules that no longer define a dataclass: importing them creates none."""
 
 PARTLY: dict[str, set[str]] = {}

@@ -70,7 +70,7 @@ class Statement:
         self.after_return = after_return
         self.reads: tuple[int, ...] = ()  # variables whose W103 state it checked
         self.read_state: tuple[tuple[bool, bool], ...] = ()  # (written, warned) on entry
-        # what it made and left (set by `_record`; empty ones shared: a long document
+        # what it made and left (set by `record`; empty ones shared: a long document
         # keeps thousands of statements, every object more for the collector to walk)
         self.lines: list[MacroLine] = []
         self.calls: tuple[CallSite, ...] = ()
@@ -84,8 +84,11 @@ class Statement:
 
     def fits(self, node: ast.Node, lowerer: ProgramLowerer) -> bool:
         """Whether lowering `node` in `lowerer`'s present state gives what this gave."""
-        if not (self.node is node or self.node == node):
-            return False
+        return (self.node is node or self.node == node) and self.enters(lowerer)
+
+    def enters(self, lowerer: ProgramLowerer) -> bool:
+        """Whether `lowerer`'s present state is the one this statement entered with, as far
+        as its lowering read it (the statement itself aside)."""
         if self.free_temps != tuple(lowerer.free_temps) or \
                 self.spare_labels != tuple(lowerer.spare_labels) or \
                 self.after_return != _after_return(lowerer):
@@ -148,10 +151,10 @@ class Statements:
         or replay the kept lowering that fits; True if control never falls through it."""
         kept = self.kept.get(node.span)
         if kept is not None and kept.fits(node, lowerer):
-            _replay(kept, lowerer)
+            replay(kept, lowerer)
             self.order.append(kept)
             return kept.jumps
-        made = _record(node, lowerer, make)
+        made = record(node, lowerer, make)
         self.order.append(made)
         return made.jumps
 
@@ -176,7 +179,7 @@ class Statements:
         return out if first == len(lines) else None
 
 
-def _replay(kept: Statement, lowerer: ProgramLowerer) -> None:
+def replay(kept: Statement, lowerer: ProgramLowerer) -> None:
     """Do to `lowerer` what lowering the kept statement did."""
     lowerer.out.lines.extend(kept.lines)
     lowerer.out.calls.extend(kept.calls)
@@ -187,7 +190,7 @@ def _replay(kept: Statement, lowerer: ProgramLowerer) -> None:
     lowerer.spare_labels[:] = kept.spare_after
 
 
-def _record(node: ast.Node, lowerer: ProgramLowerer, make: Callable[[ast.Node], bool]
+def record(node: ast.Node, lowerer: ProgramLowerer, make: Callable[[ast.Node], bool]
             ) -> Statement:
     """Lower `node` afresh, noting the state it entered with and what it did (the
     lowerer logs the variables it checks and adds: copying its sets would cost more than

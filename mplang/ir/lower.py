@@ -13,7 +13,7 @@ re-exported (`__all__`).
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable
 
 from mplang.ir.blockmemo import Statements
 from mplang.ir.fold import apply_operator, wrap32
@@ -83,16 +83,24 @@ class ProgramLowerer(OperandLowerer):
         """The program's macro lines; `kept`, its statements as last lowered, gives each
         unchanged top-level statement its lowering from then (`mplang.ir.blockmemo`)."""
         self.collect_labels(self.program.body)
-        if kept is None:
-            self.lower_block(self.program.body)
-        else:
+        if kept is not None:
             kept.start(self)
-            self.lower_block(self.program.body, kept)
+            self.lower_block(self.program.body,
+                             lambda node: kept.lower(node, self, self.lower_statement))
             kept.finish()
+        elif self.scope.text_memo is not None:  # one build's repeated statements
+            memo, context = self.scope.text_memo, (self.kind, tuple(self.labels.items()))
+            self.lower_block(self.program.body,
+                             lambda node: memo.lower(node, self, context, self.lower_statement))
+        else:
+            self.lower_block(self.program.body)
         return self.out
 
-    def lower_block(self, body: list[ast.Node], kept: Statements | None = None) -> None:
-        """Lower a body; `kept`: the program's table of kept statements, for its body."""
+    def lower_block(self, body: list[ast.Node],
+                    step: Callable[[ast.Node], bool] | None = None) -> None:
+        """Lower a body; `step`, for a program's body, lowers each of its top-level
+        statements through a table of kept ones (`mplang.ir.blockmemo`, `textmemo`)."""
+        lower = self.lower_statement if step is None else step
         dead_after: Span | None = None  # set after a jump, until a LABEL makes code live
         warned = False
         for node in body:
@@ -102,8 +110,7 @@ class ProgramLowerer(OperandLowerer):
                 self.sink.add("W101", node.span, f"unreachable: line {dead_after.line} always "
                               "jumps away", hint="remove it, or put a LABEL before it")
                 warned = True
-            jumps = self.lower_statement(node) if kept is None else \
-                kept.lower(node, self, self.lower_statement)
+            jumps = lower(node)
             if jumps and dead_after is None:
                 dead_after = node.span
 
@@ -325,9 +332,9 @@ class ProgramLowerer(OperandLowerer):
         """Number the program's labels: numeric ones keep their number, names take the lowest
         free numbers in order of definition."""
         defined: dict[str, Span] = {}
-        for node in _statements(body):
-            if not isinstance(node, ast.LabelStmt):
-                continue
+        found: list[ast.LabelStmt] = []
+        _labels(body, found)
+        for node in found:
             key = node.label.upper()
             if key in defined:
                 self.sink.add("E322", node.span, f"label {node.label} is defined twice",
@@ -421,13 +428,17 @@ class ProgramLowerer(OperandLowerer):
         self.emit_command(command, (ref,), node.span)
 
 
-def _statements(body: list[ast.Node]) -> Iterator[ast.Node]:
+def _labels(body: list[ast.Node], found: list[ast.LabelStmt]) -> None:
+    """The LABEL statements of `body` and the blocks in it, in order, added to `found`
+    (a plain walk: generators nested as deep as the blocks cost more than a program's
+    labels are worth)."""
     for node in body:
-        yield node
-        if isinstance(node, ast.ForBlock):
-            yield from _statements(node.body)
-        elif isinstance(node, ast.IfBlock):
-            yield from _statements(node.then)
-            yield from _statements(node.otherwise or [])
-        elif isinstance(node, ast.WhileBlock | ast.RepeatBlock):
-            yield from _statements(node.body)
+        if type(node) is ast.LabelStmt:
+            found.append(node)
+        elif type(node) is ast.IfBlock:
+            _labels(node.then, found)
+            if node.otherwise:
+                _labels(node.otherwise, found)
+        elif type(node) is ast.ForBlock or type(node) is ast.WhileBlock or \
+                type(node) is ast.RepeatBlock:
+            _labels(node.body, found)

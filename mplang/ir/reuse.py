@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import re
 from collections.abc import Callable, Hashable
-from dataclasses import dataclass, field
 
 from mplang.ir.blockmemo import Statement, Statements, derived_for
 from mplang.ir.macro import CallSite, LoweredProgram, MacroLine
@@ -38,7 +37,7 @@ from mplang.lang import ast
 from mplang.lang.diagnostics import Diagnostic, DiagnosticSink, Run, Span, make_span
 from mplang.lang.structure import BlockMemo
 
-_NAMES_A_LINE = re.compile(r"\blines? \d|:\d")
+NAMES_A_LINE = re.compile(r"\blines? \d|:\d")
 """A line number in a diagnostic's text ("of line 12", "first at a.mp:12"): such a text
 is not shifted with its span, so its program is lowered again when it moves."""
 
@@ -61,7 +60,7 @@ class _Shift:
 
     def diagnostic(self, item: Diagnostic) -> Diagnostic:
         texts = [item.message, item.hint, *(note for _, note in item.related)]
-        if any(_NAMES_A_LINE.search(text) for text in texts):
+        if any(NAMES_A_LINE.search(text) for text in texts):
             raise _Unmovable
         made = Diagnostic(item.code, item.severity, item.message, self.span(item.span),
                           item.hint, tuple((self.span(s), note) for s, note in item.related))
@@ -77,17 +76,23 @@ class _Shift:
         return value
 
 
-@dataclass
 class Lowered:
     """One program's lowering as kept: None when a CONST it uses has no value (the program
-    is then left out of the build, as a fresh lowering leaves it out)."""
+    is then left out of the build, as a fresh lowering leaves it out). A slots class, not a
+    dataclass: creating one at import costs every build command's start."""
 
-    program: ast.Program
-    result: LoweredProgram | None
-    diagnostics: list[Diagnostic]
-    derived: dict[str, tuple[Hashable, object]] = field(default_factory=dict)
-    # its top-level statements as lowered (`ir.blockmemo`): None for a lowering shifted
-    statements: Statements | None = None
+    __slots__ = ("derived", "diagnostics", "program", "result", "statements")
+
+    def __init__(self, program: ast.Program, result: LoweredProgram | None,
+                 diagnostics: list[Diagnostic],
+                 derived: dict[str, tuple[Hashable, object]] | None = None,
+                 statements: Statements | None = None) -> None:
+        self.program = program
+        self.result = result
+        self.diagnostics = diagnostics
+        self.derived: dict[str, tuple[Hashable, object]] = {} if derived is None else derived
+        # its top-level statements as lowered (`ir.blockmemo`): None for a lowering shifted
+        self.statements = statements
 
     def segments(self) -> list[tuple[Statement, int, int]] | None:
         """Each top-level statement of the program with its part of the macro lines
@@ -229,14 +234,16 @@ class Lowerings:
         self._before, self._now = self._now, {}
 
 
-@dataclass
 class BuildMemo:
     """What one document's builds keep for the next (see the module's docstring). Not
-    thread-safe: one per document of a server, used from its event loop."""
+    thread-safe: one per document of a server, used from its event loop. A slots class, as
+    `Lowered`."""
 
-    blocks: BlockMemo = field(default_factory=BlockMemo)
-    lowerings: Lowerings = field(default_factory=Lowerings)
+    __slots__ = ("blocks", "lowerings")
 
-    def __post_init__(self) -> None:
+    def __init__(self, blocks: BlockMemo | None = None,
+                 lowerings: Lowerings | None = None) -> None:
+        self.blocks = BlockMemo() if blocks is None else blocks
+        self.lowerings = Lowerings() if lowerings is None else lowerings
         if self.lowerings.blocks is None:
             self.lowerings.blocks = self.blocks

@@ -9,6 +9,7 @@ the share of the temporary pool an MP or an ISR computes in.
 from __future__ import annotations
 
 import re
+from typing import TYPE_CHECKING
 
 from mplang.ir.catalogue import Catalogue
 from mplang.ir.fold import apply_operator, walk_expr, wrap32
@@ -16,6 +17,9 @@ from mplang.lang import ast
 from mplang.lang.diagnostics import DiagnosticSink, Span
 from mplang.lang.limits import MAX_EXPRESSION_DEPTH, expression_depth
 from mplang.lang.record import FrozenRecord, Record
+
+if TYPE_CHECKING:
+    from mplang.ir.textmemo import TextMemo
 
 VAR_RE = re.compile(r"VAR(\d+)", re.IGNORECASE)
 BVAR_RE = re.compile(r"BVAR(\d+)", re.IGNORECASE)
@@ -103,6 +107,9 @@ class Scope(Record):
         self._evaluating = set() if _evaluating is None else _evaluating
         self._nesting = _nesting
         self._wrapped = set() if _wrapped is None else _wrapped
+        # the build's statements lowered once per text (`ir.textmemo`), when the
+        # compiler gives the sources' lines: not a field (a cache, not a name)
+        self.text_memo: TextMemo | None = None
 
     @classmethod
     def declared(cls, unit: ast.Unit, catalogue: Catalogue, sink: DiagnosticSink,

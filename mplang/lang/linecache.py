@@ -57,47 +57,64 @@ def _parse_text(text: str, file: str, sink: DiagnosticSink) -> list[ast.Statemen
 _PLAIN = frozenset({"str", "int", "bool", "str | None", "int | None"})
 """Field annotations of a syntax-tree class that can hold no span: copied as they are."""
 
-_plans: dict[type, tuple[str, ...] | None] = {}
+Mover = Callable[[Any, str, int], Any]
+"""A value, a file and a line -> the value with every span moved there."""
 
 
-def _plan(kind: type) -> tuple[str, ...] | None:
-    """The fields of syntax-tree class `kind` that can hold a span (a span, a node or a list
-    of them), found once per class from its annotations; None for anything else."""
+def _span_moved(value: Span, file: str, line: int) -> Span:
+    return make_span(file, line, value.col, value.end_col)
+
+
+def _list_moved(value: list[Any], file: str, line: int) -> list[Any]:
+    return [moved(item, file, line) for item in value]
+
+
+def _kept(value: Any, file: str, line: int) -> Any:
+    return value
+
+
+_movers: dict[type, Mover] = {Span: _span_moved, list: _list_moved}
+
+
+def _mover(kind: type) -> Mover:
+    """The function that moves a value of class `kind`, made once per class: for a
+    syntax-tree class, one written for its fields (from its annotations) that copies the
+    node's dict and replaces only the fields that can hold a span, a span made in place,
+    anything else moved as it is. A cached line found at another place costs this per
+    node, and a loop over the fields testing each value's class cost twice as much."""
     names: tuple[str, ...] | None = getattr(kind, "_fields", None)
-    plan = None
-    if names is not None:
-        hints: dict[str, str] = {}
-        for klass in reversed(kind.__mro__):
-            hints.update(getattr(klass, "__annotations__", {}))
-        plan = tuple(name for name in names if hints.get(name) not in _PLAIN)
-    _plans[kind] = plan
-    return plan
+    if names is None:  # a string, a number, None: nothing to move
+        _movers[kind] = _kept
+        return _kept
+    hints: dict[str, str] = {}
+    for klass in reversed(kind.__mro__):
+        hints.update(getattr(klass, "__annotations__", {}))
+    body = ["def mover(value, file, line):", "    state = value.__dict__.copy()"]
+    for name in names:
+        hint = hints.get(name)
+        if hint in _PLAIN:
+            continue
+        body.append(f"    item = state[{name!r}]")
+        if hint == "Span":
+            body += ["    made = new(Span)", "    fields = made.__dict__",  # as make_span
+                     "    fields['file'] = file", "    fields['line'] = line",
+                     "    fields['col'] = item.col", "    fields['end_col'] = item.end_col",
+                     f"    state[{name!r}] = made"]
+        else:
+            body.append(f"    if item is not None: state[{name!r}] = moved(item, file, line)")
+    body += ["    copy = new(kind)", "    copy.__dict__ = state", "    return copy"]
+    scope: dict[str, Any] = {"Span": Span, "moved": moved, "new": _new, "kind": kind}
+    exec("\n".join(body), scope)  # the text made above from the class's fields
+    made: Mover = scope["mover"]
+    _movers[kind] = made
+    return made
 
 
 def moved(value: Any, file: str, line: int) -> Any:
     """`value` (a statement, an expression, a list of them) with every span moved to
-    `file`:`line`, columns kept; shared parts that hold no span are not copied.
-
-    The cost of a cached line found at another place, so per class only the fields that can
-    hold a span are visited (`_plan`); the others come over in one copy of the node's dict."""
-    kind = type(value)
-    if kind is Span:
-        return make_span(file, line, value.col, value.end_col)
-    if kind is list:
-        return [moved(item, file, line) for item in value]
-    plan = _plans[kind] if kind in _plans else _plan(kind)
-    if plan is None:  # a string, a number, None: nothing to move
-        return value
-    state = value.__dict__.copy()
-    for name in plan:
-        item = state[name]
-        if type(item) is Span:
-            state[name] = make_span(file, line, item.col, item.end_col)
-        elif item is not None:
-            state[name] = moved(item, file, line)
-    copy = _new(kind)
-    copy.__dict__ = state
-    return copy
+    `file`:`line`, columns kept; shared parts that hold no span are not copied (`_mover`)."""
+    mover = _movers.get(type(value))
+    return (mover or _mover(type(value)))(value, file, line)
 
 
 def _moved_diagnostic(item: Diagnostic, file: str, line: int) -> Diagnostic:

@@ -9,7 +9,6 @@ that one run lists all of them. The raw command spellings of block commands (`EN
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass, field
 
 from mplang.lang import ast
 from mplang.lang.diagnostics import Diagnostic, DiagnosticSink, Span
@@ -23,19 +22,27 @@ BLOCK_WORD = {"mp": "END MP", "isr": "END ISR", "for": "NEXT", "if": "END IF",
 CONFIG_KINDS = ("init", "interrupts", "triggers")
 CONFIG_HEADERS = (ast.InitHeader, ast.InterruptsHeader, ast.TriggersHeader)
 STRAY_CLOSE = {"for": "E304", "if": "E308", "while": "E315", "repeat": "E315"}
+_MATCHED = frozenset({*CONFIG_HEADERS, ast.End, ast.OnStmt, ast.Const, ast.Alias, ast.VarDecl,
+                      ast.Include, ast.ProgramHeader, ast.ForStmt, ast.IfStmt, ast.WhileStmt,
+                      ast.RepeatStmt, ast.Next, ast.Else})
+"""The statement classes `_build_file` matches by a case of their own; any other statement
+inside a program is a line of its innermost block (most of a build's lines)."""
 _LONE_CR = re.compile(r"\r(?!\n)")
 
 
-@dataclass
 class _Open:
-    """A block being built: the program, a FOR or an IF (with its two branches)."""
+    """A block being built: the program, a FOR or an IF (with its two branches). A slots
+    class, not a dataclass: creating one at import costs every command's start."""
 
-    kind: str  # "mp" | "isr" | "for" | "if" | "while" | "repeat"
-    head: ast.Statement
-    body: list[ast.Node] = field(default_factory=list)
-    otherwise: list[ast.Node] | None = None
-    else_span: Span | None = None
-    dropped: bool = False  # nested beyond MAX_BLOCK_DEPTH: reported, left out of the tree
+    __slots__ = ("body", "dropped", "else_span", "head", "kind", "otherwise")
+
+    def __init__(self, kind: str, head: ast.Statement) -> None:
+        self.kind = kind  # "mp" | "isr" | "for" | "if" | "while" | "repeat"
+        self.head = head
+        self.body: list[ast.Node] = []
+        self.otherwise: list[ast.Node] | None = None
+        self.else_span: Span | None = None
+        self.dropped = False  # nested beyond MAX_BLOCK_DEPTH: reported, left out of the tree
 
     @property
     def target(self) -> list[ast.Node]:
@@ -87,15 +94,18 @@ def _operator_text(expr: ast.Expr) -> str:
     return "?"
 
 
-@dataclass
 class _Built:
     """A program as one build matched it: its statements, from its header to its END, the
-    program and what matching them reported."""
+    program and what matching them reported (a slots class, as `_Open`)."""
 
-    statements: list[ast.Statement]
-    program: ast.Program
-    diagnostics: list[Diagnostic]
-    texts: list[str] = field(default_factory=list)  # its lines' texts, header to END
+    __slots__ = ("diagnostics", "program", "statements", "texts")
+
+    def __init__(self, statements: list[ast.Statement], program: ast.Program,
+                 diagnostics: list[Diagnostic], texts: list[str] | None = None) -> None:
+        self.statements = statements
+        self.program = program
+        self.diagnostics = diagnostics
+        self.texts: list[str] = [] if texts is None else texts  # its lines, header to END
 
 
 class BlockMemo:
@@ -194,6 +204,12 @@ class BlockMemo:
         self._blocks_before, self._blocks_now = self._blocks_now, {}
 
 
+def has_lone_cr(text: str) -> bool:
+    """Whether `text` has a carriage return that does not end a line: the parse then
+    numbers its lines otherwise, and its lines are not `text.split("\n")`."""
+    return "\r" in text and _LONE_CR.search(text) is not None
+
+
 def build_unit(sources: SourceSet, sink: DiagnosticSink, memo: BlockMemo | None = None
                ) -> ast.Unit:
     """The files' statements matched into programs and configuration blocks; `memo`, kept
@@ -203,8 +219,8 @@ def build_unit(sources: SourceSet, sink: DiagnosticSink, memo: BlockMemo | None 
         memo.start()
     for source in sources.files:
         # the lines' texts, as the parse numbers them (a lone carriage return: no texts)
-        texts = source.text.split("\n") if memo is not None and not (
-            "\r" in source.text and _LONE_CR.search(source.text)) else None
+        texts = source.text.split("\n") if memo is not None and \
+            not has_lone_cr(source.text) else None
         _build_file(source.statements, source.display, unit, sink, memo, texts)
     if memo is not None:
         memo.turn()
@@ -367,9 +383,24 @@ def _build_file(statements: list[ast.Statement], file: str, unit: ast.Unit,
                 index += len(found[0])
                 continue
         index += 1
-        statement = normalise(raw)
-        if stack and stack[0].kind in CONFIG_KINDS and config_line(statement):
-            continue
+        statement = normalise(raw) if type(raw) is ast.Command else raw
+        klass = type(statement)
+        if stack:  # the commonest cases below, taken first: most of a build's lines
+            if stack[0].kind in CONFIG_KINDS:
+                if config_line(statement):
+                    continue
+            elif klass not in _MATCHED:
+                stack[-1].target.append(statement)
+                continue
+            elif klass is ast.IfStmt or klass is ast.ForStmt:
+                open_block("if" if klass is ast.IfStmt else "for", statement)
+                continue
+            elif klass is ast.Next:
+                close_block("for", statement.span)
+                continue
+            elif isinstance(statement, ast.End) and statement.what in ("if", "for"):
+                close_block(statement.what, statement.span)
+                continue
         match statement:
             case ast.InitHeader() | ast.InterruptsHeader() | ast.TriggersHeader():
                 kind = {ast.InitHeader: "init", ast.InterruptsHeader: "interrupts",

@@ -8,7 +8,6 @@ from __future__ import annotations
 import gc
 import sys
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from functools import cache
 from pathlib import Path
 
@@ -16,9 +15,10 @@ from mplang.ir import catalogue as catalogue_module
 from mplang.ir.catalogue import Catalogue
 from mplang.ir.configure import TriggerTable, Wire
 from mplang.ir.lower import Scope
-from mplang.ir.macro import LoweredProgram, ProgramRef
+from mplang.ir.macro import LoweredProgram, MacroLine, ProgramRef
 from mplang.ir.persist import StoredLowerings, code_key
 from mplang.ir.reuse import BuildMemo, Lowerings
+from mplang.ir.textmemo import TextMemo
 from mplang.ir.unit import DEFAULT_TEMPS, Options, lower_unit
 from mplang.lang import ast, caches
 from mplang.lang.diagnostics import DiagnosticSink, suppressed
@@ -26,7 +26,7 @@ from mplang.lang.followon import settle_includes
 from mplang.lang.heap import collection_paused
 from mplang.lang.linecache import StatementCache
 from mplang.lang.sources import SourceSet, load_sources
-from mplang.lang.structure import build_unit
+from mplang.lang.structure import build_unit, has_lone_cr
 from mplang.m8194h.chipvalues import warn_changed
 from mplang.m8194h.encode import Encoder
 from mplang.m8194h.image import (
@@ -44,14 +44,18 @@ __all__ = ["DEFAULT_TEMPS", "IMAGE_FORMAT", "BuildMemo", "BuildResult", "InitIma
            "compile_source", "compile_sources"]
 
 
-@dataclass
 class Lowering:
     """What a build worked out on the way to its image, for a tool that shows more than the
-    image from the same one pass (the language server: slot budgets, constant values)."""
+    image from the same one pass (the language server: slot budgets, constant values). A
+    slots class, not a dataclass: creating one at import costs every build command's start."""
 
-    scope: Scope | None = None
-    programs: list[LoweredProgram] = field(default_factory=list)
-    placements: list[Placement] = field(default_factory=list)
+    __slots__ = ("placements", "programs", "scope")
+
+    def __init__(self, scope: Scope | None = None, programs: list[LoweredProgram] | None = None,
+                 placements: list[Placement] | None = None) -> None:
+        self.scope = scope
+        self.programs: list[LoweredProgram] = [] if programs is None else programs
+        self.placements: list[Placement] = [] if placements is None else placements
 
 
 def compile_paths(paths: list[Path], options: Options = Options(), *,
@@ -69,6 +73,7 @@ def compile_paths(paths: list[Path], options: Options = Options(), *,
         result = compile_sources(paths, sources, sink, options, memo=memo)
         if memo is None:
             _freeze_first_build()
+        _promote_build()
         return result
 
 
@@ -88,6 +93,20 @@ def _freeze_first_build() -> None:
         gc.freeze()
 
 
+def _promote_build() -> None:
+    """Move what the build made to the collector's oldest generation, unwalked, when
+    nothing is frozen: the collection that follows the build (the collector on again, its
+    counts grown by every object the build made) would walk all of them to free nothing, a
+    build making no cycles (a sixth of a whole device's build in a program using mplang as
+    a library). Freezing and unfreezing at once is that move: it walks nothing, and the
+    objects stay where a full collection finds them (a cycle one of them joins later is
+    still freed), unlike a freeze (`_freeze_first_build`). Not when something is frozen
+    (`mpc`: start-up is): unfreezing would thaw that too."""
+    if gc.get_freeze_count() == 0:
+        gc.freeze()
+        gc.unfreeze()
+
+
 def compile_sources(paths: list[Path], sources: SourceSet, sink: DiagnosticSink,
                     options: Options = Options(), lowering: Lowering | None = None,
                     memo: BuildMemo | None = None, encode: bool = True) -> BuildResult:
@@ -95,10 +114,12 @@ def compile_sources(paths: list[Path], sources: SourceSet, sink: DiagnosticSink,
     `sink`); `lowering`, when given, receives the scope, lowered programs and placements.
     `encode=False` checks only (an editor's diagnostics): the result holds no image."""
     catalogue = catalogue_module.load()
-    kept = memo.lowerings if memo is not None else _stored(sources)
+    texts = {f.display: f.text.split("\n") for f in sources.files}
+    kept = memo.lowerings if memo is not None else _stored(texts)
     with collection_paused():
         unit = build_unit(sources, sink, memo.blocks if memo is not None else None)
-        result = _finish(unit, catalogue, sink, options, lowering, kept, encode)
+        result = _finish(unit, catalogue, sink, options, lowering, kept, encode,
+                         TextMemo(_memo_texts(sources, texts)))
     if isinstance(kept, StoredLowerings):
         kept.save()
     result.sources = {f.display: f.text.splitlines() for f in sources.files}
@@ -115,14 +136,26 @@ def compile_sources(paths: list[Path], sources: SourceSet, sink: DiagnosticSink,
     return result
 
 
-def _stored(sources: SourceSet) -> StoredLowerings | None:
+def _memo_texts(sources: SourceSet, texts: dict[str, list[str]]) -> dict[str, list[str]]:
+    """The lines by which `ir.textmemo` may key the statements of each file, by the name
+    its spans carry: not a file whose lines are not as the parse numbered them (a lone
+    carriage return), nor a name two different texts share."""
+    seen: dict[str, str] = {}
+    clash: set[str] = set()
+    for source in sources.files:
+        if seen.setdefault(source.display, source.text) != source.text:
+            clash.add(source.display)
+    return {display: texts[display] for display, text in seen.items()
+            if display not in clash and not has_lone_cr(text)}
+
+
+def _stored(texts: dict[str, list[str]]) -> StoredLowerings | None:
     """The lowerings of a build without a memo (a command's one build): kept on disk
-    between runs (`mplang.ir.persist`), unless caching is off."""
+    between runs (`mplang.ir.persist`), unless caching is off. `texts`: each file's lines."""
     directory = caches.user_cache_dir()
     if directory is None:
         return None
-    return StoredLowerings(directory, {f.display: f.text.split("\n") for f in sources.files},
-                           _salt())
+    return StoredLowerings(directory, texts, _salt())
 
 
 @cache
@@ -169,11 +202,13 @@ def _check_filled(placements: list[Placement], wired: list[Wire],
 
 def _finish(unit: object, catalogue: Catalogue, sink: DiagnosticSink,
             options: Options, lowering: Lowering | None = None,
-            kept: Lowerings | None = None, encode: bool = True) -> BuildResult:
+            kept: Lowerings | None = None, encode: bool = True,
+            text_memo: TextMemo | None = None) -> BuildResult:
     assert isinstance(unit, ast.Unit)
     profile = catalogue.profile
     word_order = profile.word_order_default if options.word_order is None else options.word_order
     scope = Scope.declared(unit, catalogue, sink, options.var_pool, options.temps)
+    scope.text_memo = text_memo
     lowered_unit = lower_unit(unit, scope, sink, options, kept)
     lowered, init = lowered_unit.programs, lowered_unit.init
     wiring, triggers = lowered_unit.wiring, lowered_unit.triggers
@@ -199,11 +234,12 @@ def _finish(unit: object, catalogue: Catalogue, sink: DiagnosticSink,
         result.triggers = TriggerImage(triggers.source, triggers.span.line, [
             t.to_json(slot_of(t.mp) if t.mp is not None else None) for t in triggers.entries])
 
+    encoded: dict[tuple[int, int], tuple[MacroLine, list[int]]] = {}
     for placement in sorted(placements, key=lambda p: (p.program.kind != "mp", p.slot)):
         program = placement.program
         line_no = 0
         lines: list[LineFrames] = []
-        frames = _frames(program, encoder, slot_of, kept)
+        frames = _frames(program, encoder, slot_of, kept, encoded)
         for line, frame in zip(program.lines, frames, strict=True):
             lines.append(LineFrames(line, line_no, frame))
             line_no += line.command.line_cost
@@ -214,14 +250,16 @@ def _finish(unit: object, catalogue: Catalogue, sink: DiagnosticSink,
 
 
 def _frames(program: LoweredProgram, encoder: Encoder,
-            slot_of: Callable[[ProgramRef], int | None], kept: Lowerings | None
-            ) -> list[list[int]]:
+            slot_of: Callable[[ProgramRef], int | None], kept: Lowerings | None,
+            encoded: dict[tuple[int, int], tuple[MacroLine, list[int]]]) -> list[list[int]]:
     """The frames of a program's lines. A program lowered as in the last build (and given no
     lines by the wiring since) is encoded as then when the programs it names are in the same
-    slots and the word order is the same: those are all a frame reads besides its line."""
+    slots and the word order is the same: those are all a frame reads besides its line.
+    `encoded`, one build's: lines that share their command and operands objects (a statement
+    lowered once for several places, `mplang.ir.textmemo`) are encoded once."""
     entry = kept.entry(program) if kept is not None else None
     if entry is None or entry.result is None or len(entry.result.lines) != len(program.lines):
-        return [encoder.frame(line, slot_of) for line in program.lines]
+        return [_frame(line, encoder, slot_of, encoded) for line in program.lines]
     refs = entry.derived_for("refs", None, lambda: tuple(dict.fromkeys(
         o for line in program.lines for o in line.operands if isinstance(o, ProgramRef))))
     assert isinstance(refs, tuple)
@@ -230,3 +268,18 @@ def _frames(program: LoweredProgram, encoder: Encoder,
                               lambda: [encoder.frame(line, slot_of) for line in program.lines])
     assert isinstance(found, list)
     return [list(frame) for frame in found]
+
+
+def _frame(line: MacroLine, encoder: Encoder, slot_of: Callable[[ProgramRef], int | None],
+           encoded: dict[tuple[int, int], tuple[MacroLine, list[int]]]) -> list[int]:
+    """`encoder.frame(line, slot_of)`, once per command and operands objects in a build (its
+    slots and word order are one): told by identity, the line kept beside its frame so that
+    neither object is freed and its id taken by another while the build runs."""
+    key = (id(line.command), id(line.operands))
+    found = encoded.get(key)
+    if found is not None and found[0].command is line.command and \
+            found[0].operands is line.operands:
+        return list(found[1])
+    frame = encoder.frame(line, slot_of)
+    encoded[key] = (line, frame)
+    return list(frame)
