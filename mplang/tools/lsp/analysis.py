@@ -13,10 +13,12 @@ from __future__ import annotations
 import bisect
 import logging
 import re
-from collections.abc import Callable, Iterable, Mapping
+import sys
+from array import array
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field, replace
-from itertools import compress, repeat
-from operator import attrgetter, eq, itemgetter, not_
+from itertools import compress
+from operator import or_
 from pathlib import Path
 from typing import Protocol, cast
 
@@ -37,6 +39,7 @@ from mplang.lang.sources import SourceFile, SourceSet, load_sources, of_types
 from mplang.lang.structure import build_unit
 from mplang.m8194h.compiler import BuildMemo, Lowering, compile_sources
 from mplang.m8194h.link import Placement, link
+from mplang.tools.lsp.ends import same_ends, shared_lines
 from mplang.tools.lsp.positions import Location, Range, line_range, span_range, split_lines
 from mplang.tools.lsp.tokens import Token, lex_line
 from mplang.tools.lsp.workspace import LIMIT_TEXT, BuildContext, RefusedFile, read_text
@@ -198,10 +201,18 @@ class Analysis:
                                                          compare=False)
     _here: tuple[int, list[int], list[ProgramBlock]] = field(default=(-1, [], []),
                                                              repr=False, compare=False)
-    # Diagnostics placed in this document from its own text, by id: the diagnostic, its
-    # line's text then, and where it was placed (the next analysis takes what still holds)
+    # Diagnostics placed afresh in this document from its own text, by id: the diagnostic,
+    # its line's text then, and where it was placed
     placed: dict[int, tuple[Diagnostic, str, EditorDiagnostic]] = field(
         default_factory=dict, repr=False, compare=False)
+    # The compiler's diagnostics as this analysis placed them (the next analysis takes what
+    # still holds): each one, its placement (None: shown in another document) and the line
+    # (0-based) whose text the placement was made from (-1: placed from no line of its own)
+    raw: list[Diagnostic] = field(default_factory=list, repr=False, compare=False)
+    raw_placed: list[EditorDiagnostic | None] = field(default_factory=list, repr=False,
+                                                      compare=False)
+    raw_lines: array[int] = field(default_factory=lambda: array("l"), repr=False,
+                                  compare=False)
     # Placements moved from the last analysis's (a program that only moved), by id: the
     # placement, the one it was moved from and by how many lines (the server moves the JSON)
     moved: dict[int, tuple[EditorDiagnostic, EditorDiagnostic, int]] = field(
@@ -346,10 +357,10 @@ def _analyse(path: Path, text: str, context: BuildContext, open_texts: Mapping[P
     # the loaded files that are the open document, told apart without comparing paths for
     # each of the thousands of diagnostics a whole device can have
     own = {id(entry) for entry in by_display.values() if entry.path == analysis.path}
-    before = previous.placed if previous is not None and previous.path == resolved else {}
     here = {display for display, entry in by_display.items() if id(entry) in own}
     shifted = memo.lowerings.shifted if memo is not None and lowering is not None else {}
-    analysis.diagnostics = _placed_all(analysis, diagnostics, before, here, shifted,
+    analysis.diagnostics = _placed_all(analysis, diagnostics, previous if previous is not None
+                                       and previous.path == resolved else None, here, shifted,
                                        lambda d: _place_diagnostic(analysis, d, by_display,
                                                                    graph, pages, own))
     if context.problem:
@@ -358,44 +369,46 @@ def _analyse(path: Path, text: str, context: BuildContext, open_texts: Mapping[P
     return analysis
 
 
-_LINE_OF, _FILE_OF = attrgetter("span.line"), attrgetter("span.file")
-_TEXT_OF, _PLACED_OF = itemgetter(1), itemgetter(2)
-_NO_ENTRY = cast(tuple[Diagnostic, str, EditorDiagnostic], (None, None, None))
-"""A diagnostic placed nowhere last time: its line's text (None) equals no line's, and its
-placement (None) is looked for again."""
-
-
-def _placed_all(analysis: Analysis, diagnostics: list[Diagnostic],
-                before: dict[int, tuple[Diagnostic, str, EditorDiagnostic]], here: set[str],
-                shifted: Mapping[int, tuple[Diagnostic, Diagnostic, int]],
+def _placed_all(analysis: Analysis, diagnostics: list[Diagnostic], previous: Analysis | None,
+                here: set[str], shifted: Mapping[int, tuple[Diagnostic, Diagnostic, int]],
                 place: Callable[[Diagnostic], EditorDiagnostic | None]
                 ) -> list[EditorDiagnostic]:
     """Every diagnostic placed in the document, in order: the last analysis's placement where
-    it still holds (`before`), else a new one (`place`; None: shown in another document).
+    it still holds, else a new one (`place`; None: shown in another document).
 
-    Kept by identity first (a program the edit left alone keeps its diagnostic objects; a
-    whole device has thousands, taken inline here), or moved with a program that only
-    moved; then, for the rest, by value: a program that was checked again (the edited one)
-    reports mostly the same diagnostics as new objects, and a diagnostic equal to one placed
-    last time on a line of the same text is placed the same. Only the placements no
-    diagnostic took by identity are looked at for that, so a whole device's are not
-    hashed for the one program an edit changed."""
+    The diagnostics the last analysis placed at the start and at the end of its list that
+    are the very objects found there now (a program the edit left alone keeps its own; a
+    whole device has thousands) keep their placements as slices, when the lines those were
+    made from are among the lines the edit left as they were (`_still_placed`): compared as
+    pointers and numbers in C, the objects not read. Of the ones in between, a diagnostic
+    kept by identity on a line of the same text, or moved with a program that only moved,
+    keeps its placement; so does one equal to one placed last time on a line of the same
+    text (a program that was checked again reports mostly the same diagnostics as new
+    objects). Only the rest are placed afresh."""
+    count = len(diagnostics)
+    found: list[EditorDiagnostic | None] = [None] * count
+    keys = array("l", [-1]) * count
+    rest: list[int] = list(range(count))  # the indices looked at one by one
+    before: dict[int, tuple[Diagnostic, str, EditorDiagnostic]] = {}
+    if previous is not None and previous.raw:
+        old, old_lines = previous.raw, previous.lines
+        head, tail = same_ends(old, diagnostics)
+        found[:head] = previous.raw_placed[:head]
+        keys[:head] = previous.raw_lines[:head]
+        if tail:
+            found[count - tail:] = previous.raw_placed[len(old) - tail:]
+            keys[count - tail:] = previous.raw_lines[len(old) - tail:]
+        # the kept ones whose line the edit may have changed, or placed from none, too
+        changed = _changed_lines(old_lines, analysis.lines)
+        rest = [*compress(range(head), _unplaced(changed, keys[:head])),
+                *range(head, count - tail),
+                *compress(range(count - tail, count), _unplaced(changed, keys[count - tail:]))]
+        for index in [*range(head, len(old) - tail),  # the last one's among them, by id
+                      *(i - count + len(old) for i in rest if i < head or i >= count - tail)]:
+            line, placed = previous.raw_lines[index], previous.raw_placed[index]
+            if line >= 0 and placed is not None:
+                before[id(old[index])] = (old[index], old_lines[line], placed)
     lines, kept_now = analysis.lines, analysis.placed
-    found: list[EditorDiagnostic | None] = [None] * len(diagnostics)
-    rest: Iterable[int] = range(len(diagnostics))
-    numbers = list(map(_LINE_OF, diagnostics))
-    if before and numbers and set(map(_FILE_OF, diagnostics)) <= here and \
-            min(numbers) > 0 and max(numbers) <= len(lines):
-        # By identity, in C: the entry kept under a diagnostic's id holds that very object
-        # (alive while kept, so no other object has its id); it stands when its line's text
-        # is the same. Only the others are looked at one by one below.
-        ids = list(map(id, diagnostics))
-        entries = list(map(before.get, ids, repeat(_NO_ENTRY)))
-        same = list(map(eq, map(_TEXT_OF, entries), map(lines.__getitem__,
-                                                           map((-1).__add__, numbers))))
-        kept_now.update(compress(zip(ids, entries, strict=True), same))
-        found = list(map(_PLACED_OF, entries))
-        rest = compress(range(len(diagnostics)), map(not_, same))
     missed: list[int] = []
     for index in rest:
         diagnostic = diagnostics[index]
@@ -418,7 +431,26 @@ def _placed_all(analysis: Analysis, diagnostics: list[Diagnostic],
             found[index] = kept[2]
         else:
             found[index] = place(diagnostic)
+    for index in rest:  # placed from a line of its own: kept next time
+        keys[index] = diagnostics[index].span.line - 1 if id(diagnostics[index]) in kept_now \
+            else -1
+    analysis.raw, analysis.raw_placed, analysis.raw_lines = diagnostics, found, keys
     return list(filter(None, found))  # in C: a placement is never false
+
+
+def _changed_lines(old: list[str], new: list[str]) -> range:
+    """The lines (0-based) on which a placement made from the old text may not hold for the
+    same diagnostic object (so at the same line number): from the first line the edit
+    changed to its last one when it kept the number of lines, else to the end
+    (`ends.shared_lines`)."""
+    start, end = shared_lines(old, new)
+    return range(start, len(new) - end if len(old) == len(new) else sys.maxsize)
+
+
+def _unplaced(changed: range, lines: array[int]) -> Iterator[bool]:
+    """For each placement's line, whether it must be looked at again: on a changed line, or
+    made from no line of its own (-1). In C."""
+    return map(or_, map(changed.__contains__, lines), map((0).__gt__, lines))
 
 
 def _refusals(files: list[SourceFile], roots: list[Path], refused: Mapping[Path, str]

@@ -30,3 +30,25 @@ def same_ends(old: Sequence[object], new: Sequence[object]) -> tuple[int, int]:
     except ValueError:
         end = len(tail)
     return start, end
+
+
+_STRIDE = 256
+"""Lines compared at once while looking for the first and last difference (a slice
+comparison runs in C)."""
+
+
+def shared_lines(old: Sequence[str], new: Sequence[str]) -> tuple[int, int]:
+    """How many lines at the start, and then at the end, the two texts have alike (by
+    value: each check splits its text anew); the counts never overlap."""
+    limit = min(len(old), len(new))
+    start = 0
+    for step in (_STRIDE, 16, 1):
+        while start + step <= limit and old[start:start + step] == new[start:start + step]:
+            start += step
+    end = 0
+    for step in (_STRIDE, 16, 1):
+        while end + step <= limit - start and \
+                old[len(old) - end - step:len(old) - end] == \
+                new[len(new) - end - step:len(new) - end]:
+            end += step
+    return start, end

@@ -55,3 +55,25 @@ def test_random_edits_inside_one_program_analyse_as_a_fresh_analysis_does(
         joined = "\n".join(text)
         previous = analyse(path, joined, lines=lines, memo=memo, previous=previous)
         assert _seen(previous) == _seen(analyse(path, joined))
+
+
+def test_a_kept_diagnostic_keeps_its_placement_only_while_its_line_is_unchanged() -> None:
+    """The diagnostics the last analysis placed that are the very objects again keep their
+    placements as they stand in the list (no object read), but one on a line the edit
+    changed (here its comment: the statement and so the diagnostic stay the same) is
+    placed again from its new line, as a fresh analysis places it."""
+    path = Path("/kept.mp")
+    lines = ["MP 1 first", "    VAR7 = VAR8", "END MP", "MP 2 second",
+             "    VAR9 = VAR10 # note", "END MP", ""]
+    memo, statements = BuildMemo(), StatementCache()
+    first = analyse(path, "\n".join(lines), lines=statements, memo=memo)
+    lines[4] = "    VAR9 = VAR10 # a longer note"
+    edited = analyse(path, "\n".join(lines), lines=statements, memo=memo, previous=first)
+    assert [d.code for d in edited.diagnostics] == ["W103", "W103"]
+    assert edited.diagnostics == analyse(path, "\n".join(lines)).diagnostics
+    assert edited.diagnostics[0] is first.diagnostics[0]  # its line is as it was
+    assert edited.diagnostics[1] is not first.diagnostics[1]  # placed again
+    lines[0:0] = ["# a line above every program"]
+    moved = analyse(path, "\n".join(lines), lines=statements, memo=memo, previous=edited)
+    assert moved.diagnostics == analyse(path, "\n".join(lines)).diagnostics
+    assert [d.range.start.line for d in moved.diagnostics] == [2, 5]
