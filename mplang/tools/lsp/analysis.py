@@ -62,14 +62,24 @@ class OpenTexts(dict[Path, str]):
     """
 
     def __init__(self, texts: Mapping[Path, str] | None = None) -> None:
-        super().__init__({p.resolve(): t for p, t in (texts or {}).items()})
+        self.resolved: dict[Path, Path] = {}  # a path as spelt -> resolved, for one check
+        super().__init__({self.resolve(p): t for p, t in (texts or {}).items()})
         self.disk: dict[Path, str] = {}
         self.refused: dict[Path, str] = {}  # resolved path -> why it was not read
+
+    def resolve(self, path: Path) -> Path:
+        """`path.resolve()`, once per spelling in a check: the loader, the index and the
+        placement ask for the same few files' again and again (each a system call per
+        part of the path)."""
+        found = self.resolved.get(path)
+        if found is None:
+            found = self.resolved[path] = path.resolve()
+        return found
 
     def __contains__(self, key: object) -> bool:
         if not isinstance(key, Path):
             return False
-        resolved = key.resolve()
+        resolved = self.resolve(key)
         if super().__contains__(resolved) or resolved in self.disk or resolved in self.refused:
             return True
         try:
@@ -81,7 +91,7 @@ class OpenTexts(dict[Path, str]):
         return True
 
     def __getitem__(self, key: Path) -> str:
-        resolved = key.resolve()
+        resolved = self.resolve(key)
         if super().__contains__(resolved):
             return super().__getitem__(resolved)
         if resolved in self.disk:
@@ -312,18 +322,19 @@ def _analyse(path: Path, text: str, context: BuildContext, open_texts: Mapping[P
     family = _family_of(context.options.target)
     # a FATEK or CSIM project: its .mp files are M8194H language, checked by that family
     options = context.options if family is None else replace(context.options, target="et")
-    resolved = path.resolve()
     texts = OpenTexts(open_texts)
+    resolve = texts.resolve
+    resolved = resolve(path)
     texts[resolved] = text
     analysis = Analysis(resolved, split_lines(text), catalogue, options)
-    paths = [path if p.resolve() == resolved else p for p in context.sources]
-    if resolved not in {p.resolve() for p in paths}:
+    paths = [path if resolve(p) == resolved else p for p in context.sources]
+    if resolved not in {resolve(p) for p in paths}:
         paths = [path]
     lowering: Lowering | None = None
     if family is None:  # one pass: the sources read once, lowered once, for all of it
         sink = DiagnosticSink()
         sources = load_sources(paths, sink, allow_outside=options.allow_outside_includes,
-                               texts=texts, store=lambda p: p.resolve() in texts.disk,
+                               texts=texts, store=lambda p: resolve(p) in texts.disk,
                                lines=statements)
         # the parses of files read from disk are kept for the next change; editor buffers,
         # text being typed, are not
@@ -340,19 +351,19 @@ def _analyse(path: Path, text: str, context: BuildContext, open_texts: Mapping[P
                    *_refusals(sources.files, paths, texts.refused)]
     by_display: dict[str, SourceText] = {}
     for source in sources.files:
-        if source.path.resolve() in texts.refused:
+        if resolve(source.path) in texts.refused:
             continue
-        lines = analysis.lines if source.path.resolve() == resolved else \
+        lines = analysis.lines if resolve(source.path) == resolved else \
             split_lines(source.text)
-        entry = SourceText(source.path.resolve(), source.display, lines)
+        entry = SourceText(resolve(source.path), source.display, lines)
         analysis.files[entry.path] = entry
         by_display[entry.display] = entry
         _index_file(analysis, source, entry)
     analysis.includes = [replace(i, target=_include_target(analysis.path, i.spelled, analysis,
-                                                           by_display))
+                                                           by_display, resolve))
                          for i in analysis.includes]
     _measure_programs(analysis, sources.files, by_display, catalogue, options, lowering)
-    graph = _include_graph(sources.files, analysis, by_display)
+    graph = _include_graph(sources.files, analysis, by_display, resolve)
     pages: dict[str, Path | None] = {}  # a check's page, looked up once per code
     # the loaded files that are the open document, told apart without comparing paths for
     # each of the thousands of diagnostics a whole device can have
@@ -644,21 +655,23 @@ def _measure_programs(analysis: Analysis, files: list[SourceFile],
 
 
 def _include_target(including: Path, spelled: str, analysis: Analysis,
-                    by_display: dict[str, SourceText]) -> Path:
+                    by_display: dict[str, SourceText], resolve: Callable[[Path], Path]
+                    ) -> Path:
     """The file an INCLUDE names: relative to the including file or, when no loaded file is
     there, the loaded file the loader named by that spelling (a library include)."""
-    candidate = (including.parent / spelled).resolve()
+    candidate = resolve(including.parent / spelled)
     if candidate not in analysis.files and spelled in by_display:
         return by_display[spelled].path
     return candidate
 
 
 def _include_graph(files: list[SourceFile], analysis: Analysis,
-                   by_display: dict[str, SourceText]) -> dict[Path, list[Path]]:
+                   by_display: dict[str, SourceText], resolve: Callable[[Path], Path]
+                   ) -> dict[Path, list[Path]]:
     graph: dict[Path, list[Path]] = {}
     for source in files:
-        including = source.path.resolve()
-        graph[including] = [_include_target(including, s.path, analysis, by_display)
+        including = resolve(source.path)
+        graph[including] = [_include_target(including, s.path, analysis, by_display, resolve)
                             for s in of_types(source.statements, _INCLUDE)
                             if isinstance(s, ast.Include)]
     return graph
