@@ -113,10 +113,17 @@ _SENDING: set[asyncio.Future[Any]] = set()
 """Writes of `EncodedMessage`s still under way on an asynchronous transport."""
 
 
-class EncodedMessage(str):
-    """A message already written as JSON text (ASCII: `json.dumps` escapes the rest), sent
-    as it is by `_Protocol._send_data`: a whole device's publish is thousands of diagnostics
-    whose JSON text is kept from the publish before, not encoded again."""
+class EncodedMessage:
+    """A message already written as JSON (ASCII: `json.dumps` escapes the rest), sent as it
+    is by `_Protocol._send_data`: a whole device's publish is thousands of diagnostics whose
+    JSON text is kept from the publish before, not encoded again. Held as the bytes to send:
+    a megabyte of text is copied once to make them, not once per step of putting the
+    message together."""
+
+    __slots__ = ("body",)
+
+    def __init__(self, body: bytes) -> None:
+        self.body = body
 
 
 class _Protocol(LanguageServerProtocol):
@@ -155,7 +162,7 @@ class _Protocol(LanguageServerProtocol):
             logger.error("Unable to send data, no available transport!")
             return
         try:
-            body = data.encode(self.CHARSET)
+            body = data.body
             header = (f"Content-Length: {len(body)}\r\nContent-Type: {self.CONTENT_TYPE}; "
                       f"charset={self.CHARSET}\r\n\r\n").encode(self.CHARSET)
             written = self.writer.write(header + body)
@@ -382,13 +389,16 @@ class MpLanguageServer(LanguageServer):
         if self.versions.get(uri, version) != version:
             return
         head = {"uri": uri, "version": version} if version is not None else {"uri": uri}
-        diagnostics = ", ".join(self.json_diagnostics(uri, analysis))
         # the diagnostics' JSON text is kept between publishes: the message is put together
-        # around it, never encoded whole again
-        self.protocol._send_data(EncodedMessage(
-            f'{{"jsonrpc": "2.0", "params": {json.dumps(head)[:-1]}, "diagnostics": '
-            f'[{diagnostics}]}}, "method": '
-            f'{json.dumps(lsp.TEXT_DOCUMENT_PUBLISH_DIAGNOSTICS)}}}'))
+        # around it in one join, never encoded whole again
+        opening = f'{{"jsonrpc": "2.0", "params": {json.dumps(head)[:-1]}, "diagnostics": ['
+        closing = f']}}, "method": {json.dumps(lsp.TEXT_DOCUMENT_PUBLISH_DIAGNOSTICS)}}}'
+        parts = self.json_diagnostics(uri, analysis)
+        if parts:
+            parts = [opening + parts[0], *parts[1:]]
+            parts[-1] += closing
+        text = ", ".join(parts) if parts else opening + closing
+        self.protocol._send_data(EncodedMessage(text.encode("utf-8")))
 
     def json_diagnostics(self, uri: str, analysis: Analysis) -> list[str]:
         """The diagnostics to publish, as JSON text. One that was published last time
