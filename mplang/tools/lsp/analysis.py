@@ -30,7 +30,6 @@ from mplang.lang import ast
 from mplang.lang.diagnostics import (
     Diagnostic,
     DiagnosticSink,
-    Severity,
     Span,
     without_ignored,
 )
@@ -40,65 +39,14 @@ from mplang.lang.structure import build_unit
 from mplang.m8194h.compiler import BuildMemo, Lowering, compile_sources
 from mplang.m8194h.link import Placement, link
 from mplang.tools.lsp.ends import same_ends, shared_lines
+from mplang.tools.lsp.opentexts import OpenTexts, refusals
 from mplang.tools.lsp.positions import Location, Range, line_range, span_range, split_lines
 from mplang.tools.lsp.tokens import Token, lex_line
-from mplang.tools.lsp.workspace import LIMIT_TEXT, BuildContext, RefusedFile, read_text
+from mplang.tools.lsp.workspace import BuildContext
 from mplang.tools.report import check_page
 
 _VAR_USE = re.compile(r"\bVAR(\d+)\b", re.IGNORECASE)
 logger = logging.getLogger("mplang.tools.lsp")
-
-
-class OpenTexts(dict[Path, str]):
-    """In-editor texts keyed by resolved path, found under any spelling of the path; the
-    files of the build on disk are read here too, bounded, instead of by the loader.
-
-    The loader looks INCLUDEd files up as `including_dir / "name.mp"`, unresolved; resolving
-    on lookup lets `../common.mp` find the open buffer of the same file. A file on disk is
-    read with `workspace.read_text`, so an INCLUDE (or a project source) naming a device, a
-    FIFO or a huge file never blocks or floods the server: that file counts as empty and
-    `refused` says why (the analysis reports it as E102). A file that is missing or not UTF-8
-    is left to the loader, which reports it as `mpc build` does.
-    """
-
-    def __init__(self, texts: Mapping[Path, str] | None = None) -> None:
-        self.resolved: dict[Path, Path] = {}  # a path as spelt -> resolved, for one check
-        super().__init__({self.resolve(p): t for p, t in (texts or {}).items()})
-        self.disk: dict[Path, str] = {}
-        self.refused: dict[Path, str] = {}  # resolved path -> why it was not read
-
-    def resolve(self, path: Path) -> Path:
-        """`path.resolve()`, once per spelling in a check: the loader, the index and the
-        placement ask for the same few files' again and again (each a system call per
-        part of the path)."""
-        found = self.resolved.get(path)
-        if found is None:
-            found = self.resolved[path] = path.resolve()
-        return found
-
-    def __contains__(self, key: object) -> bool:
-        if not isinstance(key, Path):
-            return False
-        resolved = self.resolve(key)
-        if super().__contains__(resolved) or resolved in self.disk or resolved in self.refused:
-            return True
-        try:
-            self.disk[resolved] = read_text(resolved)
-        except RefusedFile as exc:
-            self.refused[resolved] = exc.reason
-        except (OSError, UnicodeDecodeError):
-            return False
-        return True
-
-    def __getitem__(self, key: Path) -> str:
-        resolved = self.resolve(key)
-        if super().__contains__(resolved):
-            return super().__getitem__(resolved)
-        if resolved in self.disk:
-            return self.disk[resolved]
-        if resolved in self.refused:
-            return ""
-        raise KeyError(key)
 
 
 @dataclass(frozen=True)
@@ -348,8 +296,9 @@ def _analyse(path: Path, text: str, context: BuildContext, open_texts: Mapping[P
         sources = load_sources(paths, scratch, allow_outside=options.allow_outside_includes,
                                texts=texts, lines=statements)
     diagnostics = [*without_ignored(diagnostics, context.ignore),
-                   *_refusals(sources.files, paths, texts.refused)]
+                   *refusals(sources.files, paths, texts.refused)]
     by_display: dict[str, SourceText] = {}
+    spelled: dict[Path, list[str]] = {}  # by file: its INCLUDEs' paths as spelt
     for source in sources.files:
         if resolve(source.path) in texts.refused:
             continue
@@ -358,12 +307,12 @@ def _analyse(path: Path, text: str, context: BuildContext, open_texts: Mapping[P
         entry = SourceText(resolve(source.path), source.display, lines)
         analysis.files[entry.path] = entry
         by_display[entry.display] = entry
-        _index_file(analysis, source, entry)
+        spelled[entry.path] = _index_file(analysis, source, entry, resolve)
     analysis.includes = [replace(i, target=_include_target(analysis.path, i.spelled, analysis,
                                                            by_display, resolve))
                          for i in analysis.includes]
     _measure_programs(analysis, sources.files, by_display, catalogue, options, lowering)
-    graph = _include_graph(sources.files, analysis, by_display, resolve)
+    graph = _include_graph(sources.files, spelled, analysis, by_display, resolve)
     pages: dict[str, Path | None] = {}  # a check's page, looked up once per code
     # the loaded files that are the open document, told apart without comparing paths for
     # each of the thousands of diagnostics a whole device can have
@@ -464,34 +413,6 @@ def _unplaced(changed: range, lines: array[int]) -> Iterator[bool]:
     return map(or_, map(changed.__contains__, lines), map((0).__gt__, lines))
 
 
-def _refusals(files: list[SourceFile], roots: list[Path], refused: Mapping[Path, str]
-              ) -> list[Diagnostic]:
-    """E102 for each INCLUDE (and project source) naming a file the server would not read:
-    the loader saw it as empty, so the build would otherwise pass in silence."""
-    if not refused:
-        return []
-    found: list[Diagnostic] = []
-    for root in roots:
-        reason = refused.get(root.resolve())
-        if reason is not None:
-            found.append(Diagnostic("E102", Severity.ERROR, f"cannot read {root}: {reason}",
-                                    Span(str(root), 1), hint=_REFUSED_HINT))
-    for source in files:
-        for statement in source.statements:
-            if not isinstance(statement, ast.Include) or "\0" in statement.path:
-                continue
-            target = (source.path.parent / statement.path).resolve()
-            reason = refused.get(target)
-            if reason is not None:
-                found.append(Diagnostic("E102", Severity.ERROR,
-                                        f"cannot include {statement.path}: {reason}",
-                                        statement.span, hint=_REFUSED_HINT))
-    return found
-
-
-_REFUSED_HINT = f"the language server reads only regular files of at most {LIMIT_TEXT}"
-
-
 class _Family(Protocol):
     TARGETS: tuple[str, ...]
 
@@ -536,40 +457,89 @@ _INDEXED = (ast.Const, ast.Alias, ast.VarDecl, ast.ProgramHeader, ast.End, ast.L
 _INDEXED_TYPES = frozenset(_INDEXED)
 """The same, looked up by exact type (thousands of statements a check; no syntax-tree class
 has subclasses)."""
-_INCLUDE = frozenset({ast.Include})
 
 
-def _index_file(analysis: Analysis, source: SourceFile, entry: SourceText) -> None:
-    """Definitions, program blocks and INCLUDE lines of one file."""
+@dataclass
+class _FileIndex:
+    """What `_index_file` found in one file, kept for the next check: the statements it
+    read (the very objects), the lines whose text it read and those texts, the file's line
+    count, and what it found (a table's candidates in order, blocks, INCLUDEs as spelt)."""
+
+    indexed: list[ast.Statement]
+    read: list[int]  # 0-based lines of the statements other than END
+    texts: list[str]
+    line_count: int
+    definitions: list[tuple[int, str, Definition]]  # table (0-2), upper-case key, definition
+    blocks: list[ProgramBlock]
+    includes: list[tuple[Range, str]]  # of the open document: where, and the path as spelt
+    spelled: list[str]  # every INCLUDE's path as spelt
+
+
+_KEPT_INDEXES = 64
+"""How many files keep their index (the open documents and the files they INCLUDE)."""
+_indexes: dict[tuple[Path, bool], _FileIndex] = {}
+_TABLES = {ast.Const: (0, "const"), ast.Alias: (1, "alias"), ast.VarDecl: (2, "var")}
+
+
+def _index_file(analysis: Analysis, source: SourceFile, entry: SourceText,
+                resolve: Callable[[Path], Path]) -> list[str]:
+    """Definitions, program blocks and INCLUDE lines of one file: what the last check of
+    the file found, when it read the very same statements (an edit of a command line leaves
+    every statement this reads as it was) on lines of the same text, else read again. The
+    paths its INCLUDEs spell, for the include graph."""
+    root = entry.path == analysis.path
+    indexed = list(of_types(source.statements, _INDEXED_TYPES))
+    kept = _indexes.get((entry.path, root))
+    if kept is None or kept.line_count != len(entry.lines) or \
+            len(kept.indexed) != len(indexed) or \
+            same_ends(kept.indexed, indexed)[0] != len(indexed) or \
+            kept.texts != list(map(entry.lines.__getitem__, kept.read)):
+        kept = _index_of(indexed, entry, root)
+        if len(_indexes) >= _KEPT_INDEXES:
+            _indexes.clear()
+        _indexes[(entry.path, root)] = kept
+    tables = (analysis.consts, analysis.aliases, analysis.declared)
+    for table, key, definition in kept.definitions:  # the first of a name wins, over files
+        if all(key not in t for t in tables):
+            tables[table][key] = definition
+    analysis.programs.extend(
+        ProgramBlock(b.kind, b.number, b.name, b.path, b.name_range, b.header_range,
+                     b.first_line, b.last_line, dict(b.labels)) for b in kept.blocks)
+    analysis.includes += [IncludeLine(where, resolve(entry.path.parent / spelled), spelled)
+                          for where, spelled in kept.includes]
+    return kept.spelled
+
+
+def _index_of(indexed: list[ast.Statement], entry: SourceText, root: bool) -> _FileIndex:
+    """`_index_file` of statements it has not read as they are."""
+    found = _FileIndex(indexed, [], [], len(entry.lines), [], [], [], [])
     open_block: ProgramBlock | None = None
-    blocks: list[ProgramBlock] = []
 
     def close(last_line: int) -> None:
         nonlocal open_block
         if open_block is not None:
             open_block.last_line = max(open_block.first_line, last_line)
-            blocks.append(open_block)
+            found.blocks.append(open_block)
             open_block = None
 
-    for statement in of_types(source.statements, _INDEXED_TYPES):
+    for statement in indexed:
         # commands and the like define nothing: they are not visited
         if isinstance(statement, ast.End):
             if statement.what in ("mp", "isr"):
                 close(statement.span.line - 1)
             continue
         line = statement.span.line
+        found.read.append(line - 1)
+        found.texts.append(entry.lines[line - 1])
         tokens = _line_tokens(entry, line)
         text = _code_text(entry.lines[line - 1], tokens) if tokens else ""
+        if isinstance(statement, ast.Include):
+            found.spelled.append(statement.path)
         match statement:
             case ast.Const() | ast.Alias() | ast.VarDecl():
-                key = statement.name.upper()
-                kind, table = {ast.Const: ("const", analysis.consts),
-                               ast.Alias: ("alias", analysis.aliases),
-                               ast.VarDecl: ("var", analysis.declared)}[type(statement)]
-                if all(key not in t for t in (analysis.consts, analysis.aliases,
-                                              analysis.declared)):
-                    table[key] = Definition(kind, statement.name,
-                                            _span_location(statement.name_span, entry), text)
+                table, kind = _TABLES[type(statement)]
+                found.definitions.append((table, statement.name.upper(), Definition(
+                    kind, statement.name, _span_location(statement.name_span, entry), text)))
             case ast.ProgramHeader():
                 close(line - 2)
                 open_block = _program_block(statement, entry, tokens, line - 1)
@@ -582,14 +552,13 @@ def _index_file(analysis: Analysis, source: SourceFile, entry: SourceText) -> No
                         "label", statement.label,
                         Location(entry.path, line_range(line - 1, label.start, label.end)),
                         text)
-            case ast.Include() if entry.path == analysis.path:
+            case ast.Include() if root:
                 quoted = next((t for t in tokens if t.kind == "string"), None)
                 if quoted is not None:
-                    analysis.includes.append(IncludeLine(
-                        line_range(line - 1, quoted.start, quoted.end),
-                        (entry.path.parent / statement.path).resolve(), statement.path))
+                    found.includes.append((line_range(line - 1, quoted.start, quoted.end),
+                                           statement.path))
     close(len(entry.lines) - 1)
-    analysis.programs.extend(blocks)
+    return found
 
 
 _header_ranges: dict[tuple[str, int], tuple[Range, Range]] = {}
@@ -665,15 +634,15 @@ def _include_target(including: Path, spelled: str, analysis: Analysis,
     return candidate
 
 
-def _include_graph(files: list[SourceFile], analysis: Analysis,
-                   by_display: dict[str, SourceText], resolve: Callable[[Path], Path]
-                   ) -> dict[Path, list[Path]]:
+def _include_graph(files: list[SourceFile], spelled: dict[Path, list[str]],
+                   analysis: Analysis, by_display: dict[str, SourceText],
+                   resolve: Callable[[Path], Path]) -> dict[Path, list[Path]]:
+    """The files each file INCLUDEs (`spelled`: the paths as its index read them)."""
     graph: dict[Path, list[Path]] = {}
     for source in files:
         including = resolve(source.path)
-        graph[including] = [_include_target(including, s.path, analysis, by_display, resolve)
-                            for s in of_types(source.statements, _INCLUDE)
-                            if isinstance(s, ast.Include)]
+        graph[including] = [_include_target(including, path, analysis, by_display, resolve)
+                            for path in spelled.get(including, ())]
     return graph
 
 

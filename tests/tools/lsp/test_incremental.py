@@ -12,6 +12,7 @@ from sourceedits import LARGE_WARM_UP, changed, changed_large, edit_sequences, l
 
 from mplang.ir.reuse import BuildMemo
 from mplang.lang.linecache import StatementCache
+from mplang.tools.lsp import analysis as analysis_module
 from mplang.tools.lsp.analysis import Analysis, analyse
 
 
@@ -77,3 +78,33 @@ def test_a_kept_diagnostic_keeps_its_placement_only_while_its_line_is_unchanged(
     moved = analyse(path, "\n".join(lines), lines=statements, memo=memo, previous=edited)
     assert moved.diagnostics == analyse(path, "\n".join(lines)).diagnostics
     assert [d.range.start.line for d in moved.diagnostics] == [2, 5]
+
+
+def test_a_files_index_is_kept_only_while_what_it_read_is_the_same() -> None:
+    """The definitions, blocks and labels of a file are taken from its last check when the
+    statements they were read from are the very same objects on lines of the same text (an
+    edit of a command line), and read again otherwise: a label renamed, a line added after
+    an unclosed program (its last line moves), a CONST changed. Each time the analysis is
+    the one a fresh check makes."""
+    path = Path("/indexed.mp")
+    lines = ["CONST FAST = 5", "MP 1 first", "    VAR1 = 1", "LABEL top", "    GOTO top",
+             "END MP", "MP 2 open", "    VAR2 = FAST"]
+    memo, statements = BuildMemo(), StatementCache()
+    previous = analyse(path, "\n".join(lines), lines=statements, memo=memo)
+    edits = [(2, "    VAR1 = 2"), (3, "LABEL again"), (8, ""), (0, "CONST FAST = 6"),
+             (7, "    VAR2 = FAST + 1")]
+    for row, text in edits:
+        if row == len(lines):
+            lines.append(text)
+        else:
+            lines[row] = text
+        joined = "\n".join(lines)
+        index = analysis_module._indexes[(path.resolve(), True)]
+        previous = analyse(path, joined, lines=statements, memo=memo, previous=previous)
+        kept = analysis_module._indexes[(path.resolve(), True)]
+        assert (kept is index) == (row in (2, 7))  # the command lines
+        assert _seen(previous) == _seen(analyse(path, joined))
+        analysis_module._indexes[(path.resolve(), True)] = kept  # the server's, not the fresh
+        label = lines[3].split()[1].upper()
+        assert [(p.first_line, p.last_line, sorted(p.labels)) for p in previous.programs] == \
+            [(1, 5, [label]), (6, len(lines) - 1, [])]
