@@ -132,7 +132,8 @@ def compile_sources(paths: list[Path], sources: SourceSet, sink: DiagnosticSink,
     marked = {f.display for f in sources.files if "mpc:" in f.text}
     result.diagnostics = settle_includes(
         [d for d in result.diagnostics
-         if d.span.file not in marked or not suppressed(d, result.sources)], result.sources)
+         if d.span.file not in marked or not suppressed(d, result.sources)] if marked
+        else result.diagnostics, result.sources)
     return result
 
 

@@ -13,10 +13,12 @@ from __future__ import annotations
 import bisect
 import logging
 import re
-from collections.abc import Callable, Iterable, Mapping
+import sys
+from array import array
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field, replace
-from itertools import compress, repeat
-from operator import attrgetter, eq, itemgetter, not_
+from itertools import compress
+from operator import or_
 from pathlib import Path
 from typing import Protocol, cast
 
@@ -28,7 +30,6 @@ from mplang.lang import ast
 from mplang.lang.diagnostics import (
     Diagnostic,
     DiagnosticSink,
-    Severity,
     Span,
     without_ignored,
 )
@@ -37,55 +38,15 @@ from mplang.lang.sources import SourceFile, SourceSet, load_sources, of_types
 from mplang.lang.structure import build_unit
 from mplang.m8194h.compiler import BuildMemo, Lowering, compile_sources
 from mplang.m8194h.link import Placement, link
+from mplang.tools.lsp.ends import same_ends, shared_lines
+from mplang.tools.lsp.opentexts import OpenTexts, refusals
 from mplang.tools.lsp.positions import Location, Range, line_range, span_range, split_lines
 from mplang.tools.lsp.tokens import Token, lex_line
-from mplang.tools.lsp.workspace import LIMIT_TEXT, BuildContext, RefusedFile, read_text
+from mplang.tools.lsp.workspace import BuildContext
 from mplang.tools.report import check_page
 
 _VAR_USE = re.compile(r"\bVAR(\d+)\b", re.IGNORECASE)
 logger = logging.getLogger("mplang.tools.lsp")
-
-
-class OpenTexts(dict[Path, str]):
-    """In-editor texts keyed by resolved path, found under any spelling of the path; the
-    files of the build on disk are read here too, bounded, instead of by the loader.
-
-    The loader looks INCLUDEd files up as `including_dir / "name.mp"`, unresolved; resolving
-    on lookup lets `../common.mp` find the open buffer of the same file. A file on disk is
-    read with `workspace.read_text`, so an INCLUDE (or a project source) naming a device, a
-    FIFO or a huge file never blocks or floods the server: that file counts as empty and
-    `refused` says why (the analysis reports it as E102). A file that is missing or not UTF-8
-    is left to the loader, which reports it as `mpc build` does.
-    """
-
-    def __init__(self, texts: Mapping[Path, str] | None = None) -> None:
-        super().__init__({p.resolve(): t for p, t in (texts or {}).items()})
-        self.disk: dict[Path, str] = {}
-        self.refused: dict[Path, str] = {}  # resolved path -> why it was not read
-
-    def __contains__(self, key: object) -> bool:
-        if not isinstance(key, Path):
-            return False
-        resolved = key.resolve()
-        if super().__contains__(resolved) or resolved in self.disk or resolved in self.refused:
-            return True
-        try:
-            self.disk[resolved] = read_text(resolved)
-        except RefusedFile as exc:
-            self.refused[resolved] = exc.reason
-        except (OSError, UnicodeDecodeError):
-            return False
-        return True
-
-    def __getitem__(self, key: Path) -> str:
-        resolved = key.resolve()
-        if super().__contains__(resolved):
-            return super().__getitem__(resolved)
-        if resolved in self.disk:
-            return self.disk[resolved]
-        if resolved in self.refused:
-            return ""
-        raise KeyError(key)
 
 
 @dataclass(frozen=True)
@@ -198,10 +159,18 @@ class Analysis:
                                                          compare=False)
     _here: tuple[int, list[int], list[ProgramBlock]] = field(default=(-1, [], []),
                                                              repr=False, compare=False)
-    # Diagnostics placed in this document from its own text, by id: the diagnostic, its
-    # line's text then, and where it was placed (the next analysis takes what still holds)
+    # Diagnostics placed afresh in this document from its own text, by id: the diagnostic,
+    # its line's text then, and where it was placed
     placed: dict[int, tuple[Diagnostic, str, EditorDiagnostic]] = field(
         default_factory=dict, repr=False, compare=False)
+    # The compiler's diagnostics as this analysis placed them (the next analysis takes what
+    # still holds): each one, its placement (None: shown in another document) and the line
+    # (0-based) whose text the placement was made from (-1: placed from no line of its own)
+    raw: list[Diagnostic] = field(default_factory=list, repr=False, compare=False)
+    raw_placed: list[EditorDiagnostic | None] = field(default_factory=list, repr=False,
+                                                      compare=False)
+    raw_lines: array[int] = field(default_factory=lambda: array("l"), repr=False,
+                                  compare=False)
     # Placements moved from the last analysis's (a program that only moved), by id: the
     # placement, the one it was moved from and by how many lines (the server moves the JSON)
     moved: dict[int, tuple[EditorDiagnostic, EditorDiagnostic, int]] = field(
@@ -301,18 +270,19 @@ def _analyse(path: Path, text: str, context: BuildContext, open_texts: Mapping[P
     family = _family_of(context.options.target)
     # a FATEK or CSIM project: its .mp files are M8194H language, checked by that family
     options = context.options if family is None else context.options.replace(target="et")
-    resolved = path.resolve()
     texts = OpenTexts(open_texts)
+    resolve = texts.resolve
+    resolved = resolve(path)
     texts[resolved] = text
     analysis = Analysis(resolved, split_lines(text), catalogue, options)
-    paths = [path if p.resolve() == resolved else p for p in context.sources]
-    if resolved not in {p.resolve() for p in paths}:
+    paths = [path if resolve(p) == resolved else p for p in context.sources]
+    if resolved not in {resolve(p) for p in paths}:
         paths = [path]
     lowering: Lowering | None = None
     if family is None:  # one pass: the sources read once, lowered once, for all of it
         sink = DiagnosticSink()
         sources = load_sources(paths, sink, allow_outside=options.allow_outside_includes,
-                               texts=texts, store=lambda p: p.resolve() in texts.disk,
+                               texts=texts, store=lambda p: resolve(p) in texts.disk,
                                lines=statements)
         # the parses of files read from disk are kept for the next change; editor buffers,
         # text being typed, are not
@@ -326,30 +296,31 @@ def _analyse(path: Path, text: str, context: BuildContext, open_texts: Mapping[P
         sources = load_sources(paths, scratch, allow_outside=options.allow_outside_includes,
                                texts=texts, lines=statements)
     diagnostics = [*without_ignored(diagnostics, context.ignore),
-                   *_refusals(sources.files, paths, texts.refused)]
+                   *refusals(sources.files, paths, texts.refused)]
     by_display: dict[str, SourceText] = {}
+    spelled: dict[Path, list[str]] = {}  # by file: its INCLUDEs' paths as spelt
     for source in sources.files:
-        if source.path.resolve() in texts.refused:
+        if resolve(source.path) in texts.refused:
             continue
-        lines = analysis.lines if source.path.resolve() == resolved else \
+        lines = analysis.lines if resolve(source.path) == resolved else \
             split_lines(source.text)
-        entry = SourceText(source.path.resolve(), source.display, lines)
+        entry = SourceText(resolve(source.path), source.display, lines)
         analysis.files[entry.path] = entry
         by_display[entry.display] = entry
-        _index_file(analysis, source, entry)
+        spelled[entry.path] = _index_file(analysis, source, entry, resolve)
     analysis.includes = [replace(i, target=_include_target(analysis.path, i.spelled, analysis,
-                                                           by_display))
+                                                           by_display, resolve))
                          for i in analysis.includes]
     _measure_programs(analysis, sources.files, by_display, catalogue, options, lowering)
-    graph = _include_graph(sources.files, analysis, by_display)
+    graph = _include_graph(sources.files, spelled, analysis, by_display, resolve)
     pages: dict[str, Path | None] = {}  # a check's page, looked up once per code
     # the loaded files that are the open document, told apart without comparing paths for
     # each of the thousands of diagnostics a whole device can have
     own = {id(entry) for entry in by_display.values() if entry.path == analysis.path}
-    before = previous.placed if previous is not None and previous.path == resolved else {}
     here = {display for display, entry in by_display.items() if id(entry) in own}
     shifted = memo.lowerings.shifted if memo is not None and lowering is not None else {}
-    analysis.diagnostics = _placed_all(analysis, diagnostics, before, here, shifted,
+    analysis.diagnostics = _placed_all(analysis, diagnostics, previous if previous is not None
+                                       and previous.path == resolved else None, here, shifted,
                                        lambda d: _place_diagnostic(analysis, d, by_display,
                                                                    graph, pages, own))
     if context.problem:
@@ -358,44 +329,46 @@ def _analyse(path: Path, text: str, context: BuildContext, open_texts: Mapping[P
     return analysis
 
 
-_LINE_OF, _FILE_OF = attrgetter("span.line"), attrgetter("span.file")
-_TEXT_OF, _PLACED_OF = itemgetter(1), itemgetter(2)
-_NO_ENTRY = cast(tuple[Diagnostic, str, EditorDiagnostic], (None, None, None))
-"""A diagnostic placed nowhere last time: its line's text (None) equals no line's, and its
-placement (None) is looked for again."""
-
-
-def _placed_all(analysis: Analysis, diagnostics: list[Diagnostic],
-                before: dict[int, tuple[Diagnostic, str, EditorDiagnostic]], here: set[str],
-                shifted: Mapping[int, tuple[Diagnostic, Diagnostic, int]],
+def _placed_all(analysis: Analysis, diagnostics: list[Diagnostic], previous: Analysis | None,
+                here: set[str], shifted: Mapping[int, tuple[Diagnostic, Diagnostic, int]],
                 place: Callable[[Diagnostic], EditorDiagnostic | None]
                 ) -> list[EditorDiagnostic]:
     """Every diagnostic placed in the document, in order: the last analysis's placement where
-    it still holds (`before`), else a new one (`place`; None: shown in another document).
+    it still holds, else a new one (`place`; None: shown in another document).
 
-    Kept by identity first (a program the edit left alone keeps its diagnostic objects; a
-    whole device has thousands, taken inline here), or moved with a program that only
-    moved; then, for the rest, by value: a program that was checked again (the edited one)
-    reports mostly the same diagnostics as new objects, and a diagnostic equal to one placed
-    last time on a line of the same text is placed the same. Only the placements no
-    diagnostic took by identity are looked at for that, so a whole device's are not
-    hashed for the one program an edit changed."""
+    The diagnostics the last analysis placed at the start and at the end of its list that
+    are the very objects found there now (a program the edit left alone keeps its own; a
+    whole device has thousands) keep their placements as slices, when the lines those were
+    made from are among the lines the edit left as they were (`_still_placed`): compared as
+    pointers and numbers in C, the objects not read. Of the ones in between, a diagnostic
+    kept by identity on a line of the same text, or moved with a program that only moved,
+    keeps its placement; so does one equal to one placed last time on a line of the same
+    text (a program that was checked again reports mostly the same diagnostics as new
+    objects). Only the rest are placed afresh."""
+    count = len(diagnostics)
+    found: list[EditorDiagnostic | None] = [None] * count
+    keys = array("l", [-1]) * count
+    rest: list[int] = list(range(count))  # the indices looked at one by one
+    before: dict[int, tuple[Diagnostic, str, EditorDiagnostic]] = {}
+    if previous is not None and previous.raw:
+        old, old_lines = previous.raw, previous.lines
+        head, tail = same_ends(old, diagnostics)
+        found[:head] = previous.raw_placed[:head]
+        keys[:head] = previous.raw_lines[:head]
+        if tail:
+            found[count - tail:] = previous.raw_placed[len(old) - tail:]
+            keys[count - tail:] = previous.raw_lines[len(old) - tail:]
+        # the kept ones whose line the edit may have changed, or placed from none, too
+        changed = _changed_lines(old_lines, analysis.lines)
+        rest = [*compress(range(head), _unplaced(changed, keys[:head])),
+                *range(head, count - tail),
+                *compress(range(count - tail, count), _unplaced(changed, keys[count - tail:]))]
+        for index in [*range(head, len(old) - tail),  # the last one's among them, by id
+                      *(i - count + len(old) for i in rest if i < head or i >= count - tail)]:
+            line, placed = previous.raw_lines[index], previous.raw_placed[index]
+            if line >= 0 and placed is not None:
+                before[id(old[index])] = (old[index], old_lines[line], placed)
     lines, kept_now = analysis.lines, analysis.placed
-    found: list[EditorDiagnostic | None] = [None] * len(diagnostics)
-    rest: Iterable[int] = range(len(diagnostics))
-    numbers = list(map(_LINE_OF, diagnostics))
-    if before and numbers and set(map(_FILE_OF, diagnostics)) <= here and \
-            min(numbers) > 0 and max(numbers) <= len(lines):
-        # By identity, in C: the entry kept under a diagnostic's id holds that very object
-        # (alive while kept, so no other object has its id); it stands when its line's text
-        # is the same. Only the others are looked at one by one below.
-        ids = list(map(id, diagnostics))
-        entries = list(map(before.get, ids, repeat(_NO_ENTRY)))
-        same = list(map(eq, map(_TEXT_OF, entries), map(lines.__getitem__,
-                                                           map((-1).__add__, numbers))))
-        kept_now.update(compress(zip(ids, entries, strict=True), same))
-        found = list(map(_PLACED_OF, entries))
-        rest = compress(range(len(diagnostics)), map(not_, same))
     missed: list[int] = []
     for index in rest:
         diagnostic = diagnostics[index]
@@ -418,35 +391,26 @@ def _placed_all(analysis: Analysis, diagnostics: list[Diagnostic],
             found[index] = kept[2]
         else:
             found[index] = place(diagnostic)
+    for index in rest:  # placed from a line of its own: kept next time
+        keys[index] = diagnostics[index].span.line - 1 if id(diagnostics[index]) in kept_now \
+            else -1
+    analysis.raw, analysis.raw_placed, analysis.raw_lines = diagnostics, found, keys
     return list(filter(None, found))  # in C: a placement is never false
 
 
-def _refusals(files: list[SourceFile], roots: list[Path], refused: Mapping[Path, str]
-              ) -> list[Diagnostic]:
-    """E102 for each INCLUDE (and project source) naming a file the server would not read:
-    the loader saw it as empty, so the build would otherwise pass in silence."""
-    if not refused:
-        return []
-    found: list[Diagnostic] = []
-    for root in roots:
-        reason = refused.get(root.resolve())
-        if reason is not None:
-            found.append(Diagnostic("E102", Severity.ERROR, f"cannot read {root}: {reason}",
-                                    Span(str(root), 1), hint=_REFUSED_HINT))
-    for source in files:
-        for statement in source.statements:
-            if not isinstance(statement, ast.Include) or "\0" in statement.path:
-                continue
-            target = (source.path.parent / statement.path).resolve()
-            reason = refused.get(target)
-            if reason is not None:
-                found.append(Diagnostic("E102", Severity.ERROR,
-                                        f"cannot include {statement.path}: {reason}",
-                                        statement.span, hint=_REFUSED_HINT))
-    return found
+def _changed_lines(old: list[str], new: list[str]) -> range:
+    """The lines (0-based) on which a placement made from the old text may not hold for the
+    same diagnostic object (so at the same line number): from the first line the edit
+    changed to its last one when it kept the number of lines, else to the end
+    (`ends.shared_lines`)."""
+    start, end = shared_lines(old, new)
+    return range(start, len(new) - end if len(old) == len(new) else sys.maxsize)
 
 
-_REFUSED_HINT = f"the language server reads only regular files of at most {LIMIT_TEXT}"
+def _unplaced(changed: range, lines: array[int]) -> Iterator[bool]:
+    """For each placement's line, whether it must be looked at again: on a changed line, or
+    made from no line of its own (-1). In C."""
+    return map(or_, map(changed.__contains__, lines), map((0).__gt__, lines))
 
 
 class _Family(Protocol):
@@ -493,40 +457,89 @@ _INDEXED = (ast.Const, ast.Alias, ast.VarDecl, ast.ProgramHeader, ast.End, ast.L
 _INDEXED_TYPES = frozenset(_INDEXED)
 """The same, looked up by exact type (thousands of statements a check; no syntax-tree class
 has subclasses)."""
-_INCLUDE = frozenset({ast.Include})
 
 
-def _index_file(analysis: Analysis, source: SourceFile, entry: SourceText) -> None:
-    """Definitions, program blocks and INCLUDE lines of one file."""
+@dataclass
+class _FileIndex:
+    """What `_index_file` found in one file, kept for the next check: the statements it
+    read (the very objects), the lines whose text it read and those texts, the file's line
+    count, and what it found (a table's candidates in order, blocks, INCLUDEs as spelt)."""
+
+    indexed: list[ast.Statement]
+    read: list[int]  # 0-based lines of the statements other than END
+    texts: list[str]
+    line_count: int
+    definitions: list[tuple[int, str, Definition]]  # table (0-2), upper-case key, definition
+    blocks: list[ProgramBlock]
+    includes: list[tuple[Range, str]]  # of the open document: where, and the path as spelt
+    spelled: list[str]  # every INCLUDE's path as spelt
+
+
+_KEPT_INDEXES = 64
+"""How many files keep their index (the open documents and the files they INCLUDE)."""
+_indexes: dict[tuple[Path, bool], _FileIndex] = {}
+_TABLES = {ast.Const: (0, "const"), ast.Alias: (1, "alias"), ast.VarDecl: (2, "var")}
+
+
+def _index_file(analysis: Analysis, source: SourceFile, entry: SourceText,
+                resolve: Callable[[Path], Path]) -> list[str]:
+    """Definitions, program blocks and INCLUDE lines of one file: what the last check of
+    the file found, when it read the very same statements (an edit of a command line leaves
+    every statement this reads as it was) on lines of the same text, else read again. The
+    paths its INCLUDEs spell, for the include graph."""
+    root = entry.path == analysis.path
+    indexed = list(of_types(source.statements, _INDEXED_TYPES))
+    kept = _indexes.get((entry.path, root))
+    if kept is None or kept.line_count != len(entry.lines) or \
+            len(kept.indexed) != len(indexed) or \
+            same_ends(kept.indexed, indexed)[0] != len(indexed) or \
+            kept.texts != list(map(entry.lines.__getitem__, kept.read)):
+        kept = _index_of(indexed, entry, root)
+        if len(_indexes) >= _KEPT_INDEXES:
+            _indexes.clear()
+        _indexes[(entry.path, root)] = kept
+    tables = (analysis.consts, analysis.aliases, analysis.declared)
+    for table, key, definition in kept.definitions:  # the first of a name wins, over files
+        if all(key not in t for t in tables):
+            tables[table][key] = definition
+    analysis.programs.extend(
+        ProgramBlock(b.kind, b.number, b.name, b.path, b.name_range, b.header_range,
+                     b.first_line, b.last_line, dict(b.labels)) for b in kept.blocks)
+    analysis.includes += [IncludeLine(where, resolve(entry.path.parent / spelled), spelled)
+                          for where, spelled in kept.includes]
+    return kept.spelled
+
+
+def _index_of(indexed: list[ast.Statement], entry: SourceText, root: bool) -> _FileIndex:
+    """`_index_file` of statements it has not read as they are."""
+    found = _FileIndex(indexed, [], [], len(entry.lines), [], [], [], [])
     open_block: ProgramBlock | None = None
-    blocks: list[ProgramBlock] = []
 
     def close(last_line: int) -> None:
         nonlocal open_block
         if open_block is not None:
             open_block.last_line = max(open_block.first_line, last_line)
-            blocks.append(open_block)
+            found.blocks.append(open_block)
             open_block = None
 
-    for statement in of_types(source.statements, _INDEXED_TYPES):
+    for statement in indexed:
         # commands and the like define nothing: they are not visited
         if isinstance(statement, ast.End):
             if statement.what in ("mp", "isr"):
                 close(statement.span.line - 1)
             continue
         line = statement.span.line
+        found.read.append(line - 1)
+        found.texts.append(entry.lines[line - 1])
         tokens = _line_tokens(entry, line)
         text = _code_text(entry.lines[line - 1], tokens) if tokens else ""
+        if isinstance(statement, ast.Include):
+            found.spelled.append(statement.path)
         match statement:
             case ast.Const() | ast.Alias() | ast.VarDecl():
-                key = statement.name.upper()
-                kind, table = {ast.Const: ("const", analysis.consts),
-                               ast.Alias: ("alias", analysis.aliases),
-                               ast.VarDecl: ("var", analysis.declared)}[type(statement)]
-                if all(key not in t for t in (analysis.consts, analysis.aliases,
-                                              analysis.declared)):
-                    table[key] = Definition(kind, statement.name,
-                                            _span_location(statement.name_span, entry), text)
+                table, kind = _TABLES[type(statement)]
+                found.definitions.append((table, statement.name.upper(), Definition(
+                    kind, statement.name, _span_location(statement.name_span, entry), text)))
             case ast.ProgramHeader():
                 close(line - 2)
                 open_block = _program_block(statement, entry, tokens, line - 1)
@@ -539,14 +552,13 @@ def _index_file(analysis: Analysis, source: SourceFile, entry: SourceText) -> No
                         "label", statement.label,
                         Location(entry.path, line_range(line - 1, label.start, label.end)),
                         text)
-            case ast.Include() if entry.path == analysis.path:
+            case ast.Include() if root:
                 quoted = next((t for t in tokens if t.kind == "string"), None)
                 if quoted is not None:
-                    analysis.includes.append(IncludeLine(
-                        line_range(line - 1, quoted.start, quoted.end),
-                        (entry.path.parent / statement.path).resolve(), statement.path))
+                    found.includes.append((line_range(line - 1, quoted.start, quoted.end),
+                                           statement.path))
     close(len(entry.lines) - 1)
-    analysis.programs.extend(blocks)
+    return found
 
 
 _header_ranges: dict[tuple[str, int], tuple[Range, Range]] = {}
@@ -612,23 +624,25 @@ def _measure_programs(analysis: Analysis, files: list[SourceFile],
 
 
 def _include_target(including: Path, spelled: str, analysis: Analysis,
-                    by_display: dict[str, SourceText]) -> Path:
+                    by_display: dict[str, SourceText], resolve: Callable[[Path], Path]
+                    ) -> Path:
     """The file an INCLUDE names: relative to the including file or, when no loaded file is
     there, the loaded file the loader named by that spelling (a library include)."""
-    candidate = (including.parent / spelled).resolve()
+    candidate = resolve(including.parent / spelled)
     if candidate not in analysis.files and spelled in by_display:
         return by_display[spelled].path
     return candidate
 
 
-def _include_graph(files: list[SourceFile], analysis: Analysis,
-                   by_display: dict[str, SourceText]) -> dict[Path, list[Path]]:
+def _include_graph(files: list[SourceFile], spelled: dict[Path, list[str]],
+                   analysis: Analysis, by_display: dict[str, SourceText],
+                   resolve: Callable[[Path], Path]) -> dict[Path, list[Path]]:
+    """The files each file INCLUDEs (`spelled`: the paths as its index read them)."""
     graph: dict[Path, list[Path]] = {}
     for source in files:
-        including = source.path.resolve()
-        graph[including] = [_include_target(including, s.path, analysis, by_display)
-                            for s in of_types(source.statements, _INCLUDE)
-                            if isinstance(s, ast.Include)]
+        including = resolve(source.path)
+        graph[including] = [_include_target(including, path, analysis, by_display, resolve)
+                            for path in spelled.get(including, ())]
     return graph
 
 

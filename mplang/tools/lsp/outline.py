@@ -9,10 +9,12 @@ end of its program or of the file. Words are classified the way hover resolves t
 
 from __future__ import annotations
 
+import bisect
 import itertools
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import NamedTuple
 
 from mplang.ir.catalogue import Command
 from mplang.ir.scope import KEYWORDS
@@ -20,8 +22,9 @@ from mplang.lang import ast
 from mplang.lang.diagnostics import DiagnosticSink
 from mplang.lang.parser import parse_text
 from mplang.tools.lsp.analysis import Analysis, Definition
+from mplang.tools.lsp.ends import shared_lines
 from mplang.tools.lsp.features import param_accepts, resolve
-from mplang.tools.lsp.positions import Location, Pos, Range, line_range
+from mplang.tools.lsp.positions import Pos, Range, line_range
 from mplang.tools.lsp.tokens import cursor_at, lex_line, line_words
 
 
@@ -276,6 +279,23 @@ def _rest_of_line(classified: Classified) -> list[int]:
     return data
 
 
+class _Pass(NamedTuple):
+    """What `semantic_tokens` computed for one analysis, for the next analysis of the same
+    document to take the lines an edit left alone from."""
+
+    lines: list[str]
+    names: Names
+    declared: list[tuple[int, int, int]]  # declarations on one line: line, start, end
+    blocks: list[tuple[int, int]]  # the document's program blocks: first and last line
+    data: list[int]
+    firsts: list[int]  # where each line's tokens begin in `data`, and len(data) last
+
+
+_KEPT_PASSES = 8
+"""How many documents keep their last tokens (about one per open document)."""
+_passes: dict[Path, _Pass] = {}
+
+
 def semantic_tokens(analysis: Analysis) -> list[int]:
     """The document's words as LSP semantic tokens, relative-encoded (line delta, start
     delta, length, type, modifiers), lengths and starts in code points.
@@ -283,21 +303,60 @@ def semantic_tokens(analysis: Analysis) -> list[int]:
     A line's tokens depend on its text and on the names the build defines, so they are kept
     by line text for each set of names: after an edit that defines no new name, only the
     edited lines are classified again (a program header's are kept by its text and whether a
-    block holds it)."""
-    data: list[int] = []
-    previous_line = previous_start = 0
+    block holds it). When the last tokens of the same document were made with the same
+    names, declarations and blocks on the lines the edit left alone, those lines' tokens
+    are taken from them as slices (`_spliced`): only the first token after the edited lines
+    is encoded again (it counts its line from the token before it); the document's other
+    lines are not walked."""
+    names, declared = _names(analysis), _declared_here(analysis)
+    blocks = sorted((p.first_line, p.last_line) for p in analysis.programs
+                    if p.path == analysis.path)
+    kept = _lines_for(names)
+    last = _passes.pop(analysis.path, None)
+    spliced = _spliced(analysis, last, names, declared, blocks, kept) \
+        if last is not None else None
+    if spliced is None:
+        data: list[int] = []
+        firsts: list[int] = []
+        _encode_lines(analysis, kept, set(declared), range(len(analysis.lines)), (0, 0), data,
+                      firsts)
+        firsts.append(len(data))
+        spliced = data, firsts
+    while len(_passes) >= _KEPT_PASSES:
+        del _passes[next(iter(_passes))]
+    _passes[analysis.path] = _Pass(analysis.lines, names, declared, blocks, *spliced)
+    return list(spliced[0])
+
+
+def _declared_here(analysis: Analysis) -> list[tuple[int, int, int]]:
+    """Line, start and end of each name the document declares on one line (a CONST, ALIAS
+    or VAR, a label, a program's name), in order."""
+    path = analysis.path
     definitions = [d.location for table in (analysis.consts, analysis.aliases,
                                             analysis.declared) for d in table.values()]
     definitions += [label.location for program in analysis.programs
                     for label in program.labels.values()]
-    definitions += [Location(p.path, p.name_range) for p in analysis.programs]
-    declared = {(where.range.start.line, where.range.start.character,
-                 where.range.end.character) for where in definitions
-                if where.path == analysis.path and where.range.start.line ==
-                where.range.end.line}
+    found = [(where.range.start.line, where.range.start.character, where.range.end.character)
+             for where in definitions
+             if where.path == path and where.range.start.line == where.range.end.line]
+    found += [(p.name_range.start.line, p.name_range.start.character,
+               p.name_range.end.character) for p in analysis.programs
+              if p.path == path and p.name_range.start.line == p.name_range.end.line]
+    return sorted(set(found))
+
+
+def _encode_lines(analysis: Analysis, kept: Kept, declared: set[tuple[int, int, int]],
+                  numbers: range, previous: tuple[int, int], data: list[int],
+                  firsts: list[int]) -> tuple[int, int]:
+    """Encode the tokens of some lines onto `data` after the token at `previous` (its line
+    and start), noting where each line's begin in `firsts`; the last token's line and
+    start."""
+    previous_line, previous_start = previous
     declaring = {line for line, _, _ in declared}
-    kept = _lines_for(_names(analysis))
-    for number, text in enumerate(analysis.lines):
+    lines = analysis.lines
+    for number in numbers:
+        firsts.append(len(data))
+        text = lines[number]
         line = kept.get(text)
         if line is None:
             # a header's words name its program when a block holds the line (a header the
@@ -324,7 +383,86 @@ def semantic_tokens(analysis: Analysis) -> list[int]:
         data += [number - previous_line, start, end - start, kind, modifiers]
         data += rest
         previous_line, previous_start = number, classified[-1][0]
-    return data
+    return previous_line, previous_start
+
+
+def _spliced(analysis: Analysis, last: _Pass, names: Names,
+             declared: list[tuple[int, int, int]], blocks: list[tuple[int, int]], kept: Kept
+             ) -> tuple[list[int], list[int]] | None:
+    """The tokens and line starts of `analysis` made from the last pass of its document:
+    the lines before and after the edited ones taken as they were (their tokens relative to
+    each other are the same wherever they are), the edited lines encoded, and the first
+    token after them re-counted from the token before it. None when anything those lines'
+    tokens depend on differs: the names, or the declarations and blocks outside the edit."""
+    old, new = last.lines, analysis.lines
+    if names != last.names:
+        return None
+    head, tail = shared_lines(old, new)
+    shift = len(new) - len(old)
+    if _outside(last.declared, head, len(old) - tail, 0) != \
+            _outside(declared, head, len(new) - tail, shift) or \
+            _ends_outside(last.blocks, head, len(old) - tail, 0) != \
+            _ends_outside(blocks, head, len(new) - tail, shift):
+        return None
+    firsts = last.firsts[:head]
+    data = last.data[:last.firsts[head]]
+    before = _last_token(last, head)
+    previous = _encode_lines(analysis, kept, set(declared), range(head, len(new) - tail),
+                             before, data, firsts)
+    cut = last.firsts[len(old) - tail]
+    after = [first - cut + len(data) for first in last.firsts[len(old) - tail:]]
+    firsts += after
+    suffix = last.data[cut:]
+    if suffix:  # the first token after the edit: its line counted from the token before
+        line = next(n for n in range(len(old) - tail, len(old))
+                    if last.firsts[n + 1] > last.firsts[n]) + shift
+        suffix[0] = line - previous[0]
+        if line == previous[0]:  # never: the token before is on an earlier line
+            return None
+    data += suffix
+    return data, firsts
+
+
+def _last_token(last: _Pass, before: int) -> tuple[int, int]:
+    """The line and start of the last token of a pass on a line before `before` ((0, 0):
+    none, as the encoding counts from there)."""
+    line = before - 1
+    while line >= 0 and last.firsts[line + 1] == last.firsts[line]:
+        line -= 1
+    if line < 0:
+        return 0, 0
+    start = 0
+    at = last.firsts[line]
+    while at < last.firsts[line + 1]:  # starts are relative within a line
+        start = last.data[at + 1] + (start if at > last.firsts[line] else 0)
+        at += 5
+    return line, start
+
+
+def _outside(declared: list[tuple[int, int, int]], start: int, stop: int, shift: int
+             ) -> tuple[list[tuple[int, int, int]], list[tuple[int, int, int]]]:
+    """The declarations before line `start` and from line `stop` on (moved back by `shift`,
+    the lines the edit added): the ones an edit of the lines between leaves in place."""
+    cut = bisect.bisect_left(declared, (start,))
+    rest = bisect.bisect_left(declared, (stop,))
+    after = [(line - shift, s, e) for line, s, e in declared[rest:]] if shift else \
+        declared[rest:]
+    return declared[:cut], after
+
+
+def _ends_outside(blocks: list[tuple[int, int]], start: int, stop: int, shift: int
+                  ) -> list[tuple[int | None, int | None]]:
+    """Program blocks as the lines before `start` and from `stop` on see them (moved back by
+    `shift`): a first or last line between is only known to be there, since whether a
+    block holds a line outside depends on no more."""
+    return [(_seen_from_outside(first, start, stop, shift),
+             _seen_from_outside(last, start, stop, shift)) for first, last in blocks]
+
+
+def _seen_from_outside(line: int, start: int, stop: int, shift: int) -> int | None:
+    if line < start:
+        return line
+    return line - shift if line >= stop else None
 
 
 _STRIDE = 5 * 256

@@ -14,7 +14,9 @@ program that only moved: their ranges moved as much); a check's diagnostics
 are converted to the client's positions once (ASCII lines without counting), semantic
 tokens are kept per analysis (`handlers`), and a document whose last check took longer
 than `DEBOUNCE_ABOVE_S` is checked `DEBOUNCE_S` after the last change of a burst instead
-of after every keystroke; requests on it check it first, and diagnostics are published only
+of after every keystroke (the pause lets the server read the changes that arrived while
+it was checking, so a burst costs one check, while an edit on its own is checked at
+once); requests on it check it first, and diagnostics are published only
 for the document's current version, so none shown is ever stale. After start-up the heap
 built so far (catalogue, grammar, the code) is frozen out of the cycle collector, which
 would otherwise walk it on every collection, the collector waits while a check runs, and
@@ -40,10 +42,8 @@ import sys
 import threading
 import time
 from collections.abc import Callable, Hashable, Iterator
-from itertools import compress, repeat
-from operator import eq, itemgetter, not_
 from pathlib import Path
-from typing import Any, BinaryIO, TypeVar, cast
+from typing import Any, BinaryIO, NamedTuple, TypeVar
 from urllib.parse import unquote
 
 from lsprotocol import types as lsp
@@ -58,6 +58,7 @@ from mplang.ir.reuse import BuildMemo
 from mplang.lang.linecache import StatementCache
 from mplang.tools.lsp import features
 from mplang.tools.lsp.analysis import Analysis, EditorDiagnostic, analyse
+from mplang.tools.lsp.ends import same_ends
 from mplang.tools.lsp.handlers import register_editing
 from mplang.tools.lsp.navigation import register_navigation
 from mplang.tools.lsp.positions import (
@@ -95,8 +96,11 @@ TRIGGER_CHARACTERS = [" ", ",", "(", '"']
 DEBOUNCE_ABOVE_S = 0.05
 """A document whose last check took longer than this (the budget of one keystroke) is
 checked after a pause in its changes rather than after each of them."""
-DEBOUNCE_S = 0.03
-"""The pause: changes closer together than this are checked once, for the last of them."""
+DEBOUNCE_S = 0.005
+"""The pause: long enough for the server to read what the client has sent already (changes
+typed while the last check ran, waiting in the pipe), so that they are checked once, for
+the last of them; short enough that a single edit waits no longer than a few milliseconds
+for its check."""
 FULL_COLLECTION_EVERY = 256
 """Checks between two full collections of the frozen heap (`MpLanguageServer.settle_heap`):
 what cyclic garbage the checks in between left is freed then."""
@@ -109,10 +113,17 @@ _SENDING: set[asyncio.Future[Any]] = set()
 """Writes of `EncodedMessage`s still under way on an asynchronous transport."""
 
 
-class EncodedMessage(str):
-    """A message already written as JSON text (ASCII: `json.dumps` escapes the rest), sent
-    as it is by `_Protocol._send_data`: a whole device's publish is thousands of diagnostics
-    whose JSON text is kept from the publish before, not encoded again."""
+class EncodedMessage:
+    """A message already written as JSON (ASCII: `json.dumps` escapes the rest), sent as it
+    is by `_Protocol._send_data`: a whole device's publish is thousands of diagnostics whose
+    JSON text is kept from the publish before, not encoded again. Held as the bytes to send:
+    a megabyte of text is copied once to make them, not once per step of putting the
+    message together."""
+
+    __slots__ = ("body",)
+
+    def __init__(self, body: bytes) -> None:
+        self.body = body
 
 
 class _Protocol(LanguageServerProtocol):
@@ -151,7 +162,7 @@ class _Protocol(LanguageServerProtocol):
             logger.error("Unable to send data, no available transport!")
             return
         try:
-            body = data.encode(self.CHARSET)
+            body = data.body
             header = (f"Content-Length: {len(body)}\r\nContent-Type: {self.CONTENT_TYPE}; "
                       f"charset={self.CHARSET}\r\n\r\n").encode(self.CHARSET)
             written = self.writer.write(header + body)
@@ -190,10 +201,9 @@ class MpLanguageServer(LanguageServer):
         self.check_seconds: dict[str, float] = {}
         self.pending: dict[str, asyncio.TimerHandle] = {}
         self.converted: dict[str, tuple[Analysis, str, list[lsp.Diagnostic]]] = {}
-        # By URI: the diagnostics last published, as JSON text, by what they were converted
-        # from (`_published_key`) and by identity, for the next publish to take again.
-        self.published: dict[str, dict[Hashable, str]] = {}
-        self.published_same: dict[str, dict[int, tuple[EditorDiagnostic, str, str]]] = {}
+        # By URI: the diagnostics last published and their JSON text, for the next publish
+        # to take again.
+        self.published: dict[str, _Published] = {}
         # The text of each open document (by unquoted URI), kept here with the protocol's
         # line breaks (`positions.apply_change`) rather than by pygls' incremental sync.
         self.texts: dict[str, str] = {}
@@ -379,56 +389,62 @@ class MpLanguageServer(LanguageServer):
         if self.versions.get(uri, version) != version:
             return
         head = {"uri": uri, "version": version} if version is not None else {"uri": uri}
-        diagnostics = ", ".join(self.json_diagnostics(uri, analysis))
         # the diagnostics' JSON text is kept between publishes: the message is put together
-        # around it, never encoded whole again
-        self.protocol._send_data(EncodedMessage(
-            f'{{"jsonrpc": "2.0", "params": {json.dumps(head)[:-1]}, "diagnostics": '
-            f'[{diagnostics}]}}, "method": '
-            f'{json.dumps(lsp.TEXT_DOCUMENT_PUBLISH_DIAGNOSTICS)}}}'))
+        # around it in one join, never encoded whole again
+        opening = f'{{"jsonrpc": "2.0", "params": {json.dumps(head)[:-1]}, "diagnostics": ['
+        closing = f']}}, "method": {json.dumps(lsp.TEXT_DOCUMENT_PUBLISH_DIAGNOSTICS)}}}'
+        parts = self.json_diagnostics(uri, analysis)
+        if parts:
+            parts = [opening + parts[0], *parts[1:]]
+            parts[-1] += closing
+        text = ", ".join(parts) if parts else opening + closing
+        self.protocol._send_data(EncodedMessage(text.encode("utf-8")))
 
     def json_diagnostics(self, uri: str, analysis: Analysis) -> list[str]:
         """The diagnostics to publish, as JSON text. One that was published last time
         (the same diagnostic on the same line text, in the same encoding) is taken from then:
         after an edit, only the diagnostics it changed are converted; the thousands of a
-        whole device's warnings are not."""
-        before = self.published.get(uri, {})
-        now: dict[Hashable, str] = {}
-        # first by identity: a diagnostic the analysis took from the last one (its line
-        # unchanged, `analysis._reuse_placed`) is the same object, with the same JSON
-        same_before = self.published_same.get(uri, {})
-        same_now: dict[int, tuple[EditorDiagnostic, str, str]] = {}
+        whole device's warnings are not.
+
+        The placements the last publish shared with this one, at its start and its end,
+        are the very objects of then in the same encoding: their text is taken as a slice
+        (`ends.same_ends`, pointers compared in C). Only the ones in between are looked up,
+        by identity among the last publish's in between (a placement moved with its
+        program, `_moved_json`) or by what their JSON depends on, one by one."""
         encoding = self.encoding
         diagnostics = analysis.diagnostics
-        # In C passes: an entry kept under a placement's id holds that very object (alive
-        # while kept, so no other has its id); it stands in the same encoding. Only the
-        # others are converted, or looked up by what their JSON depends on, one by one.
-        ids = list(map(id, diagnostics))
-        entries = list(map(same_before.get, ids, repeat(_NOT_PUBLISHED)))
-        kept = list(map(eq, map(_ENCODING_OF, entries), repeat(encoding)))
-        same_now.update(compress(zip(ids, entries, strict=True), kept))
-        found: list[str] = list(map(_JSON_OF, entries))
-        for index in compress(range(len(diagnostics)), map(not_, kept)):
-            diagnostic = diagnostics[index]
+        last = self.published.get(uri)
+        if last is None or last.encoding != encoding:
+            last = _Published([], [], encoding, {})
+        head, tail = same_ends(last.diagnostics, diagnostics)
+        old_end = len(last.diagnostics) - tail
+        same_before = {id(d): (d, encoding, text) for d, text in
+                       zip(last.diagnostics[head:old_end], last.texts[head:old_end],
+                           strict=True)}
+        now: dict[Hashable, str] = {}
+        found = last.texts[:head]
+        for diagnostic in diagnostics[head:len(diagnostics) - tail]:
+            kept = same_before.get(id(diagnostic))
+            if kept is not None and kept[0] is diagnostic:
+                found.append(kept[2])
+                continue
             shifted = _moved_json(analysis, diagnostic, same_before, encoding)
             if shifted is not None:
-                same_now[id(diagnostic)] = (diagnostic, encoding, shifted)
-                found[index] = shifted
+                found.append(shifted)
                 continue
             key = _published_key(diagnostic, analysis.lines, encoding)
             value = now.get(key) if key is not None else None
             if value is None and key is not None:
-                value = before.get(key)
+                value = last.by_key.get(key)
             if value is None:
                 value = json.dumps(self.protocol._converter.unstructure(
                     self.diagnostic(uri, analysis, diagnostic)))
             if key is not None:
                 now[key] = value
-                same_now[id(diagnostic)] = (diagnostic, encoding, value)
-            found[index] = value
+            found.append(value)
+        found += last.texts[old_end:]
         if self.is_open(uri):
-            self.published[uri] = now
-            self.published_same[uri] = same_now
+            self.published[uri] = _Published(diagnostics, found, encoding, now)
         return found
 
     def client_diagnostics(self, uri: str, analysis: Analysis) -> list[lsp.Diagnostic]:
@@ -446,7 +462,7 @@ class MpLanguageServer(LanguageServer):
         self.texts.pop(unquote(uri), None)
         self.cancel_pending(uri)
         for kept in (self.versions, self.check_seconds, self.converted, self.published,
-                     self.published_same, self.memos):
+                     self.memos):
             kept.pop(uri, None)
         closed = self.analyses.pop(uri, None)
         self.text_document_publish_diagnostics(lsp.PublishDiagnosticsParams(uri=uri,
@@ -592,9 +608,15 @@ def _published_key(diagnostic: EditorDiagnostic, lines: list[str], encoding: str
             lines[end.line] if 0 <= end.line < len(lines) and end.line != start.line else "")
 
 
-_NOT_PUBLISHED = cast(tuple[EditorDiagnostic, str, str], (None, None, None))
-"""A placement not published last time: in no encoding, with no JSON text."""
-_ENCODING_OF, _JSON_OF = itemgetter(1), itemgetter(2)
+class _Published(NamedTuple):
+    """A document's last publish: its placements, in order, and their JSON text, the
+    encoding they were converted for, and the text of the ones converted or looked up then
+    by what their JSON depends on (`_published_key`)."""
+
+    diagnostics: list[EditorDiagnostic]
+    texts: list[str]
+    encoding: str
+    by_key: dict[Hashable, str]
 
 _RANGE_JSON = re.compile(r'\{"range": \{"start": \{"line": (\d+), "character": (\d+)\}, '
                          r'"end": \{"line": (\d+), "character": (\d+)\}\}')

@@ -12,6 +12,7 @@ from sourceedits import LARGE_WARM_UP, changed, changed_large, edit_sequences, l
 
 from mplang.ir.reuse import BuildMemo
 from mplang.lang.linecache import StatementCache
+from mplang.tools.lsp import analysis as analysis_module
 from mplang.tools.lsp.analysis import Analysis, analyse
 
 
@@ -55,3 +56,55 @@ def test_random_edits_inside_one_program_analyse_as_a_fresh_analysis_does(
         joined = "\n".join(text)
         previous = analyse(path, joined, lines=lines, memo=memo, previous=previous)
         assert _seen(previous) == _seen(analyse(path, joined))
+
+
+def test_a_kept_diagnostic_keeps_its_placement_only_while_its_line_is_unchanged() -> None:
+    """The diagnostics the last analysis placed that are the very objects again keep their
+    placements as they stand in the list (no object read), but one on a line the edit
+    changed (here its comment: the statement and so the diagnostic stay the same) is
+    placed again from its new line, as a fresh analysis places it."""
+    path = Path("/kept.mp")
+    lines = ["MP 1 first", "    VAR7 = VAR8", "END MP", "MP 2 second",
+             "    VAR9 = VAR10 # note", "END MP", ""]
+    memo, statements = BuildMemo(), StatementCache()
+    first = analyse(path, "\n".join(lines), lines=statements, memo=memo)
+    lines[4] = "    VAR9 = VAR10 # a longer note"
+    edited = analyse(path, "\n".join(lines), lines=statements, memo=memo, previous=first)
+    assert [d.code for d in edited.diagnostics] == ["W103", "W103"]
+    assert edited.diagnostics == analyse(path, "\n".join(lines)).diagnostics
+    assert edited.diagnostics[0] is first.diagnostics[0]  # its line is as it was
+    assert edited.diagnostics[1] is not first.diagnostics[1]  # placed again
+    lines[0:0] = ["# a line above every program"]
+    moved = analyse(path, "\n".join(lines), lines=statements, memo=memo, previous=edited)
+    assert moved.diagnostics == analyse(path, "\n".join(lines)).diagnostics
+    assert [d.range.start.line for d in moved.diagnostics] == [2, 5]
+
+
+def test_a_files_index_is_kept_only_while_what_it_read_is_the_same() -> None:
+    """The definitions, blocks and labels of a file are taken from its last check when the
+    statements they were read from are the very same objects on lines of the same text (an
+    edit of a command line), and read again otherwise: a label renamed, a line added after
+    an unclosed program (its last line moves), a CONST changed. Each time the analysis is
+    the one a fresh check makes."""
+    path = Path("/indexed.mp")
+    lines = ["CONST FAST = 5", "MP 1 first", "    VAR1 = 1", "LABEL top", "    GOTO top",
+             "END MP", "MP 2 open", "    VAR2 = FAST"]
+    memo, statements = BuildMemo(), StatementCache()
+    previous = analyse(path, "\n".join(lines), lines=statements, memo=memo)
+    edits = [(2, "    VAR1 = 2"), (3, "LABEL again"), (8, ""), (0, "CONST FAST = 6"),
+             (7, "    VAR2 = FAST + 1")]
+    for row, text in edits:
+        if row == len(lines):
+            lines.append(text)
+        else:
+            lines[row] = text
+        joined = "\n".join(lines)
+        index = analysis_module._indexes[(path.resolve(), True)]
+        previous = analyse(path, joined, lines=statements, memo=memo, previous=previous)
+        kept = analysis_module._indexes[(path.resolve(), True)]
+        assert (kept is index) == (row in (2, 7))  # the command lines
+        assert _seen(previous) == _seen(analyse(path, joined))
+        analysis_module._indexes[(path.resolve(), True)] = kept  # the server's, not the fresh
+        label = lines[3].split()[1].upper()
+        assert [(p.first_line, p.last_line, sorted(p.labels)) for p in previous.programs] == \
+            [(1, 5, [label]), (6, len(lines) - 1, [])]

@@ -165,4 +165,42 @@ def test_tokens_kept_by_line_equal_tokens_classified_afresh(texts: list[list[str
         analysis = analyse(path, "\n".join(lines) + "\n")
         kept = outline.semantic_tokens(analysis)
         outline._classified_lines.clear()
+        outline._passes.clear()
+        assert kept == outline.semantic_tokens(analysis)
+
+
+SPLICED_LINES = [*EDITED_LINES, "", "    ", "END MP"]
+"""With lines of no token: the first token after an edit then counts its line from further
+up."""
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.sampled_from(SPLICED_LINES), min_size=1, max_size=14),
+       st.lists(st.tuples(st.integers(0, 2), st.integers(0, 20),
+                          st.sampled_from(SPLICED_LINES)), min_size=1, max_size=6))
+@example(["MP 4", "    SET_V X, SPEED", "END MP", "    MP 5 (", "CONST SPEED = 5"],
+         [(2, 2, "")])  # the END dropped: the refused header after it is in a block then
+@example(["LABEL top", "    GOTO top", "# speed 😀", "    GOTO top"], [(1, 0, "VAR pace")])
+def test_tokens_after_edits_equal_a_fresh_documents(first: list[str],
+                                                    edits: list[tuple[int, int, str]]
+                                                    ) -> None:
+    """Edits of one document (a line replaced, inserted or dropped), its tokens made from
+    the last edit's each time (the lines before and after the edit taken as they were):
+    each time equal to the tokens of the same text with nothing kept."""
+    path = Path("spliced.mp")
+    lines = list(first)
+    outline._passes.clear()
+    outline.semantic_tokens(analyse(path, "\n".join(lines) + "\n"))
+    for kind, at, text in edits:
+        at = min(at, len(lines) - (kind != 1))
+        if kind == 0 and lines:
+            lines[at] = text
+        elif kind == 1:
+            lines.insert(at, text)
+        elif lines:
+            del lines[at]
+        analysis = analyse(path, "\n".join(lines) + "\n")
+        kept = outline.semantic_tokens(analysis)
+        outline._classified_lines.clear()
+        outline._passes.clear()
         assert kept == outline.semantic_tokens(analysis)

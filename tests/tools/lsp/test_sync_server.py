@@ -366,3 +366,28 @@ async def test_random_bursts_of_edits_publish_what_a_fresh_open_publishes(
         assert kept.diagnostics == (await published(fresh, 1)).diagnostics
     versions = [p.version for p in PUBLISHED if p.uri == uri]
     assert versions == sorted(versions) and versions[-1] == version
+
+
+@ASYNC
+async def test_edits_of_a_middle_program_publish_as_a_fresh_open(client: LanguageClient,
+                                                                project: Path) -> None:
+    """The publish takes the JSON text of the diagnostics before and after the ones an edit
+    changed from the last publish: edits of the middle of three programs that add, drop and
+    change its diagnostics (their count changing too) publish, in full and in order, what
+    the same text opened afresh publishes."""
+    lines = [line for n in (51, 52, 53) for line in (
+        f"MP {n} middle{n}", "    SET_V X, 70001", f"    NOPE{n} X", "END MP")]
+    uri = (project / "middle.mp").as_uri()
+    await open_document(client, uri, "\n".join(lines))
+    edits = [(6, "    NOPE52 X\n    NOPE99 Y"), (5, "    SET_V X, 1000"),
+             (6, "    VAR1 = 1"), (5, "    SET_V X, 70003 + (")]
+    for version, (row, new) in enumerate(edits, start=2):
+        client.text_document_did_change(change(uri, version, ((row, 0), (row, len(lines[row])),
+                                                              new)))
+        lines[row:row + 1] = new.split("\n")
+        kept = await published(uri, version)
+        fresh = (project / f"middle-fresh{version}.mp").as_uri()
+        await open_document(client, fresh, "\n".join(lines))
+        fresh_diagnostics = (await published(fresh, 1)).diagnostics
+        assert kept.diagnostics == fresh_diagnostics
+        assert {d.range.start.line for d in kept.diagnostics} >= {2, len(lines) - 2}
