@@ -529,24 +529,37 @@ class MotionModel:
             if now > io.now:  # (`AxisIO.advance`, inline: every query settles first)
                 io.now = now
             return
-        io, axes = self.io, self._ax
+        io = self.io
         while self._next_end <= now:
             t = self._next_end
             io.fire(t)  # axis I/O events due at t (limits, home sensors, compare)
-            for ax in axes:
-                m = ax.motion
-                if m is not None and m.end <= t:
-                    for k, i in enumerate(m.axes):
-                        other = axes[i]
-                        other.pos = m.final[k] + other.shift
-                        other.shift = 0
-                        other.motion = None
-                    io.ended(m, t)  # D-END, or the next home-search step
+            self._end_due(t)
             if self._queue:
                 self._dequeue(t)
             self._recompute()
+            if self._next_end <= now and not self._queue and profiles.CHANGE_ONLY and \
+                    _alone(io):
+                # more ends are due, and nothing can happen between them but the ends
+                # (no I/O event, `io.ended` starts nothing, no queued command): all at once
+                self._end_due(now)
+                self._recompute()
         if now > io.now:  # (`AxisIO.advance`, inline)
             io.now = now
+
+    def _end_due(self, t: float) -> None:
+        """Finish every motion ending at or before `t` (in `settle`'s loop, those ending at
+        `t`): its axes stop at its end (LP = end + SET_LP shift) and the I/O hears of it
+        (D-END, the next home-search step; nothing where `settle` ends several at once)."""
+        io, axes = self.io, self._ax
+        for ax in axes:
+            m = ax.motion
+            if m is not None and m.end <= t:
+                for k, i in enumerate(m.axes):
+                    other = axes[i]
+                    other.pos = m.final[k] + other.shift
+                    other.shift = 0
+                    other.motion = None
+                io.ended(m, t)
 
     # ------------------------------------------------------------------- state
     def _lp(self, i: int, now: float) -> int:
