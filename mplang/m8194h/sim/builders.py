@@ -95,6 +95,10 @@ class _Cmd:
     axes: tuple[int, ...]
     vector: bool
     build: Callable[[MotionModel, float], _Motion | None]
+    # the motion a run ahead built (`MotionModel._drain`): its start time, the positions of
+    # the axes it read, and what `build` gave; `MotionModel._start` takes it at that time
+    # from those positions (every builder but a chain's reads nothing else)
+    built: tuple[float, tuple[int, ...], _Motion | None] | None
 
     def __init__(self, axes: tuple[int, ...], vector: bool,
                  build: Callable[[MotionModel, float], _Motion | None]) -> None:
@@ -102,6 +106,7 @@ class _Cmd:
         self.axes = axes
         self.vector = vector
         self.build = build
+        self.built = None
 
 
 class QueueFull(Exception):

@@ -496,7 +496,12 @@ class MotionModel:
     def _start(self, cmd: _Cmd, t: float) -> None:
         if self.io.refuses(cmd.axes, t):
             return  # emergency, EMG input or servo alarm: the command is dropped
-        m = cmd.build(self, t)
+        built = cmd.built
+        if built is not None and built[0] == t and \
+                built[1] == tuple([self._ax[i].pos for i in cmd.axes]):
+            m = built[2]  # as `_drain` built it, at this time from these positions
+        else:
+            m = cmd.build(self, t)
         if m is None:
             return
         if m.end <= t:
@@ -692,7 +697,9 @@ class MotionModel:
         positions only. Motions end in time order (LP = end + SET_LP shift) and the queued
         commands start as `_dequeue` starts them, each built from a model that holds only
         those positions (every builder but a chain's reads nothing else); no copy of the
-        model, no I/O. `tests/m8194h/sim/test_planning.py` compares it with the fork."""
+        model, no I/O. Each command keeps what it built (`_Cmd.built`), which `_start`
+        takes when the command starts at that time from those positions.
+        `tests/m8194h/sim/test_planning.py` compares it with the fork."""
         state = [_AxisState(ax.pos, ax.shift, motion=ax.motion) for ax in self._ax]
         ahead = object.__new__(MotionModel)
         ahead._ax = state
@@ -718,6 +725,7 @@ class MotionModel:
                     keep.append(cmd)
                     continue
                 started = cmd.build(ahead, t)
+                cmd.built = (t, tuple([state[i].pos for i in cmd.axes]), started)
                 if started is None:
                     continue
                 for k, i in enumerate(started.axes):

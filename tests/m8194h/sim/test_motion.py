@@ -422,3 +422,35 @@ def test_moves_ended_long_ago_are_settled_together(monkeypatch: pytest.MonkeyPat
     m.settle(10.0)
     assert passes == [first, 10.0]
     assert [m.lp(1 << i, 10.0) for i in range(4)] == [5_000, -3_000, 1_000, 700]
+
+
+# ------------------------------------- a queued command built once (`_Cmd.built`)
+@pytest.mark.parametrize("shift", [0, 250])
+def test_a_queued_arc_starts_as_running_ahead_built_it(shift: int) -> None:
+    """`idle_at` runs ahead over the line and builds the arc queued behind it; when the line
+    ends, the arc starts as built there, unless SET_LP moved an axis since (it is built
+    again from the new position). Either way it runs as on a model that never ran ahead."""
+    def queued() -> MotionModel:
+        m = _model(0)
+        m.axis_assign(X, Y, 0)
+        m.line((4_000, 3_000), 0.0)
+        m.arc((1_000, 0), (2_000, 0), True, 0.0)
+        return m
+
+    ahead, plain = queued(), queued()
+    end = ahead.idle_at(X | Y, 0.0)
+    assert end is not None
+    built = ahead._queue[0].built
+    assert built is not None
+    if shift:
+        for m in (ahead, plain):
+            m.set_lp(X, m.lp(X, 0.05) + shift, 0.05)
+    line_end = plain.next_event(0.05)
+    assert line_end is not None
+    for m in (ahead, plain):
+        m.settle(line_end)
+    started = ahead._ax[0].motion
+    assert started is not None and (started is built[2]) == (shift == 0)
+    for t in _samples(line_end, end + 0.1):
+        assert [ahead.lp(a, t) for a in (X, Y)] == [plain.lp(a, t) for a in (X, Y)]
+    assert ahead.idle_at(X | Y, end) == plain.idle_at(X | Y, end)
