@@ -152,10 +152,12 @@ def _continuous_builder(i: int, direction: int,
 def _line_builder(axes: tuple[int, ...], values: tuple[int, ...], absolute: bool,
                   plan: _Plan) -> Callable[[MotionModel, float], _Motion | None]:
     def build(model: MotionModel, t: float) -> _Motion | None:
-        starts = tuple(model._ax[i].pos for i in axes)
-        targets = values if absolute else tuple(s + d for s, d in zip(starts, values, strict=True))
-        deltas = tuple(e - s for s, e in zip(starts, targets, strict=True))
-        length = math.sqrt(sum(d * d for d in deltas))
+        # (lists, not generators: every LINE_2D / LINE_3D builds one)
+        starts = tuple([model._ax[i].pos for i in axes])
+        targets = values if absolute else \
+            tuple([s + d for s, d in zip(starts, values, strict=True)])
+        deltas = tuple([e - s for s, e in zip(starts, targets, strict=True)])
+        length = math.sqrt(sum([d * d for d in deltas]))
         if length == 0.0:
             return None
         prof = _point_to_point(length, plan)
