@@ -285,6 +285,10 @@ class MotionModel:
         vs, rules = self.vector, self.rules
         max_v = self.settings[self.assigned[0]].max_v
         key = (max_v, vs.mode, vs.vsv, vs.vv, vs.va, vs.vd, vs.vk, vs.vl, vs.vao, True)
+        if profiles.CHANGE_ONLY:  # (a kept one is looked up here, as in `plan`)
+            kept = self._plans.get(key)
+            if kept is not None:
+                return kept
         return _kept_plan(self._plans, key, lambda: _vector_plan(vs, max_v, rules))
 
     # ------------------------------------------------------------------ motion
@@ -458,8 +462,10 @@ class MotionModel:
         axes would wait beyond `queue_capacity`."""
         if self.queue_capacity is None:
             return
-        if self._next_end <= now or now > self.io.now:  # (`settle`: it has work)
+        if self._next_end <= now:
             self.settle(now)
+        elif now > self.io.now:  # (`settle` when nothing ends: only the I/O's time moves)
+            self.io.now = now
         if not self._queue and not self._pending:
             return  # an empty queue takes any one command
         ax = self._ax
@@ -478,8 +484,10 @@ class MotionModel:
             raise QueueFull(needed=waits)  # (an empty queue takes any one command)
 
     def _issue(self, cmd: _Cmd, now: float) -> None:
-        if self._next_end <= now or now > self.io.now:  # (`settle`: it has work)
+        if self._next_end <= now:
             self.settle(now)
+        elif now > self.io.now:  # (`settle` when nothing ends: only the I/O's time moves)
+            self.io.now = now
         ax = self._ax
         busy = False
         for i in cmd.axes:
@@ -527,8 +535,9 @@ class MotionModel:
 
     def settle(self, now: float) -> None:
         """Finish, in time order, every motion that ended at or before `now`. It has no
-        work when nothing ends and the I/O's time is `now` already: the callers that ask
-        most test `_next_end <= now or now > io.now` before calling."""
+        work but moving the I/O's time when nothing ends: the callers that ask most
+        (`_admit`, `_issue`, `idle_at`) do that themselves and call it only when
+        `_next_end <= now`."""
         if self._next_end > now:  # nothing ends: only the I/O's present time moves
             io = self.io
             if now > io.now:  # (`AxisIO.advance`, inline: every query settles first)
@@ -651,8 +660,10 @@ class MotionModel:
     def idle_at(self, axis_mask: int, now: float) -> float | None:
         """When every axis of the mask will be idle; None if never without a command."""
         axes = _mask_axes(axis_mask)
-        if self._next_end <= now or now > self.io.now:  # (`settle`: it has work)
+        if self._next_end <= now:
             self.settle(now)
+        elif now > self.io.now:  # (`settle` when nothing ends: only the I/O's time moves)
+            self.io.now = now
         queue, pending = self._queue, self._pending
         if pending or queue:
             wanted = set(axes)
