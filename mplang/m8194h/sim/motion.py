@@ -717,9 +717,8 @@ class MotionModel:
         queue = self._queue
         wanted = set(axes)
         t = now
-        while any(state[i].motion is not None for i in axes) or \
-                any(wanted & set(c.axes) for c in queue):
-            t = min((a.motion.end for a in state if a.motion is not None), default=_INF)
+        while self._ahead_busy(state, axes, wanted, queue):
+            t = min([a.motion.end for a in state if a.motion is not None], default=_INF)
             if t == _INF:
                 return None
             for a in state:
@@ -746,6 +745,18 @@ class MotionModel:
                         state[i].motion = started
             queue = keep
         return t
+
+    @staticmethod
+    def _ahead_busy(state: list[_AxisState], axes: tuple[int, ...], wanted: set[int],
+                    queue: list[_Cmd]) -> bool:
+        """`_drain`'s `_busy`: an axis of `axes` moves in `state`, or a command waits for one."""
+        for i in axes:
+            if state[i].motion is not None:
+                return True
+        for c in queue:  # noqa: SIM110 - a loop, no generator: each step ahead asks
+            if not wanted.isdisjoint(c.axes):
+                return True
+        return False
 
     def next_event(self, now: float) -> float | None:
         """Earliest end of a running motion after `now` (None if nothing will end)."""
