@@ -97,7 +97,7 @@ def run(vc: VirtualController, frame: Frame, horizon: float, steps: int,
                 # and no interrupt can come, so the wait ends at its end (`ends_inside`)
                 end = wait()
                 if end < horizon:
-                    if ends_inside(vc, end):
+                    if ends_inside(vc, end) and stack and stack[-1] is frame:
                         pc, clock = frame.pc, vc.clock
                         continue
                     return steps, False
