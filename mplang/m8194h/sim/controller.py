@@ -614,9 +614,12 @@ class VirtualController:
                 method(*[o if o.__class__ is int else self.value(o) for o in ops])
             return run
 
-        def now_call(method: Callable[..., None]) -> Callable[..., None]:
+        def now_call(method: Callable[[int, int, float], None]) -> Callable[..., None]:
+            """An axis mask and a value, then the present time (the moves and SET_LP)."""
             def run(_f: Frame, ops: tuple[Operand, ...]) -> None:
-                method(*[o if o.__class__ is int else self.value(o) for o in ops], self.clock)
+                first, second = ops[0], ops[1]  # (plain ints as `value` reads them)
+                method(first if first.__class__ is int else self.value(first),
+                       second if second.__class__ is int else self.value(second), self.clock)
             return run
 
         handlers: dict[str, Handler] = {
