@@ -95,6 +95,10 @@ class _Cmd:
     axes: tuple[int, ...]
     vector: bool
     build: Callable[[MotionModel, float], _Motion | None]
+    # the motion a run ahead built (`MotionModel._drain`): its start time, the positions of
+    # the axes it read, and what `build` gave; `MotionModel._start` takes it at that time
+    # from those positions (every builder but a chain's reads nothing else)
+    built: tuple[float, tuple[int, ...], _Motion | None] | None
 
     def __init__(self, axes: tuple[int, ...], vector: bool,
                  build: Callable[[MotionModel, float], _Motion | None]) -> None:
@@ -102,6 +106,7 @@ class _Cmd:
         self.axes = axes
         self.vector = vector
         self.build = build
+        self.built = None
 
 
 class QueueFull(Exception):
@@ -147,10 +152,12 @@ def _continuous_builder(i: int, direction: int,
 def _line_builder(axes: tuple[int, ...], values: tuple[int, ...], absolute: bool,
                   plan: _Plan) -> Callable[[MotionModel, float], _Motion | None]:
     def build(model: MotionModel, t: float) -> _Motion | None:
-        starts = tuple(model._ax[i].pos for i in axes)
-        targets = values if absolute else tuple(s + d for s, d in zip(starts, values, strict=True))
-        deltas = tuple(e - s for s, e in zip(starts, targets, strict=True))
-        length = math.sqrt(sum(d * d for d in deltas))
+        # (lists, not generators: every LINE_2D / LINE_3D builds one)
+        starts = tuple([model._ax[i].pos for i in axes])
+        targets = values if absolute else \
+            tuple([s + d for s, d in zip(starts, values, strict=True)])
+        deltas = tuple([e - s for s, e in zip(starts, targets, strict=True)])
+        length = math.sqrt(sum([d * d for d in deltas]))
         if length == 0.0:
             return None
         prof = _point_to_point(length, plan)

@@ -600,7 +600,8 @@ class VirtualController:
 
         def vsetter(method: Callable[[int], None]) -> Callable[..., None]:
             def run(_f: Frame, ops: tuple[Operand, ...]) -> None:
-                method(self.value(ops[0]))
+                first = ops[0]
+                method(first if first.__class__ is int else self.value(first))
             return run
 
         def returns(getter: Callable[[tuple[Operand, ...]], int]) -> Callable[..., None]:
@@ -608,9 +609,17 @@ class VirtualController:
                 self.return_value = wrap32(int(getter(ops)))
             return run
 
-        def now_call(method: Callable[..., None]) -> Callable[..., None]:
+        def plain_call(method: Callable[..., None]) -> Callable[..., None]:
             def run(_f: Frame, ops: tuple[Operand, ...]) -> None:
-                method(*[o if o.__class__ is int else self.value(o) for o in ops], self.clock)
+                method(*[o if o.__class__ is int else self.value(o) for o in ops])
+            return run
+
+        def now_call(method: Callable[[int, int, float], None]) -> Callable[..., None]:
+            """An axis mask and a value, then the present time (the moves and SET_LP)."""
+            def run(_f: Frame, ops: tuple[Operand, ...]) -> None:
+                first, second = ops[0], ops[1]  # (plain ints as `value` reads them)
+                method(first if first.__class__ is int else self.value(first),
+                       second if second.__class__ is int else self.value(second), self.clock)
             return run
 
         handlers: dict[str, Handler] = {
@@ -630,7 +639,7 @@ class VirtualController:
             "ABS_SET_POSITION": now_call(m.set_lp),
             "FIXED_MOVE": now_call(m.fixed_move), "ABS_FIXED_MOVE": now_call(m.abs_move),
             "CONTINUE_MOVE": now_call(m.continue_move),
-            "AXIS_ASSIGN": lambda f, o: m.axis_assign(*[self.value(x) for x in o]),
+            "AXIS_ASSIGN": plain_call(m.axis_assign),
             "VECTOR_SPEED": vsetter(m.set_vector_mode),
             "SET_VSV": vsetter(m.set_vsv), "SET_VV": vsetter(m.set_vv),
             "SET_VA": vsetter(m.set_va), "SET_VD": vsetter(m.set_vd),
@@ -731,7 +740,8 @@ class VirtualController:
         return lambda: end
 
     def _stop_wait(self, _f: Frame, ops: tuple[Operand, ...]) -> Wait:
-        return StopWait(self, self.value(ops[0]))
+        mask = ops[0]  # (a plain int as `value` reads it: most jobs wait often)
+        return StopWait(self, mask if mask.__class__ is int else self.value(mask))
 
     def _frnet_out(self, _f: Frame, ops: tuple[Operand, ...]) -> None:
         self.frnet[self.value(ops[0]) & 0x7] = self.value(ops[1]) & 0xFFFF

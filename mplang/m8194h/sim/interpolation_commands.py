@@ -18,15 +18,20 @@ if TYPE_CHECKING:
 
 def handlers(vc: VirtualController) -> dict[str, Handler]:
     motion = vc.motion
+    value = vc.value
+
+    def values(ops: tuple[Operand, ...]) -> list[int]:
+        """The operands' values: a plain int is its own (most are), a variable is read."""
+        return [o if o.__class__ is int else value(o) for o in ops]
 
     def line(absolute: bool) -> Handler:
         def run(_f: Frame, ops: tuple[Operand, ...]) -> None:
-            motion.line(tuple(vc.value(o) for o in ops), vc.clock, absolute=absolute)
+            motion.line(tuple(values(ops)), vc.clock, absolute=absolute)
         return run
 
     def arc(clockwise: bool, absolute: bool) -> Handler:
         def run(_f: Frame, ops: tuple[Operand, ...]) -> None:
-            v = [vc.value(o) for o in ops]
+            v = values(ops)
             motion.arc((v[0], v[1]), (v[2], v[3]), clockwise, vc.clock, absolute=absolute)
         return run
 
@@ -39,7 +44,7 @@ def handlers(vc: VirtualController) -> dict[str, Handler]:
         # LINE_nD_INITIAL: axes, VSV, VV, VA (symmetric T-curve, VECTOR_SPEED 1 / 8);
         # MIX_2D_INITIAL: axes, nAcc (0 constant VV = mode 0, 1 T-curve = mode 1), speeds
         def run(_f: Frame, ops: tuple[Operand, ...]) -> None:
-            v = [vc.value(o) for o in ops]
+            v = values(ops)
             axes = tuple(v[:dims])
             if with_mode:
                 mode = 1 if v[dims] else 0
@@ -52,24 +57,24 @@ def handlers(vc: VirtualController) -> dict[str, Handler]:
 
     def continuous_line(absolute: bool) -> Handler:
         def run(_f: Frame, ops: tuple[Operand, ...]) -> None:
-            v = [vc.value(o) for o in ops]
+            v = values(ops)
             motion.continuous_line(tuple(v[1:]), v[0] == 1, vc.clock, absolute=absolute)
         return run
 
     def mix(absolute: bool) -> Handler:
         def run(_f: Frame, ops: tuple[Operand, ...]) -> None:
-            last, shape, cp1, cp2, fp1, fp2 = (vc.value(o) for o in ops)
+            last, shape, cp1, cp2, fp1, fp2 = values(ops)
             motion.continuous_mix(shape, (cp1, cp2), (fp1, fp2), last == 1, vc.clock,
                                   absolute=absolute)
         return run
 
     def rectangle(_f: Frame, ops: tuple[Operand, ...]) -> None:
-        a1, a2, n_acc, sp, n_dir, lp, wp, rp, rsv, rv, ra, rd = (vc.value(o) for o in ops)
+        a1, a2, n_acc, sp, n_dir, lp, wp, rp, rsv, rv, ra, rd = values(ops)
         motion.rectangle((a1, a2), n_acc == 0, sp, n_dir == 1, (lp, wp, rp),
                          (rsv, rv, ra, rd), vc.clock)
 
     def helix(_f: Frame, ops: tuple[Operand, ...]) -> None:
-        a1, a2, a3, n_dir, vv, cp1, cp2, cycle, pitch = (vc.value(o) for o in ops)
+        a1, a2, a3, n_dir, vv, cp1, cp2, cycle, pitch = values(ops)
         # nDir 0 is CW, 1 CCW (l.8878) -- the reverse of RECTANGLE's nDir (l.8207)
         motion.helix((a1, a2, a3), n_dir == 0, vv, (cp1, cp2), cycle, pitch, vc.clock)
 

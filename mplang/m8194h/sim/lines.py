@@ -91,6 +91,16 @@ def run(vc: VirtualController, frame: Frame, horizon: float, steps: int,
             failed(vc, frame, pc, err)
             return steps, False
         if wait is not None:
+            if clock < horizon and vc.machine is None and vc.loading_until is None and \
+                    not vc.isr_queue and vc.motion.io.uneventful():
+                # what `advance` would do next, here: nothing falls due before the horizon
+                # and no interrupt can come, so the wait ends at its end (`ends_inside`)
+                end = wait()
+                if end < horizon:
+                    if ends_inside(vc, end) and stack and stack[-1] is frame:
+                        pc, clock = frame.pc, vc.clock
+                        continue
+                    return steps, False
             frame.wait = wait
             return steps, False
         if touches_motion:
@@ -104,3 +114,14 @@ def run(vc: VirtualController, frame: Frame, horizon: float, steps: int,
     frame.pc = pc
     vc.clock = clock
     return steps, False
+
+
+def ends_inside(vc: VirtualController, end: float) -> bool:
+    """End a wait of the running line at `end` (before the slice's horizon), as `advance`
+    ends it: the clock moves there and the motion model settles. True when the slice may
+    run on (no interrupt can come of what settled); otherwise `advance` looks again."""
+    if end > vc.clock:
+        vc.clock = end
+    motion = vc.motion
+    motion.settle(vc.clock)
+    return motion.io.uneventful()

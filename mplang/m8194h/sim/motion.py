@@ -285,6 +285,10 @@ class MotionModel:
         vs, rules = self.vector, self.rules
         max_v = self.settings[self.assigned[0]].max_v
         key = (max_v, vs.mode, vs.vsv, vs.vv, vs.va, vs.vd, vs.vk, vs.vl, vs.vao, True)
+        if profiles.CHANGE_ONLY:  # (a kept one is looked up here, as in `plan`)
+            kept = self._plans.get(key)
+            if kept is not None:
+                return kept
         return _kept_plan(self._plans, key, lambda: _vector_plan(vs, max_v, rules))
 
     # ------------------------------------------------------------------ motion
@@ -458,8 +462,10 @@ class MotionModel:
         axes would wait beyond `queue_capacity`."""
         if self.queue_capacity is None:
             return
-        if self._next_end <= now or now > self.io.now:  # (`settle`: it has work)
+        if self._next_end <= now:
             self.settle(now)
+        elif now > self.io.now:  # (`settle` when nothing ends: only the I/O's time moves)
+            self.io.now = now
         if not self._queue and not self._pending:
             return  # an empty queue takes any one command
         ax = self._ax
@@ -478,8 +484,10 @@ class MotionModel:
             raise QueueFull(needed=waits)  # (an empty queue takes any one command)
 
     def _issue(self, cmd: _Cmd, now: float) -> None:
-        if self._next_end <= now or now > self.io.now:  # (`settle`: it has work)
+        if self._next_end <= now:
             self.settle(now)
+        elif now > self.io.now:  # (`settle` when nothing ends: only the I/O's time moves)
+            self.io.now = now
         ax = self._ax
         busy = False
         for i in cmd.axes:
@@ -496,7 +504,12 @@ class MotionModel:
     def _start(self, cmd: _Cmd, t: float) -> None:
         if self.io.refuses(cmd.axes, t):
             return  # emergency, EMG input or servo alarm: the command is dropped
-        m = cmd.build(self, t)
+        built = cmd.built
+        if built is not None and built[0] == t and \
+                built[1] == tuple([self._ax[i].pos for i in cmd.axes]):
+            m = built[2]  # as `_drain` built it, at this time from these positions
+        else:
+            m = cmd.build(self, t)
         if m is None:
             return
         if m.end <= t:
@@ -522,31 +535,45 @@ class MotionModel:
 
     def settle(self, now: float) -> None:
         """Finish, in time order, every motion that ended at or before `now`. It has no
-        work when nothing ends and the I/O's time is `now` already: the callers that ask
-        most test `_next_end <= now or now > io.now` before calling."""
+        work but moving the I/O's time when nothing ends: the callers that ask most
+        (`_admit`, `_issue`, `idle_at`) do that themselves and call it only when
+        `_next_end <= now`."""
         if self._next_end > now:  # nothing ends: only the I/O's present time moves
             io = self.io
             if now > io.now:  # (`AxisIO.advance`, inline: every query settles first)
                 io.now = now
             return
-        io, axes = self.io, self._ax
+        io = self.io
         while self._next_end <= now:
             t = self._next_end
             io.fire(t)  # axis I/O events due at t (limits, home sensors, compare)
-            for ax in axes:
-                m = ax.motion
-                if m is not None and m.end <= t:
-                    for k, i in enumerate(m.axes):
-                        other = axes[i]
-                        other.pos = m.final[k] + other.shift
-                        other.shift = 0
-                        other.motion = None
-                    io.ended(m, t)  # D-END, or the next home-search step
+            self._end_due(t)
             if self._queue:
                 self._dequeue(t)
             self._recompute()
+            if self._next_end <= now and not self._queue and profiles.CHANGE_ONLY and \
+                    _alone(io):
+                # more ends are due, and nothing can happen between them but the ends
+                # (no I/O event, `io.ended` starts nothing, no queued command): all at once
+                self._end_due(now)
+                self._recompute()
         if now > io.now:  # (`AxisIO.advance`, inline)
             io.now = now
+
+    def _end_due(self, t: float) -> None:
+        """Finish every motion ending at or before `t` (in `settle`'s loop, those ending at
+        `t`): its axes stop at its end (LP = end + SET_LP shift) and the I/O hears of it
+        (D-END, the next home-search step; nothing where `settle` ends several at once)."""
+        io, axes = self.io, self._ax
+        for ax in axes:
+            m = ax.motion
+            if m is not None and m.end <= t:
+                for k, i in enumerate(m.axes):
+                    other = axes[i]
+                    other.pos = m.final[k] + other.shift
+                    other.shift = 0
+                    other.motion = None
+                io.ended(m, t)
 
     # ------------------------------------------------------------------- state
     def _lp(self, i: int, now: float) -> int:
@@ -633,8 +660,10 @@ class MotionModel:
     def idle_at(self, axis_mask: int, now: float) -> float | None:
         """When every axis of the mask will be idle; None if never without a command."""
         axes = _mask_axes(axis_mask)
-        if self._next_end <= now or now > self.io.now:  # (`settle`: it has work)
+        if self._next_end <= now:
             self.settle(now)
+        elif now > self.io.now:  # (`settle` when nothing ends: only the I/O's time moves)
+            self.io.now = now
         queue, pending = self._queue, self._pending
         if pending or queue:
             wanted = set(axes)
@@ -679,16 +708,17 @@ class MotionModel:
         positions only. Motions end in time order (LP = end + SET_LP shift) and the queued
         commands start as `_dequeue` starts them, each built from a model that holds only
         those positions (every builder but a chain's reads nothing else); no copy of the
-        model, no I/O. `tests/m8194h/sim/test_planning.py` compares it with the fork."""
+        model, no I/O. Each command keeps what it built (`_Cmd.built`), which `_start`
+        takes when the command starts at that time from those positions.
+        `tests/m8194h/sim/test_planning.py` compares it with the fork."""
         state = [_AxisState(ax.pos, ax.shift, motion=ax.motion) for ax in self._ax]
         ahead = object.__new__(MotionModel)
         ahead._ax = state
         queue = self._queue
         wanted = set(axes)
         t = now
-        while any(state[i].motion is not None for i in axes) or \
-                any(wanted & set(c.axes) for c in queue):
-            t = min((a.motion.end for a in state if a.motion is not None), default=_INF)
+        while self._ahead_busy(state, axes, wanted, queue):
+            t = min([a.motion.end for a in state if a.motion is not None], default=_INF)
             if t == _INF:
                 return None
             for a in state:
@@ -705,6 +735,7 @@ class MotionModel:
                     keep.append(cmd)
                     continue
                 started = cmd.build(ahead, t)
+                cmd.built = (t, tuple([state[i].pos for i in cmd.axes]), started)
                 if started is None:
                     continue
                 for k, i in enumerate(started.axes):
@@ -714,6 +745,18 @@ class MotionModel:
                         state[i].motion = started
             queue = keep
         return t
+
+    @staticmethod
+    def _ahead_busy(state: list[_AxisState], axes: tuple[int, ...], wanted: set[int],
+                    queue: list[_Cmd]) -> bool:
+        """`_drain`'s `_busy`: an axis of `axes` moves in `state`, or a command waits for one."""
+        for i in axes:
+            if state[i].motion is not None:
+                return True
+        for c in queue:  # noqa: SIM110 - a loop, no generator: each step ahead asks
+            if not wanted.isdisjoint(c.axes):
+                return True
+        return False
 
     def next_event(self, now: float) -> float | None:
         """Earliest end of a running motion after `now` (None if nothing will end)."""

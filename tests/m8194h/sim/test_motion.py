@@ -357,3 +357,100 @@ def test_idle_at_and_next_event_agree_with_busy(moves: list[tuple[int, int, floa
         t = nxt
     assert t == pytest.approx(idle)
     assert not m.busy(15, idle)
+
+
+# ------------------------------------------- motions ending together (`_finish_ended`)
+@settings(max_examples=60, deadline=None)
+@given(moves=st.lists(st.tuples(st.sampled_from([X, Y, Z, U, X | Y]),
+                                st.integers(-30_000, 30_000)), min_size=1, max_size=6),
+       shift=st.one_of(st.none(), st.tuples(st.sampled_from([X, Y, Z, U]),
+                                           st.integers(-500, 500))),
+       limits=st.booleans(), late=st.floats(0.0, 2.0))
+def test_motions_settled_at_once_end_as_one_by_one(
+        moves: list[tuple[int, int]], shift: tuple[int, int] | None, limits: bool,
+        late: float) -> None:
+    """Settling long after several moves ended (one `_recompute` for all of them where no
+    I/O event, interrupt or queued command can come between) leaves the model as settling
+    at each end in turn: positions, EP, reports, the next event and the I/O's time."""
+    def started() -> MotionModel:
+        m = _model(0)
+        if limits:  # X's software limits: I/O events, the ends are settled one by one
+            m.io.set_slmt(X, 8_000, -8_000, 0, 0.0)
+        for mask, pulses in moves:
+            if mask == X | Y:
+                m.line((pulses, pulses // 2), 0.0)
+            else:
+                m.fixed_move(mask, pulses, 0.0)
+        if shift is not None:
+            m.set_lp(shift[0], shift[1], 0.01)
+        return m
+
+    at_once, one_by_one = started(), started()
+    ends = sorted({ax.motion.end for ax in one_by_one._ax if ax.motion is not None})
+    if not ends or ends[-1] == math.inf:
+        return
+    now = ends[-1] + late
+    for t in ends:
+        one_by_one.settle(t)
+    for model in (at_once, one_by_one):
+        model.settle(now)
+    for model in (at_once, one_by_one):
+        assert model.io.now == now
+    assert [at_once.ep(1 << i, now) for i in range(4)] == \
+        [one_by_one.ep(1 << i, now) for i in range(4)]
+    assert [at_once.axis_report(i, now) for i in range(4)] == \
+        [one_by_one.axis_report(i, now) for i in range(4)]
+    assert at_once.next_event(now) == one_by_one.next_event(now)
+    assert at_once.idle_at(15, now) == one_by_one.idle_at(15, now)
+
+
+def test_moves_ended_long_ago_are_settled_together(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Four moves of different lengths: one pass of `settle` ends the first, the next ends
+    the three others together."""
+    passes: list[float] = []
+    end_due = MotionModel._end_due
+
+    def counted(self: MotionModel, t: float) -> None:
+        passes.append(t)
+        end_due(self, t)
+
+    monkeypatch.setattr(MotionModel, "_end_due", counted)
+    m = _model(0)
+    for mask, pulses in ((X, 5_000), (Y, -3_000), (Z, 1_000), (U, 700)):
+        m.fixed_move(mask, pulses, 0.0)
+    first = m.next_event(0.0)
+    m.settle(10.0)
+    assert passes == [first, 10.0]
+    assert [m.lp(1 << i, 10.0) for i in range(4)] == [5_000, -3_000, 1_000, 700]
+
+
+# ------------------------------------- a queued command built once (`_Cmd.built`)
+@pytest.mark.parametrize("shift", [0, 250])
+def test_a_queued_arc_starts_as_running_ahead_built_it(shift: int) -> None:
+    """`idle_at` runs ahead over the line and builds the arc queued behind it; when the line
+    ends, the arc starts as built there, unless SET_LP moved an axis since (it is built
+    again from the new position). Either way it runs as on a model that never ran ahead."""
+    def queued() -> MotionModel:
+        m = _model(0)
+        m.axis_assign(X, Y, 0)
+        m.line((4_000, 3_000), 0.0)
+        m.arc((1_000, 0), (2_000, 0), True, 0.0)
+        return m
+
+    ahead, plain = queued(), queued()
+    end = ahead.idle_at(X | Y, 0.0)
+    assert end is not None
+    built = ahead._queue[0].built
+    assert built is not None
+    if shift:
+        for m in (ahead, plain):
+            m.set_lp(X, m.lp(X, 0.05) + shift, 0.05)
+    line_end = plain.next_event(0.05)
+    assert line_end is not None
+    for m in (ahead, plain):
+        m.settle(line_end)
+    started = ahead._ax[0].motion
+    assert started is not None and (started is built[2]) == (shift == 0)
+    for t in _samples(line_end, end + 0.1):
+        assert [ahead.lp(a, t) for a in (X, Y)] == [plain.lp(a, t) for a in (X, Y)]
+    assert ahead.idle_at(X | Y, end) == plain.idle_at(X | Y, end)

@@ -5,14 +5,11 @@ afresh everywhere must give the same positions, speeds, states and times at ever
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-from contextlib import contextmanager
-
+from changeonly import called, planning
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from mplang.m8194h.compiler import compile_source
-from mplang.m8194h.sim import profiles
 from mplang.m8194h.sim.controller import VirtualController
 from mplang.m8194h.sim.preload import preload
 
@@ -66,28 +63,12 @@ def program(head: list[str], body: list[str], count: int) -> str:
     return "MP 156\n" + "\n".join(lines) + "\nEND MP\n" + ISR
 
 
-@contextmanager
-def planning(change_only: bool) -> Iterator[None]:
-    """Plan on change only (the default) or afresh everywhere, and start with no memo."""
-    saved = profiles.CHANGE_ONLY
-    profiles.CHANGE_ONLY = change_only
-    profiles._P2P.clear()
-    try:
-        yield
-    finally:
-        profiles.CHANGE_ONLY = saved
-
-
 def steps(source: str, change_only: bool, lines_per_step: int) -> list[object]:
     """The state after every slice of `lines_per_step` macro lines (or 5 ms): time, lines
     run, every axis's LP, EP, signed speed and register report, the variables, the log."""
-    build = compile_source(source)
-    assert build.ok, [d.render() for d in build.diagnostics]
     seen: list[object] = []
     with planning(change_only):
-        vc = VirtualController(word_order=build.word_order)
-        preload(vc, build)
-        vc.call(156)
+        vc = called(source)
         for _ in range(400):
             ran = vc.advance(vc.clock + 0.005, max_steps=lines_per_step, until_idle=True)
             motion = vc.motion
