@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 from collections.abc import Callable
 from json import dumps
+from json.encoder import encode_basestring_ascii
 from typing import Any
 
 from mplang.ir import catalogue as catalogue_module
@@ -157,16 +158,19 @@ class BuildResult(Record):
         error = Severity.ERROR  # compared by identity: thousands of warnings are looked at
         return not any(d.severity is error for d in self.diagnostics)
 
-    def build_id(self) -> str:
-        """Content hash of what would be downloaded: the same image, the same id."""
-        digest = sha256()
-        content: list[object] = [self.word_order, [p.frames for p in self.programs]]
+    def build_id(self, frames: list[str] | None = None) -> str:
+        """Content hash of what would be downloaded: the same image, the same id. It hashes
+        `json.dumps([word_order, [each program's frames], {"init": ...}, {"triggers": ...}])`,
+        put together from `frames` (each program's frames as `json.dumps` gives them) when
+        given: `render_json` encodes a whole device's frames once for both."""
+        if frames is None:
+            frames = [dumps(p.frames) for p in self.programs]
+        text = f"[{dumps(self.word_order)}, [{', '.join(frames)}]"
         if self.init is not None:
-            content.append({"init": self.init.frames})
+            text += ", " + dumps({"init": self.init.frames})
         if self.triggers is not None:
-            content.append({"triggers": self.triggers.to_json()["entries"]})
-        digest.update(json.dumps(content).encode())
-        return digest.hexdigest()[:16]
+            text += ", " + dumps({"triggers": self.triggers.to_json()["entries"]})
+        return sha256((text + "]").encode()).hexdigest()[:16]
 
     def to_json(self) -> dict[str, object]:
         """The image (the family face's name for it)."""
@@ -183,18 +187,21 @@ class BuildResult(Record):
         }
         return renderers[fmt](self)
 
-    def image(self) -> dict[str, object]:
+    def image(self, programs: list[dict[str, object]] | None = None,
+              frames: list[str] | None = None) -> dict[str, object]:
+        """The image as JSON values; `programs` (each program's `to_json()`) and `frames`
+        (as `build_id` takes them) when the caller made them already."""
         image: dict[str, object] = {
             "format": IMAGE_FORMAT,
             "target": {"word_order": self.word_order, "family": "M8194H",
                        "variant": self.target},
-            "build_id": self.build_id(),
+            "build_id": self.build_id(frames),
         }
         if self.init is not None:
             image["init"] = self.init.to_json()
         if self.triggers is not None:
             image["triggers"] = self.triggers.to_json()
-        image["programs"] = [p.to_json() for p in self.programs]
+        image["programs"] = [p.to_json() for p in self.programs] if programs is None else programs
         return image
 
 
@@ -209,39 +216,60 @@ def _slot_lines(first: int, cost: int) -> str:
     return str(first) if cost == 1 else f"{first}-{first + cost - 1}"
 
 
-def _frames_object(obj: dict[str, Any], indent: str) -> str:
-    """A JSON object at `indent` whose frame_lines sit on one line and whose frames are one
-    per line (the object's first line carries no indent: the caller places it).
+def _scalar(value: object) -> str:
+    """`json.dumps(value)` of a member of a frames object, without its call for the common
+    kinds: json.dumps makes an encoder for every number and None, and an image of a whole
+    device has a thousand such members."""
+    if value is None:
+        return "null"
+    if value is True:
+        return "true"
+    if value is False:
+        return "false"
+    if type(value) is str:
+        return encode_basestring_ascii(value)
+    if type(value) is int:
+        return int.__repr__(value)
+    return dumps(value)
+
+
+def _frames_object(obj: dict[str, Any], indent: str, frames: str) -> str:
+    """A JSON object at `indent` whose frame_lines sit on one line and whose frames
+    (`frames`: the object's frames as `json.dumps` gives them, made once by the caller) are
+    one per line (the object's first line carries no indent: the caller places it).
 
     Written through json's C encoder: every scalar and all frames at once (a frame is a list
     of numbers, so `], [` is only ever between two of them), byte for byte what the
     indented pure-Python encoder gives; a member that is not a scalar goes through it."""
-    frames = obj.pop("frames")
+    del obj["frames"]
     lines = obj.pop("frame_lines")
     if all(value is None or isinstance(value, (str, int, float)) for value in obj.values()):
-        body = "{\n" + ",\n".join(f"{indent}  {dumps(key)}: {dumps(value)}"
+        body = "{\n" + ",\n".join(f"{indent}  {encode_basestring_ascii(key)}: {_scalar(value)}"
                                    for key, value in obj.items())
     else:
         body = json.dumps(obj, indent=2).replace("\n", "\n" + indent)[:-(len(indent) + 2)]
-    frame_text = f"{indent}    " + dumps(frames)[1:-1].replace("], [", f"],\n{indent}    [") \
-        if frames else ""
+    frame_text = f"{indent}    " + frames[1:-1].replace("], [", f"],\n{indent}    [") \
+        if frames != "[]" else ""
     return (f"{body},\n{indent}  \"frame_lines\": {dumps(lines)},\n"
             f"{indent}  \"frames\": [\n{frame_text}\n{indent}  ]\n{indent}}}")
 
 
 def render_json(result: BuildResult) -> str:
-    """Indented JSON with each frame kept on one line, so images diff well."""
-    image = result.image()
-    programs = image.pop("programs")
-    assert isinstance(programs, list)
+    """Indented JSON with each frame kept on one line, so images diff well. Each program's
+    frames are encoded once, for the build id and for the text."""
+    programs = [program.to_json() for program in result.programs]
+    frames = [dumps(program["frames"]) for program in programs]
+    image = result.image(programs, frames)
+    del image["programs"]
     init = image.pop("init", None)
     triggers = image.pop("triggers", None)
     head = json.dumps(image, indent=2)[:-2]
     if isinstance(init, dict):
-        head += ',\n  "init": ' + _frames_object(init, "  ")
+        head += ',\n  "init": ' + _frames_object(init, "  ", dumps(init["frames"]))
     if triggers is not None:
         head += ',\n  "triggers": ' + json.dumps(triggers, indent=2).replace("\n", "\n  ")
-    parts = [f"    {_frames_object(program, '    ')}" for program in programs]
+    parts = [f"    {_frames_object(program, '    ', text)}"
+             for program, text in zip(programs, frames, strict=True)]
     return head + ',\n  "programs": [\n' + ",\n".join(parts) + "\n  ]\n}\n"
 
 

@@ -5,10 +5,12 @@ from __future__ import annotations
 
 import json
 import re
+import shutil
 from pathlib import Path
 
 import pytest
 
+from mplang.lang.digest import sha256
 from mplang.m8194h.compiler import compile_paths
 from mplang.m8194h.image import BuildResult, render_json
 
@@ -31,3 +33,37 @@ def _indented(result: BuildResult) -> str:
 def test_the_image_is_the_indented_form(path: Path) -> None:
     result = compile_paths([path])
     assert render_json(result) == _indented(result)
+
+
+def _defined_id(result: BuildResult) -> str:
+    """The build id as defined: the hash of the JSON of what would be downloaded, the
+    content encoded whole (`build_id` and `render_json` put that text together from each
+    program's frames encoded once)."""
+    content: list[object] = [result.word_order, [p.frames for p in result.programs]]
+    if result.init is not None:
+        content.append({"init": result.init.frames})
+    if result.triggers is not None:
+        content.append({"triggers": result.triggers.to_json()["entries"]})
+    return sha256(json.dumps(content).encode()).hexdigest()[:16]
+
+
+@pytest.mark.parametrize("path", SAMPLES, ids=lambda p: p.name)
+def test_the_build_id_is_the_hash_of_the_content_encoded_whole(path: Path) -> None:
+    result = compile_paths([path])
+    assert result.build_id() == _defined_id(result)
+    assert json.loads(render_json(result))["build_id"] == _defined_id(result)
+
+
+def test_an_image_with_init_triggers_and_a_quoted_source_name(tmp_path: Path) -> None:
+    """Members written without json.dumps (the source's name, with a quote, a backslash
+    and a letter beyond ASCII) are escaped as it escapes them; the INIT and TRIGGERS
+    tables count in the id."""
+    source = tmp_path / 'na\u00efve "q" \\.mp'
+    shutil.copy(ROOT / "samples" / "controller" / "controller.mp", source)
+    result = compile_paths([source])
+    assert result.ok and result.init is not None and result.triggers is not None
+    assert render_json(result) == _indented(result)
+    assert result.build_id() == _defined_id(result)
+    empty = BuildResult([], word_order=1)
+    assert render_json(empty) == _indented(empty)
+    assert empty.build_id() == _defined_id(empty)
