@@ -232,6 +232,26 @@ def _axes_of(mask: int) -> list[int]:
     return [i for i in range(4) if mask & 0xF & (1 << i)]
 
 
+_RULES: list[tuple[ChipRules, int]] = []
+"""The rules of the last build and their generation (one entry)."""
+
+
+def _rules_of(profile: Profile) -> tuple[ChipRules, int]:
+    """The profile's rules and a generation that changes whenever they do, their numbers or
+    their `parameters`: what kept W111 warnings are keyed by. An int compared once per kept
+    program and statement, not rules compared field by field (a device's thousands), and
+    unlike rules' equality it tells a change of `parameters` too."""
+    rules = ChipRules.from_profile(profile.raw)
+    if _RULES:
+        last, generation = _RULES[0]
+        if last == rules and last.parameters == rules.parameters:
+            return last, generation
+        _RULES[0] = (rules, generation + 1)
+    else:
+        _RULES.append((rules, 0))
+    return _RULES[0]
+
+
 def warn_changed(programs: Iterable[LoweredProgram], init: LoweredProgram | None,
                  profile: Profile, sink: DiagnosticSink, kept: Lowerings | None = None
                  ) -> None:
@@ -239,7 +259,7 @@ def warn_changed(programs: Iterable[LoweredProgram], init: LoweredProgram | None
     value (clamped to its range, or stepped), with the value it will use. With `kept` (the
     lowerings of the last build), a program lowered as then, starting from the same MAX_V
     values, gives the warnings it gave then."""
-    rules = ChipRules.from_profile(profile.raw)
+    rules, generation = _rules_of(profile)
     factory = float(profile.raw["initial_table"]["factory"]["max_v"])
     start: list[float | None] = [factory] * 4
     if init is not None:
@@ -247,7 +267,7 @@ def warn_changed(programs: Iterable[LoweredProgram], init: LoweredProgram | None
         for line in init.lines:
             reading.see(line.command.short_name, _named(line))
         start = reading.axes
-    key = (rules, tuple(start))
+    key = (generation, tuple(start))
     memo: dict[tuple[object, ...], _Judged] = {}
     for program in [*([init] if init is not None else []), *programs]:
         entry = kept.entry(program) if kept is not None else None
@@ -263,7 +283,8 @@ def warn_changed(programs: Iterable[LoweredProgram], init: LoweredProgram | None
             if segments is None:
                 _warn_lines(program, list(start), rules, own, memo)
             else:
-                _warn_segments(program, segments, list(start), rules, own, memo)
+                _warn_segments(program, segments, list(start), rules, generation, own,
+                               memo)
             return Run(own.items)
 
         found = entry.derived_for("W111", key, warn)
@@ -272,8 +293,8 @@ def warn_changed(programs: Iterable[LoweredProgram], init: LoweredProgram | None
 
 
 def _warn_segments(program: LoweredProgram, segments: list[tuple[Statement, int, int]],
-                   start: list[float | None], rules: ChipRules, sink: DiagnosticSink,
-                   memo: dict[tuple[object, ...], _Judged]) -> None:
+                   start: list[float | None], rules: ChipRules, generation: int,
+                   sink: DiagnosticSink, memo: dict[tuple[object, ...], _Judged]) -> None:
     """`_warn_lines` statement by statement: a kept statement (its lines the same objects)
     entered with the same MAX_V reading gives the warnings it gave, and leaves the reading
     as it left it."""
@@ -288,8 +309,8 @@ def _warn_segments(program: LoweredProgram, segments: list[tuple[Statement, int,
             _warn_reading(program.lines[first:end], inner, rules, own, memo)
             return Run(own.items), inner.axes, inner.axis1
 
-        found = statement.derived_for("W111", (rules, tuple(reading.axes), reading.axis1),
-                                      warn)
+        found = statement.derived_for("W111", (generation, tuple(reading.axes),
+                                               reading.axis1), warn)
         assert isinstance(found, tuple)
         items, axes, axis1 = found
         sink.extend(items)
