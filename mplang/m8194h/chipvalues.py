@@ -298,23 +298,24 @@ def _warn_segments(program: LoweredProgram, segments: list[tuple[Statement, int,
     """`_warn_lines` statement by statement: a kept statement (its lines the same objects)
     entered with the same MAX_V reading gives the warnings it gave, and leaves the reading
     as it left it."""
-    reading = _MaxV(start)
+    # the reading as a tuple of its axes and its axis 1, the very key a kept statement is
+    # looked up by: nothing copied or converted for the statements kept (most of them)
+    axes: tuple[float | None, ...] = tuple(start)
+    axis1 = 0
     for statement, first, end in segments:
-        def warn(first: int = first, end: int = end,
-                 entered: tuple[list[float | None], int] = (list(reading.axes), reading.axis1)
-                 ) -> tuple[list[Diagnostic], list[float | None], int]:
+        def warn(first: int = first, end: int = end, axes: tuple[float | None, ...] = axes,
+                 axis1: int = axis1) -> tuple[list[Diagnostic], tuple[float | None, ...], int]:
             own = DiagnosticSink()
-            inner = _MaxV(entered[0])
-            inner.axis1 = entered[1]
+            inner = _MaxV(list(axes))
+            inner.axis1 = axis1
             _warn_reading(program.lines[first:end], inner, rules, own, memo)
-            return Run(own.items), inner.axes, inner.axis1
+            return Run(own.items), tuple(inner.axes), inner.axis1
 
-        found = statement.derived_for("W111", (generation, tuple(reading.axes),
-                                               reading.axis1), warn)
+        found = statement.derived_for("W111", (generation, axes, axis1), warn)
         assert isinstance(found, tuple)
         items, axes, axis1 = found
-        sink.extend(items)
-        reading.axes, reading.axis1 = list(axes), axis1
+        if items:
+            sink.extend(items)
 
 
 def _named(line: MacroLine) -> dict[str, object]:

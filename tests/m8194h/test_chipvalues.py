@@ -12,7 +12,7 @@ from mplang.lang.diagnostics import DiagnosticSink
 from mplang.lang.linecache import StatementCache
 from mplang.lang.sources import load_sources
 from mplang.m8194h.chipvalues import warn_changed
-from mplang.m8194h.compiler import Lowering, compile_sources
+from mplang.m8194h.compiler import BuildResult, Lowering, compile_paths, compile_sources
 
 
 def _kept_w111(path: Path, text: str, memo: BuildMemo, lines: StatementCache,
@@ -44,3 +44,24 @@ def test_kept_w111_follows_the_profiles_parameters(tmp_path: Path) -> None:
     assert _kept_w111(path, text, memo, lines, without) == []
     assert _kept_w111(path, text, memo, lines, raw) == judged
     assert _kept_w111(path, text, memo, lines, raw) == judged
+
+
+def _w111(result: BuildResult) -> list[tuple[int, str]]:
+    return [(d.span.line, d.message) for d in result.diagnostics if d.code == "W111"]
+
+
+def test_kept_statements_are_judged_from_the_max_v_they_now_enter(tmp_path: Path) -> None:
+    """An edit of a SET_MAX_V inside a program keeps the statements after it (their lines
+    unchanged) but enters them with another MAX_V: their warnings are those of a fresh
+    build, each time, never the ones kept from the MAX_V before."""
+    path = tmp_path / "maxv.mp"
+    text = "\n".join(["MP 1 moves", "  SET_V X, 100", "  SET_MAX_V X, 200000",
+                      "  SET_A X, 123457", "  SET_V X, 70001", "  SET_D X, 5", "END MP", ""])
+    memo, lines = BuildMemo(), StatementCache()
+    seen: list[list[tuple[int, str]]] = []
+    for max_v in ("200000", "160000", "8000", "200000", "8000"):
+        edited = text.replace("200000", max_v)
+        kept = compile_paths([path], texts={path: edited}, lines=lines, memo=memo)
+        assert _w111(kept) == _w111(compile_paths([path], texts={path: edited}))
+        seen.append(_w111(kept))
+    assert seen[0] != seen[1] != seen[2] and seen[0] == seen[3] and seen[2] == seen[4]
