@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Iterator
+from itertools import count
 from typing import TYPE_CHECKING, Any
 
 from mplang.lang.diagnostics import Diagnostic, DiagnosticSink, Run
@@ -234,6 +235,9 @@ def _axes_of(mask: int) -> list[int]:
 
 _RULES: list[tuple[ChipRules, int]] = []
 """The rules of the last build and their generation (one entry)."""
+_GENERATIONS = count()
+"""Each new generation's number, never one given before (`next` is atomic: two builds in
+two threads never share one for different rules)."""
 
 
 def _rules_of(profile: Profile) -> tuple[ChipRules, int]:
@@ -243,13 +247,12 @@ def _rules_of(profile: Profile) -> tuple[ChipRules, int]:
     unlike rules' equality it tells a change of `parameters` too."""
     rules = ChipRules.from_profile(profile.raw)
     if _RULES:
-        last, generation = _RULES[0]
-        if last == rules and last.parameters == rules.parameters:
-            return last, generation
-        _RULES[0] = (rules, generation + 1)
-    else:
-        _RULES.append((rules, 0))
-    return _RULES[0]
+        last = _RULES[0]
+        if last[0] == rules and last[0].parameters == rules.parameters:
+            return last
+    made = (rules, next(_GENERATIONS))
+    _RULES[:] = [made]
+    return made
 
 
 def warn_changed(programs: Iterable[LoweredProgram], init: LoweredProgram | None,
