@@ -10,6 +10,7 @@ M8194H, FATEK and CSIM builds and the editor report the same."""
 from __future__ import annotations
 
 import re
+from operator import attrgetter
 
 from mplang.lang.diagnostics import Diagnostic, Severity, Span
 from mplang.lang.sources import LIBRARY_PREFIX
@@ -21,6 +22,7 @@ FOLLOW_ON = frozenset({"E202", "E423", "E434"})
 """What a name nobody defined draws: unknown name, assignment to a non-variable, CALL of a
 program not in the build."""
 UNKNOWN_NAME = re.compile(r"unknown name '([^']+)'")
+_CODE = attrgetter("code")
 
 
 def settle_includes(diagnostics: list[Diagnostic], sources: dict[str, list[str]]
@@ -28,7 +30,11 @@ def settle_includes(diagnostics: list[Diagnostic], sources: dict[str, list[str]]
     """`diagnostics` with the follow-on errors of failed INCLUDEs left out and a library's
     missing CONSTs said once at the INCLUDE that brought it (`sources`: each file's lines,
     by the name diagnostics give it)."""
-    diagnostics = _library_constants(diagnostics, sources)
+    codes = set(map(_CODE, diagnostics))  # one pass in C: most checks have neither code
+    if "E202" in codes:
+        diagnostics = _library_constants(diagnostics, sources)
+    if codes.isdisjoint(INCLUDE_FAILED):
+        return diagnostics
     failed = [d for d in diagnostics if d.code in INCLUDE_FAILED and _is_include(d.span, sources)]
     if not failed:
         return diagnostics

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Iterator
+from itertools import count
 from typing import TYPE_CHECKING, Any
 
 from mplang.lang.diagnostics import Diagnostic, DiagnosticSink, Run
@@ -232,6 +233,28 @@ def _axes_of(mask: int) -> list[int]:
     return [i for i in range(4) if mask & 0xF & (1 << i)]
 
 
+_RULES: list[tuple[ChipRules, int]] = []
+"""The rules of the last build and their generation (one entry)."""
+_GENERATIONS = count()
+"""Each new generation's number, never one given before (`next` is atomic: two builds in
+two threads never share one for different rules)."""
+
+
+def _rules_of(profile: Profile) -> tuple[ChipRules, int]:
+    """The profile's rules and a generation that changes whenever they do, their numbers or
+    their `parameters`: what kept W111 warnings are keyed by. An int compared once per kept
+    program and statement, not rules compared field by field (a device's thousands), and
+    unlike rules' equality it tells a change of `parameters` too."""
+    rules = ChipRules.from_profile(profile.raw)
+    if _RULES:
+        last = _RULES[0]
+        if last[0] == rules and last[0].parameters == rules.parameters:
+            return last
+    made = (rules, next(_GENERATIONS))
+    _RULES[:] = [made]
+    return made
+
+
 def warn_changed(programs: Iterable[LoweredProgram], init: LoweredProgram | None,
                  profile: Profile, sink: DiagnosticSink, kept: Lowerings | None = None
                  ) -> None:
@@ -239,7 +262,7 @@ def warn_changed(programs: Iterable[LoweredProgram], init: LoweredProgram | None
     value (clamped to its range, or stepped), with the value it will use. With `kept` (the
     lowerings of the last build), a program lowered as then, starting from the same MAX_V
     values, gives the warnings it gave then."""
-    rules = ChipRules.from_profile(profile.raw)
+    rules, generation = _rules_of(profile)
     factory = float(profile.raw["initial_table"]["factory"]["max_v"])
     start: list[float | None] = [factory] * 4
     if init is not None:
@@ -247,7 +270,7 @@ def warn_changed(programs: Iterable[LoweredProgram], init: LoweredProgram | None
         for line in init.lines:
             reading.see(line.command.short_name, _named(line))
         start = reading.axes
-    key = (rules, tuple(start))
+    key = (generation, tuple(start))
     memo: dict[tuple[object, ...], _Judged] = {}
     for program in [*([init] if init is not None else []), *programs]:
         entry = kept.entry(program) if kept is not None else None
@@ -263,7 +286,8 @@ def warn_changed(programs: Iterable[LoweredProgram], init: LoweredProgram | None
             if segments is None:
                 _warn_lines(program, list(start), rules, own, memo)
             else:
-                _warn_segments(program, segments, list(start), rules, own, memo)
+                _warn_segments(program, segments, list(start), rules, generation, own,
+                               memo)
             return Run(own.items)
 
         found = entry.derived_for("W111", key, warn)
@@ -272,28 +296,29 @@ def warn_changed(programs: Iterable[LoweredProgram], init: LoweredProgram | None
 
 
 def _warn_segments(program: LoweredProgram, segments: list[tuple[Statement, int, int]],
-                   start: list[float | None], rules: ChipRules, sink: DiagnosticSink,
-                   memo: dict[tuple[object, ...], _Judged]) -> None:
+                   start: list[float | None], rules: ChipRules, generation: int,
+                   sink: DiagnosticSink, memo: dict[tuple[object, ...], _Judged]) -> None:
     """`_warn_lines` statement by statement: a kept statement (its lines the same objects)
     entered with the same MAX_V reading gives the warnings it gave, and leaves the reading
     as it left it."""
-    reading = _MaxV(start)
+    # the reading as a tuple of its axes and its axis 1, the very key a kept statement is
+    # looked up by: nothing copied or converted for the statements kept (most of them)
+    axes: tuple[float | None, ...] = tuple(start)
+    axis1 = 0
     for statement, first, end in segments:
-        def warn(first: int = first, end: int = end,
-                 entered: tuple[list[float | None], int] = (list(reading.axes), reading.axis1)
-                 ) -> tuple[list[Diagnostic], list[float | None], int]:
+        def warn(first: int = first, end: int = end, axes: tuple[float | None, ...] = axes,
+                 axis1: int = axis1) -> tuple[list[Diagnostic], tuple[float | None, ...], int]:
             own = DiagnosticSink()
-            inner = _MaxV(entered[0])
-            inner.axis1 = entered[1]
+            inner = _MaxV(list(axes))
+            inner.axis1 = axis1
             _warn_reading(program.lines[first:end], inner, rules, own, memo)
-            return Run(own.items), inner.axes, inner.axis1
+            return Run(own.items), tuple(inner.axes), inner.axis1
 
-        found = statement.derived_for("W111", (rules, tuple(reading.axes), reading.axis1),
-                                      warn)
+        found = statement.derived_for("W111", (generation, axes, axis1), warn)
         assert isinstance(found, tuple)
         items, axes, axis1 = found
-        sink.extend(items)
-        reading.axes, reading.axis1 = list(axes), axis1
+        if items:
+            sink.extend(items)
 
 
 def _named(line: MacroLine) -> dict[str, object]:

@@ -122,7 +122,8 @@ def compile_sources(paths: list[Path], sources: SourceSet, sink: DiagnosticSink,
                          TextMemo(_memo_texts(sources, texts)))
     if isinstance(kept, StoredLowerings):
         kept.save()
-    result.sources = {f.display: f.text.splitlines() for f in sources.files}
+    result.sources = {display: _split_lines(text, texts[display])
+                      for display, text in {f.display: f.text for f in sources.files}.items()}
     if paths:
         first = paths[0].resolve()
         result.first_source = next((s for s in result.sources if Path(s).resolve() == first),
@@ -135,6 +136,19 @@ def compile_sources(paths: list[Path], sources: SourceSet, sink: DiagnosticSink,
          if d.span.file not in marked or not suppressed(d, result.sources)] if marked
         else result.diagnostics, result.sources)
     return result
+
+
+_OTHER_BREAKS = ("\r", "\x0b", "\x0c", "\x1c", "\x1d", "\x1e")
+"""What `str.splitlines` breaks an ASCII text at besides a line feed."""
+
+
+def _split_lines(text: str, split: list[str]) -> list[str]:
+    """`text.splitlines()`, taken from `split` (`text.split("\n")`, made already) when the
+    line feeds are its only line boundaries: a few scans in C (an ASCII text knows it is
+    one) instead of splitting a whole device's file again on every check."""
+    if not text.isascii() or any(mark in text for mark in _OTHER_BREAKS):
+        return text.splitlines()
+    return split[:-1] if split[-1] == "" else split[:]
 
 
 def _memo_texts(sources: SourceSet, texts: dict[str, list[str]]) -> dict[str, list[str]]:
