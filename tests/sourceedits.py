@@ -123,6 +123,14 @@ STEPS = st.lists(st.tuples(st.integers(0, 5), st.integers(0, 5_000), st.integers
                  min_size=1, max_size=6)
 
 
+# Drawn sequences per test, besides the cases written out below (every one of which runs).
+# Four test files use them, each comparing two builds or analyses per step: in a test worker
+# that has imported the CLI every build's objects are walked by the collector afterwards
+# (docs/testing.md), so these numbers are most of their share of the suite's ten minutes.
+EDIT_EXAMPLES = 30
+LARGE_EDIT_EXAMPLES = 25
+
+
 def edit_sequences(test: Callable[..., None]) -> Callable[..., None]:
     """`test(path, steps)` run on a sample or check file and a drawn sequence of edits, and
     on the cases that once broke reuse: CONSTs that every program reads, a program that
@@ -137,7 +145,7 @@ def edit_sequences(test: Callable[..., None]) -> Callable[..., None]:
     for name, steps in reversed(cases):
         wrapped = example(path=ROOT / "samples" / name, steps=steps)(wrapped)
     wrapped = given(path=st.sampled_from(SAMPLES) | st.sampled_from(CHECKS), steps=STEPS)(wrapped)
-    decorated: Callable[..., None] = settings(max_examples=50, deadline=None)(wrapped)
+    decorated: Callable[..., None] = settings(max_examples=EDIT_EXAMPLES, deadline=None)(wrapped)
     return decorated
 
 
@@ -165,7 +173,8 @@ def large_edit_sequences(test: Callable[..., None]) -> Callable[..., None]:
     for steps in reversed(cases):
         wrapped = example(steps=steps)(wrapped)
     wrapped = given(steps=STEPS)(wrapped)
-    decorated: Callable[..., None] = settings(max_examples=40, deadline=None)(wrapped)
+    decorated: Callable[..., None] = settings(max_examples=LARGE_EDIT_EXAMPLES,
+                                              deadline=None)(wrapped)
     return decorated
 
 
