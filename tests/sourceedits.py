@@ -124,9 +124,8 @@ STEPS = st.lists(st.tuples(st.integers(0, 5), st.integers(0, 5_000), st.integers
 
 
 # Drawn sequences per test, besides the cases written out below (every one of which runs).
-# Four test files use them, each comparing two builds or analyses per step: in a test worker
-# that has imported the CLI every build's objects are walked by the collector afterwards
-# (docs/testing.md), so these numbers are most of their share of the suite's ten minutes.
+# Four test files use them, each comparing two builds or analyses per step: these numbers
+# are most of their share of the suite's ten minutes (docs/testing.md).
 EDIT_EXAMPLES = 30
 LARGE_EDIT_EXAMPLES = 25
 
