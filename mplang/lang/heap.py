@@ -30,6 +30,12 @@ _frozen: set[str] = set()
 _starting = False
 
 
+def in_mpc() -> bool:
+    """This process runs the `mpc` command (its CLI is imported), not a program using mplang
+    as a library: only `mpc` freezes its heap."""
+    return "mplang.cli" in sys.modules
+
+
 def _freeze_once(moment: str) -> None:
     """Freeze what this `mpc` process holds now, once per `moment` (a test process runs
     many commands: only the first of each is frozen, as in one `mpc` run)."""
@@ -71,7 +77,7 @@ def finished(was_on: bool) -> None:
 @contextmanager
 def collection_paused() -> Iterator[None]:
     """Run the body with the cyclic collector off (as it was after); nested uses are one."""
-    if "mplang.cli" in sys.modules:  # the mpc command, not a library user
+    if in_mpc():
         _freeze_once("build")
     if not gc.isenabled():
         yield

@@ -6,7 +6,6 @@ encoding macro lines as Modbus frames (`encode`)."""
 from __future__ import annotations
 
 import gc
-import sys
 from collections.abc import Callable
 from functools import cache
 from pathlib import Path
@@ -23,7 +22,7 @@ from mplang.ir.unit import DEFAULT_TEMPS, Options, lower_unit
 from mplang.lang import ast, caches
 from mplang.lang.diagnostics import DiagnosticSink, suppressed
 from mplang.lang.followon import settle_includes
-from mplang.lang.heap import collection_paused
+from mplang.lang.heap import collection_paused, in_mpc
 from mplang.lang.linecache import StatementCache
 from mplang.lang.sources import SourceSet, load_sources
 from mplang.lang.structure import build_unit, has_lone_cr
@@ -88,7 +87,7 @@ def _freeze_first_build() -> None:
     `mpc build` of the full device. Once per process, as `heap` freezes (a test process
     runs many commands); never in a program that uses mplang as a library."""
     global _froze_a_build
-    if not _froze_a_build and "mplang.cli" in sys.modules:
+    if not _froze_a_build and in_mpc():
         _froze_a_build = True
         gc.freeze()
 
@@ -105,7 +104,7 @@ def _promote_build() -> None:
     imported: its language server, a test process running commands) is told by its
     modules, not by `gc.get_freeze_count()`, which counts the frozen objects one by one:
     13 ms a build under a language server's frozen heap."""
-    if "mplang.cli" in sys.modules:
+    if in_mpc():
         return
     if gc.get_freeze_count() == 0:  # a library user's heap: empty unless it froze its own
         gc.freeze()
