@@ -126,8 +126,8 @@ STEPS = st.lists(st.tuples(st.integers(0, 5), st.integers(0, 5_000), st.integers
 # Drawn sequences per test, besides the cases written out below (every one of which runs).
 # Four test files use them, each comparing two builds or analyses per step: these numbers
 # are most of their share of the suite's ten minutes (docs/testing.md).
-EDIT_EXAMPLES = 30
-LARGE_EDIT_EXAMPLES = 25
+EDIT_EXAMPLES = 50
+LARGE_EDIT_EXAMPLES = 40
 
 
 def edit_sequences(test: Callable[..., None]) -> Callable[..., None]:

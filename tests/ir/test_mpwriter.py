@@ -30,7 +30,7 @@ def bracketed(expr: Expr) -> str:
     return expr.text
 
 
-@settings(max_examples=120, deadline=None)
+@settings(max_examples=200, deadline=None)
 @given(trees)
 def test_fewest_brackets_keep_the_tree(tree: Expr) -> None:
     def frames(text: str) -> list[list[int]]:

@@ -232,7 +232,7 @@ def statements(depth: int) -> st.SearchStrategy[list[str]]:
     return st.lists(block, min_size=1, max_size=3).map(flat)
 
 
-@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(statements(2), st.sampled_from([0, 1]), st.booleans(), st.booleans())
 def test_random_programs_round_trip(lines: list[str], word_order: int, label: bool,
                                     strip: bool) -> None:
@@ -319,7 +319,7 @@ def random_frames(draw: st.DrawFn) -> list[list[int]]:
     return out
 
 
-@settings(max_examples=50, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(random_frames(), st.sampled_from([0, 1]))
 def test_any_image_disassembles_and_everything_not_exact_is_named(
         body_frames: list[list[int]], word_order: int) -> None:
