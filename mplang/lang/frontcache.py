@@ -25,7 +25,7 @@ from mplang.lang.diagnostics import DiagnosticSink
 from mplang.lang.digest import sha256
 from mplang.lang.linecache import StatementCache
 
-KEYED_MODULES = ("ast", "diagnostics", "limits", "linecache", "parser", "tokenizer")
+KEYED_MODULES = ("ast", "builder", "diagnostics", "limits", "linecache", "parser", "tokenizer")
 """The modules of `mplang.lang` whose source is part of the key, named, not imported: the
 parser and tokenizer bring lark, which a run where every file hits needs never load."""
 
