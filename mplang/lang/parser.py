@@ -48,8 +48,21 @@ TOKEN_WORDS = {
 }
 
 
-def _spread(method: Callable[..., Any]) -> Callable[[list[Any]], Any]:
-    return lambda children: method(*children)
+_log: list[tuple[str, list[Any], Any, int]] | None = None
+"""While `parse_recorded` runs: each builder call, its arguments, its result and the line
+offset of its tokens (`recipes.Call`)."""
+
+
+def _spread(builder: Rules, name: str, method: Callable[..., Any]
+            ) -> Callable[[list[Any]], Any]:
+    """Lark's callback for rule `name`: `method` called with the children spread, logged
+    while a parse is recorded."""
+    def spread(children: list[Any]) -> Any:
+        made = method(*children)
+        if _log is not None:
+            _log.append((name, children, made, builder.line_offset))
+        return made
+    return spread
 
 
 class _Builder(Rules, Transformer[Token, Any]):
@@ -64,7 +77,7 @@ class _Builder(Rules, Transformer[Token, Any]):
         Rules.__init__(self, file, line_offset)
         for name, value in vars(Rules).items():
             if callable(value) and not name.startswith("_"):
-                self.__dict__[name] = _spread(getattr(self, name))
+                self.__dict__[name] = _spread(self, name, getattr(self, name))
 
 
 def cached_lark(grammar: str, name: str, **options: Any) -> Lark:
@@ -366,6 +379,7 @@ def parse_text(text: str, file: str, sink: DiagnosticSink) -> list[ast.Statement
             hook(file)
     fast, fast_builder = _fast_parser()
     fast_builder.file, fast_builder.line_offset = file, 0
+    _forget_calls()
     try:
         result: list[ast.Statement] = fast.parse(text, start="start")  # type: ignore[assignment]
         return _bounded(result, text, sink)
@@ -374,16 +388,37 @@ def parse_text(text: str, file: str, sink: DiagnosticSink) -> list[ast.Statement
     return _parse_slowly(text, file, sink)
 
 
+def parse_recorded(text: str, file: str, sink: DiagnosticSink
+                   ) -> tuple[list[ast.Statement], list[tuple[str, list[Any], Any, int]]]:
+    """`parse_text`, and the builder calls that made its statements (`recipes.record`
+    reads them): those of the attempt that gave them (a failed attempt's are dropped)."""
+    global _log
+    calls: list[tuple[str, list[Any], Any, int]] = []
+    _log = calls
+    try:
+        return parse_text(text, file, sink), calls
+    finally:
+        _log = None
+
+
+def _forget_calls() -> None:
+    """A parse attempt starts: the calls of a failed one made nothing that is returned."""
+    if _log:
+        _log.clear()
+
+
 def _parse_slowly(text: str, file: str, sink: DiagnosticSink) -> list[ast.Statement]:
     """The text with lark's own lexer: whole (the tokenizer may have refused something lark
     takes), else line by line, every bad line reported."""
     parser, builder = _parser()
     builder.file, builder.line_offset = file, 0
+    _forget_calls()
     try:
         result: list[ast.Statement] = parser.parse(text, start="start")  # type: ignore[assignment]
         return _bounded(result, text, sink)
     except (UnexpectedInput, VisitError, SyntaxProblem):
         pass
+    _forget_calls()  # line by line now: each line's calls with its own offset
     statements: list[ast.Statement] = []
     for index, line_text in enumerate(text.split("\n")):
         line_text = line_text.rstrip("\r")
