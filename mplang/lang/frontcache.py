@@ -3,6 +3,9 @@ syntax diagnostics of each distinct source line (the first line of each text, it
 with it: every other line of the same text is a copy, its spans moved), so re-building a
 project where one file changed parses that file's changed lines only
 (`mplang.lang.linecache`); a line repeated all over a file is kept, and read back, once.
+Beside the lines an entry keeps how lark built those with numbers (`mplang.lang.recipes`),
+pickled apart and unpickled only when a line misses: a line whose numbers alone changed is
+then built without importing the parser.
 
 An entry is found by the file's path and its name as diagnostics show it, and kept under a
 key of that name, its text and the front end itself (the grammar and the source of the

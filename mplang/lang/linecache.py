@@ -19,7 +19,9 @@ The language server keeps one `StatementCache` for the documents it analyses and
 to `mplang.lang.sources.load_sources(..., lines=cache)`; the front cache on disk
 (`mplang.lang.frontcache`) keeps the first line of each text of a file (`distinct_of`) and
 seeds a cache with them in the next run, so `mpc build` after an edit parses the edited
-lines.
+lines. A cache made with `record=True` (the front cache's) also keeps how lark built each
+line with numbers (`mplang.lang.recipes`), and builds a new line that differs from one of
+them in its numbers only from that recipe, without a parse.
 """
 
 from __future__ import annotations
