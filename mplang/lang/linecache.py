@@ -325,7 +325,7 @@ class StatementCache:
                 lines.append(known[index])
                 continue
             found = self._texts.get(segment)
-            if found is None and (self._recipes or self._packed):
+            if found is None and (self._recipes or self._packed) and segment not in missing:
                 built = self._replayed(segment, file, index + 1)
                 if built is not None:
                     self._texts[segment] = (built, (file, index + 1))
