@@ -4,6 +4,7 @@ statement at all, so the caller parses the line and lark reports it."""
 
 from __future__ import annotations
 
+import pickle
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -163,3 +164,25 @@ def test_the_statement_cache_parses_only_lines_of_a_new_shape(
     sink = DiagnosticSink()
     assert seeded.parse(again, "c.mp", sink) == parse_text(again, "c.mp", DiagnosticSink())
     assert counted.texts == []
+
+
+def test_damaged_recipes_leave_the_line_to_lark(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Recipes that do not unpickle, or name no rule of the builder, build nothing: the
+    line is parsed, and gives what lark gives."""
+    counted = CountedParse()
+    monkeypatch.setattr(linecache, "_parse_recorded", counted.recorded)
+    first = StatementCache(record=True)
+    first.parse("X = 1\n", "d.mp", DiagnosticSink())
+    kept = first.distinct_of("d.mp")
+    assert kept is not None
+    _, made = _lines_of("X = 1")
+    ((key, recipe),) = made.values()
+    forged = (("__init__", recipe[-1][1]),)
+    for damaged in (b"\x80not a pickle", pickle.dumps({1: (key, forged)})):
+        counted.texts.clear()
+        table = StatementCache(record=True)
+        table.seed("d.mp", kept, damaged)
+        sink = DiagnosticSink()
+        assert table.parse("X = 2\n", "d.mp", sink) == parse_text("X = 2\n", "d.mp",
+                                                                 DiagnosticSink())
+        assert counted.texts == ["X = 2"] and sink.items == []
