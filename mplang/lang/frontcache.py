@@ -3,6 +3,9 @@ syntax diagnostics of each distinct source line (the first line of each text, it
 with it: every other line of the same text is a copy, its spans moved), so re-building a
 project where one file changed parses that file's changed lines only
 (`mplang.lang.linecache`); a line repeated all over a file is kept, and read back, once.
+Beside the lines an entry keeps how lark built those with numbers (`mplang.lang.recipes`),
+pickled apart and unpickled only when a line misses: a line whose numbers alone changed is
+then built without importing the parser.
 
 An entry is found by the file's path and its name as diagnostics show it, and kept under a
 key of that name, its text and the front end itself (the grammar and the source of the
@@ -23,13 +26,14 @@ from functools import cache
 from mplang.lang import ast, caches, packagedata
 from mplang.lang.diagnostics import DiagnosticSink
 from mplang.lang.digest import sha256
-from mplang.lang.linecache import StatementCache
+from mplang.lang.linecache import Numbered, StatementCache
 
-KEYED_MODULES = ("ast", "diagnostics", "limits", "linecache", "parser", "tokenizer")
+KEYED_MODULES = ("ast", "builder", "diagnostics", "limits", "linecache", "parser", "recipes",
+                 "tokenizer")
 """The modules of `mplang.lang` whose source is part of the key, named, not imported: the
 parser and tokenizer bring lark, which a run where every file hits needs never load."""
 
-FORMAT = "front 3"
+FORMAT = "front 4"
 """Part of the key: change it when what an entry holds changes shape."""
 
 
@@ -59,7 +63,7 @@ def parse(text: str, display: str, sink: DiagnosticSink, *, store: bool = True,
     directory = caches.user_cache_dir()
     if directory is None:  # still a line repeated in the text is parsed once
         return (lines or StatementCache()).parse(text, display, sink)
-    table = lines or StatementCache()
+    table = lines or StatementCache(record=store)
     seeded = bool(table.lines_of(display))
     if seeded and not store:  # the language server's buffers: its own table has the lines
         return table.parse(text, display, sink)
@@ -73,18 +77,23 @@ def parse(text: str, display: str, sink: DiagnosticSink, *, store: bool = True,
     if not seeded:
         found = caches.load_keyed(path, (key, file_key))
         if found is not None and _well_formed(found[1]):
-            table.seed(display, found[1])  # type: ignore[arg-type]
+            entry: tuple[list[Numbered], bytes] = found[1]  # type: ignore[assignment]
+            table.seed(display, *entry)
             same = found[0] == 0  # kept from this very text: nothing new to keep
     statements = table.parse(text, display, sink)
     if store and not same:
         kept = table.distinct_of(display)
         if kept is not None:
-            caches.store(path, key, kept, file_key)
+            caches.store(path, key, (kept, table.recipes_for(kept)), file_key)
     return statements
 
 
-def _well_formed(kept: object) -> bool:
-    """An entry's lines have the shape of `linecache.Numbered` (a damaged one may not)."""
+def _well_formed(entry: object) -> bool:
+    """An entry is its lines, of the shape of `linecache.Numbered`, and their recipes
+    pickled (a damaged one may not be so)."""
+    if type(entry) is not tuple or len(entry) != 2 or type(entry[1]) is not bytes:
+        return False
+    kept = entry[0]
     return isinstance(kept, list) and all(
         type(entry) is tuple and len(entry) == 2 and type(entry[0]) is int
         and type(line := entry[1]) is tuple and len(line) == 3 and type(line[0]) is str

@@ -19,7 +19,9 @@ The language server keeps one `StatementCache` for the documents it analyses and
 to `mplang.lang.sources.load_sources(..., lines=cache)`; the front cache on disk
 (`mplang.lang.frontcache`) keeps the first line of each text of a file (`distinct_of`) and
 seeds a cache with them in the next run, so `mpc build` after an edit parses the edited
-lines.
+lines. A cache made with `record=True` (the front cache's) also keeps how lark built each
+line with numbers (`mplang.lang.recipes`), and builds a new line that differs from one of
+them in its numbers only from that recipe, without a parse.
 """
 
 from __future__ import annotations
@@ -27,10 +29,13 @@ from __future__ import annotations
 import re
 from collections.abc import Callable
 from operator import itemgetter
-from typing import Any, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 from mplang.lang import ast
 from mplang.lang.diagnostics import Diagnostic, DiagnosticSink, Span, make_span
+
+if TYPE_CHECKING:
+    from mplang.lang.recipes import Call, Recipe
 
 Parse = Callable[[str, str, DiagnosticSink], list[ast.Statement]]
 """`parser.parse_text`'s shape: text, file name, sink -> statements."""
@@ -52,6 +57,14 @@ def _parse_text(text: str, file: str, sink: DiagnosticSink) -> list[ast.Statemen
     from mplang.lang import parser
 
     return parser.parse_text(text, file, sink)
+
+
+def _parse_recorded(text: str, file: str, sink: DiagnosticSink
+                    ) -> tuple[list[ast.Statement], list[Call]]:
+    """`parser.parse_recorded`: `_parse_text` and the builder calls that made the result."""
+    from mplang.lang import parser
+
+    return parser.parse_recorded(text, file, sink)
 
 
 _PLAIN = frozenset({"str", "int", "bool", "str | None", "int | None"})
@@ -192,8 +205,12 @@ class StatementCache:
     """Statements by line text, and the lines of each file as last parsed (see the module
     docstring). Not thread-safe: one per server or process."""
 
-    def __init__(self, parse: Parse | None = None) -> None:
+    def __init__(self, parse: Parse | None = None, record: bool = False) -> None:
         self._given = parse
+        self._record = record  # keep recipes of the lines lark parses (`recipes_for`)
+        self._recipes: dict[str, tuple[str, Recipe]] = {}  # line text -> template, recipe
+        self._by_template: dict[str, Recipe] | None = None  # made when a line first misses
+        self._packed: list[tuple[bytes, dict[int, str]]] = []  # seeded, not yet unpickled
         self._texts: dict[str, tuple[Line, tuple[str, int]]] = {}
         self._files: dict[str, list[Line]] = {}
         self._last: dict[str, _Last] = {}  # per file: its last text and what it gave
@@ -217,11 +234,63 @@ class StatementCache:
         first = dict(zip(texts, range(len(texts) - 1, -1, -1), strict=True))
         return [(index + 1, lines[index]) for index in sorted(first.values())]
 
-    def seed(self, file: str, lines: list[Numbered]) -> None:
+    def seed(self, file: str, lines: list[Numbered], recipes: bytes = b"") -> None:
         """Take lines of `file` from an earlier run (`distinct_of` then: the front cache's
-        entry): a text among them is not parsed again, wherever it now stands."""
+        entry): a text among them is not parsed again, wherever it now stands. `recipes`
+        (`recipes_for` of those lines) are unpickled when a line first misses: a line
+        differing from one of them in its numbers only is then built without lark."""
         for number, found in lines:
             self._texts.setdefault(found[0], (found, (file, number)))
+        if recipes:
+            self._packed.append((recipes, {number: found[0] for number, found in lines}))
+
+    def recipes_for(self, lines: list[Numbered]) -> bytes:
+        """The recipes of `lines` (`distinct_of`'s) this cache holds, pickled by line
+        number, for the front cache: `seed` takes them back."""
+        import pickle
+
+        known = self._known_recipes()
+        kept = {number: entry for number, (text, _, _) in lines
+                if (entry := known.get(text)) is not None}
+        return pickle.dumps(kept, protocol=pickle.HIGHEST_PROTOCOL) if kept else b""
+
+    def _known_recipes(self) -> dict[str, tuple[str, Recipe]]:
+        """Every recipe held, those seeded unpickled first (a damaged one is dropped)."""
+        if self._packed:
+            import pickle
+
+            for packed, texts in self._packed:
+                try:
+                    held = pickle.loads(packed)
+                    self._recipes.update((texts[number], (key, recipe))
+                                         for number, (key, recipe) in held.items()
+                                         if number in texts and type(key) is str)
+                except Exception:
+                    continue
+            self._packed.clear()
+            self._by_template = None
+        return self._recipes
+
+    def _replayed(self, text: str, file: str, line: int) -> Line | None:
+        """`text` at `file`:`line` built from the recipe of a line of its template, or
+        None (no such recipe, or lark must say why it fails: `recipes.replay`)."""
+        from mplang.lang import recipes
+
+        shape = recipes.template(text)
+        if shape is None:
+            return None
+        by_template = self._by_template
+        if by_template is None:
+            by_template = self._by_template = {
+                key: recipe for key, recipe in self._known_recipes().values()}
+        recipe = by_template.get(shape[0])
+        if recipe is None:
+            return None
+        statement = recipes.replay(recipe, text, shape[1], file, line)
+        if statement is None:
+            return None
+        self._recipes[text] = (shape[0], recipe)
+        return (text, [statement], [])
 
     def forget(self, file: str) -> None:
         """Drop `file`'s lines (a document closed); their texts go at the next sweep."""
@@ -256,6 +325,12 @@ class StatementCache:
                 lines.append(known[index])
                 continue
             found = self._texts.get(segment)
+            if found is None and (self._recipes or self._packed) and segment not in missing:
+                built = self._replayed(segment, file, index + 1)
+                if built is not None:
+                    self._texts[segment] = (built, (file, index + 1))
+                    lines.append(built)
+                    continue
             if found is None:
                 missing.setdefault(segment, []).append(index)
                 lines.append(None)
@@ -302,13 +377,19 @@ class StatementCache:
         each new text's lines by their index in the whole text."""
         batch = segments if whole else list(missing)
         scratch = DiagnosticSink()
-        found = self._parse_with("\n".join(batch), file, scratch)
+        calls: list[Call] = []
+        if self._record and self._given is None:
+            found, calls = _parse_recorded("\n".join(batch), file, scratch)
+        else:
+            found = self._parse_with("\n".join(batch), file, scratch)
         per_line: list[tuple[list[ast.Statement], list[Diagnostic]]] = [
             ([], []) for _ in batch]
         for statement in found:
             per_line[statement.span.line - 1][0].append(statement)
         for item in scratch.items:
             per_line[item.span.line - 1][1].append(item)
+        if calls:
+            self._keep_recipes(calls, batch, per_line)
         for number, (segment, (statements, reported)) in enumerate(
                 zip(batch, per_line, strict=True), start=1):
             line: Line = (segment, statements, reported)
@@ -321,6 +402,23 @@ class StatementCache:
             for index in missing[segment]:
                 lines[index - head] = _placed(line, file, index + 1, (file, number))
 
+    def _keep_recipes(self, calls: list[Call], batch: list[str],
+                      per_line: list[tuple[list[ast.Statement], list[Diagnostic]]]) -> None:
+        """Record the recipes of the new texts of `batch` (lark's calls, `recipes.record`)
+        that reported nothing."""
+        from mplang.lang import recipes
+
+        wanted: dict[str, int] = {}
+        for index, (segment, (_, reported)) in enumerate(zip(batch, per_line, strict=True)):
+            if not reported and segment not in self._recipes:
+                wanted.setdefault(segment, index)
+        made = recipes.record(calls, batch, set(wanted.values()),
+                              [statements for statements, _ in per_line])
+        for index, entry in made.items():
+            self._recipes[batch[index]] = entry
+            if self._by_template is not None:
+                self._by_template.setdefault(entry[0], entry[1])
+
     def _parse_with(self, text: str, file: str, sink: DiagnosticSink) -> list[ast.Statement]:
         """The parse given to the cache, else `parser.parse_text`."""
         return (self._given or _parse_text)(text, file, sink)
@@ -329,3 +427,6 @@ class StatementCache:
         """Keep only the texts of the lines the files hold now."""
         live = {found[0] for lines in self._files.values() for found in lines}
         self._texts = {text: entry for text, entry in self._texts.items() if text in live}
+        self._recipes = {text: entry for text, entry in self._known_recipes().items()
+                         if text in live}
+        self._by_template = None

@@ -24,13 +24,13 @@ from lark import __version__ as LARK_VERSION
 from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedToken, VisitError
 
 from mplang.lang import ast, packagedata
+from mplang.lang.builder import Rules, SyntaxProblem
 from mplang.lang.caches import user_cache_dir
-from mplang.lang.diagnostics import DiagnosticSink, Span, make_span
+from mplang.lang.diagnostics import DiagnosticSink, Span
 from mplang.lang.digest import sha256
 from mplang.lang.limits import (
     MAX_EXPRESSION_DEPTH,
     expression_depth,
-    number_too_long,
     too_deep,
 )
 from mplang.lang.tokenizer import FastLexer, Refused
@@ -48,230 +48,36 @@ TOKEN_WORDS = {
 }
 
 
-class _SyntaxProblem(Exception):
-    """Raised inside the transformer for lexically valid but malformed constructs."""
-
-    def __init__(self, token: Token, message: str, code: str = "E101",
-                 hint: str = "write NAME(a, b) or NAME a, b") -> None:
-        super().__init__(message)
-        self.token = token
-        self.message = message
-        self.code = code
-        self.hint = hint
+_log: list[tuple[str, list[Any], Any, int]] | None = None
+"""While `parse_recorded` runs: each builder call, its arguments, its result and the line
+offset of its tokens (`recipes.Call`)."""
 
 
-def _int(token: Token) -> int:
-    """INT is hex (0x1F) or decimal; leading zeros are decimal (int(.., 0) refuses them).
-    A literal longer than any device value is refused (E108) before it is converted."""
-    text = str(token)
-    problem = number_too_long(text)
-    if problem is not None:
-        raise _SyntaxProblem(token, problem, code="E108",
-                             hint="write the value the device should hold (32-bit)")
-    return int(text, 16) if text[:2].lower() == "0x" else int(text, 10)
+def _spread(builder: Rules, name: str, method: Callable[..., Any]
+            ) -> Callable[[list[Any]], Any]:
+    """Lark's callback for rule `name`: `method` called with the children spread, logged
+    while a parse is recorded."""
+    def spread(children: list[Any]) -> Any:
+        made = method(*children)
+        if _log is not None:
+            _log.append((name, children, made, builder.line_offset))
+        return made
+    return spread
 
 
-_PRECEDENCE = {"|": 1, "&": 2, "+": 3, "-": 3, "*": 4, "/": 4}
+class _Builder(Rules, Transformer[Token, Any]):
+    """The builder's rules (`mplang.lang.builder`) as lark's inline transformer.
 
-
-def _combine(operators: list[str], operands: list[ast.Expr]) -> None:
-    """Replace the last two operands by the last operator applied to them."""
-    right = operands.pop()
-    left = operands.pop()
-    operands.append(ast.BinOp(operators.pop(), left, right, left.span))
-
-
-def _spread(method: Callable[..., Any]) -> Callable[[list[Any]], Any]:
-    return lambda children: method(*children)
-
-
-class _Builder(Transformer[Token, Any]):
-    """Builds AST nodes straight from tokens (no intermediate tree, no position propagation).
-
-    Each rule's method takes the rule's children as arguments. Lark calls a callback with the
-    list of them: the instance holds, under each rule's name, a function that spreads the
-    list into its method (one call, where lark's `v_args(inline=True)` makes three)."""
+    Lark calls a callback with the list of a rule's children: the instance holds, under
+    each rule's name, a function that spreads the list into its method (one call, where
+    lark's `v_args(inline=True)` makes three)."""
 
     def __init__(self, file: str, line_offset: int = 0) -> None:
-        super().__init__()
-        self.file = file
-        self.line_offset = line_offset
-        for name, value in vars(_Builder).items():
+        Transformer.__init__(self)
+        Rules.__init__(self, file, line_offset)
+        for name, value in vars(Rules).items():
             if callable(value) and not name.startswith("_"):
-                self.__dict__[name] = _spread(getattr(self, name))
-
-    def _span(self, token: Token) -> Span:
-        line = (token.line or 1) + self.line_offset
-        col = token.column or 1
-        return make_span(self.file, line, col, col + len(token))  # a token is its text
-
-    def _first_span(self, *items: Any) -> Span:
-        for item in items:
-            if isinstance(item, Token):
-                return self._span(item)
-            span = getattr(item, "span", None)
-            if isinstance(span, Span):
-                return span
-        return Span(self.file, 1 + self.line_offset)
-
-    # -------------------------------------------------------------- expressions
-    def number(self, tok: Token) -> ast.Num:
-        return ast.Num(_int(tok), self._span(tok))
-
-    def _operand(self, item: Any) -> ast.Expr:
-        if not isinstance(item, Token):
-            return item  # type: ignore[no-any-return]  # a number, call or group, built already
-        if item.type == "NAME":
-            return ast.Name(str(item), self._span(item))
-        return ast.Str(str(item)[1:-1], self._span(item))
-
-    def expr(self, *items: Any) -> ast.Expr:
-        """Operands with their signs and operators, flat: the tree by precedence climbing
-        (`|` < `&` < `+ -` < `* /`, left-associative); a sign binds tighter, and a minus
-        before a number folds into it."""
-        operands: list[ast.Expr] = []
-        operators: list[str] = []
-        index, count = 0, len(items)
-        while index < count:
-            signs: list[Token] = []
-            item = items[index]
-            while isinstance(item, Token) and (item.type == "MINUS" or item.type == "PLUS"):
-                signs.append(item)
-                index += 1
-                item = items[index]
-            operand = self._operand(item)
-            for sign in reversed(signs):
-                if sign.type == "MINUS":
-                    operand = ast.Num(-operand.value, self._span(sign)) \
-                        if isinstance(operand, ast.Num) else ast.Neg(operand, self._span(sign))
-            operands.append(operand)
-            index += 1
-            if index < count:  # an operator: first combine what binds at least as tightly
-                operator = str(items[index])
-                index += 1
-                precedence = _PRECEDENCE[operator]
-                while operators and _PRECEDENCE[operators[-1]] >= precedence:
-                    _combine(operators, operands)
-                operators.append(operator)
-        while operators:
-            _combine(operators, operands)
-        return operands[0]
-
-    def call(self, name: Token, lpar: Token, *rest: Any) -> ast.Call:
-        args = [a for a in rest if a is not None and not isinstance(a, Token)]
-        return ast.Call(str(name), args, self._span(name))
-
-    def group(self, lpar: Token, *rest: Any) -> ast.Group:
-        items = [a for a in rest if a is not None and not isinstance(a, Token)]
-        return ast.Group(items, self._span(lpar))
-
-    # --------------------------------------------------------------- statements
-    def const_decl(self, kw: Token, name: Token, value: ast.Expr) -> ast.Const:
-        return ast.Const(str(name), value, self._span(kw), self._span(name))
-
-    def alias_decl(self, kw: Token, name: Token, target: Token) -> ast.Alias:
-        return ast.Alias(str(name), str(target), self._span(kw), self._span(name),
-                         self._span(target))
-
-    def var_decl(self, kw: Token, name: Token, _at: Token | None, pin: Token | None
-                 ) -> ast.VarDecl:
-        return ast.VarDecl(str(name), str(pin) if pin else None, self._span(kw),
-                           self._span(name), self._span(pin) if pin else None)
-
-    def include(self, kw: Token, path: Token) -> ast.Include:
-        return ast.Include(str(path)[1:-1], self._span(kw))
-
-    def program_header(self, kw: Token, number: Token | None, name: Token | None
-                       ) -> ast.ProgramHeader:
-        return ast.ProgramHeader(str(kw.type).lower(), _int(number) if number else None,
-                                 str(name) if name else None, self._span(kw))
-
-    def end_stmt(self, kw: Token, what: Token) -> ast.End:
-        return ast.End(str(what.type).lower(), self._span(kw))
-
-    def for_stmt(self, kw: Token, count: ast.Expr) -> ast.ForStmt:
-        return ast.ForStmt(count, self._span(kw))
-
-    def while_stmt(self, kw: Token, left: ast.Expr, op: Token, right: ast.Expr
-                   ) -> ast.WhileStmt:
-        return ast.WhileStmt(left, str(op), right, self._span(kw))
-
-    def repeat_stmt(self, kw: Token, count: ast.Expr) -> ast.RepeatStmt:
-        return ast.RepeatStmt(count, self._span(kw))
-
-    def next_stmt(self, kw: Token) -> ast.Next:
-        return ast.Next(self._span(kw))
-
-    def exit_stmt(self, kw: Token, loop: Token | None) -> ast.Exit | ast.ExitFor:
-        return ast.ExitFor(self._span(kw)) if loop else ast.Exit(self._span(kw))
-
-    def if_stmt(self, kw: Token, left: ast.Expr, op: Token, right: ast.Expr,
-                then: Token | None) -> ast.IfStmt:
-        return ast.IfStmt(left, str(op), right, self._span(kw))
-
-    def else_stmt(self, kw: Token) -> ast.Else:
-        return ast.Else(self._span(kw))
-
-    def label_stmt(self, kw: Token, label: Token) -> ast.LabelStmt:
-        return ast.LabelStmt(str(label), self._span(kw))
-
-    def goto_stmt(self, kw: Token, label: Token) -> ast.Goto:
-        return ast.Goto(str(label), self._span(kw), self._span(label))
-
-    def call_stmt(self, kw: Token, target: Token) -> ast.CallStmt:
-        return ast.CallStmt(str(target), self._span(kw), self._span(target))
-
-    def terminate_stmt(self, kw: Token) -> ast.Terminate:
-        return ast.Terminate(self._span(kw))
-
-    def assign(self, target: Token, value: ast.Expr) -> ast.Assign:
-        return ast.Assign(str(target), self._span(target), value, self._span(target))
-
-    def command(self, name: Token, *args: ast.Expr | None) -> ast.Command:
-        items = [a for a in args if a is not None]
-        # `NAME(a, b)` arrives as one parenthesised group: it is the argument list.
-        if len(items) == 1 and isinstance(items[0], ast.Group):
-            items = list(items[0].items)
-        for item in items:
-            if isinstance(item, ast.Group) and len(item.items) != 1:
-                raise _SyntaxProblem(name, "a parenthesised list can only be the whole "
-                                     "argument list")
-        return ast.Command(str(name), items, self._span(name), self._span(name))
-
-    def init_header(self, kw: Token) -> ast.InitHeader:
-        return ast.InitHeader(self._span(kw))
-
-    def interrupts_header(self, kw: Token, mp: Token | None, target: Token
-                          ) -> ast.InterruptsHeader:
-        text = f"MP{target}" if mp is not None else str(target)
-        return ast.InterruptsHeader(text, self._span(kw), self._span(mp or target))
-
-    def triggers_header(self, kw: Token) -> ast.TriggersHeader:
-        return ast.TriggersHeader(self._span(kw))
-
-    def on_stmt(self, kw: Token, subject: Token, condition: Token,
-                action: tuple[str, str | None, str | None, Span]) -> ast.OnStmt:
-        word, argument, kind, span = action
-        text = str(subject)
-        if subject.type == "DI_PIN":
-            text = "DI " + text[2:].strip()
-        return ast.OnStmt(text, self._span(subject), str(condition), self._span(condition),
-                          word, argument, kind, span, self._span(kw))
-
-    def on_call(self, kw: Token, kind: Token | None, target: Token
-                ) -> tuple[str, str | None, str | None, Span]:
-        return ("CALL", str(target), str(kind.type).lower() if kind else None,
-                self._span(target))
-
-    def on_words(self, first: Token, second: Token | None
-                 ) -> tuple[str, str | None, str | None, Span]:
-        return (str(first).upper(), str(second) if second else None, None, self._span(first))
-
-    def start(self, *statements: Any) -> list[ast.Statement]:
-        return [s for s in statements if s is not None]
-
-    def line(self, statement: Any = None) -> list[ast.Statement]:
-        return [] if statement is None else [statement]
+                self.__dict__[name] = _spread(self, name, getattr(self, name))
 
 
 def cached_lark(grammar: str, name: str, **options: Any) -> Lark:
@@ -573,12 +379,32 @@ def parse_text(text: str, file: str, sink: DiagnosticSink) -> list[ast.Statement
             hook(file)
     fast, fast_builder = _fast_parser()
     fast_builder.file, fast_builder.line_offset = file, 0
+    _forget_calls()
     try:
         result: list[ast.Statement] = fast.parse(text, start="start")  # type: ignore[assignment]
         return _bounded(result, text, sink)
-    except (UnexpectedInput, VisitError, _SyntaxProblem, Refused):
+    except (UnexpectedInput, VisitError, SyntaxProblem, Refused):
         pass
     return _parse_slowly(text, file, sink)
+
+
+def parse_recorded(text: str, file: str, sink: DiagnosticSink
+                   ) -> tuple[list[ast.Statement], list[tuple[str, list[Any], Any, int]]]:
+    """`parse_text`, and the builder calls that made its statements (`recipes.record`
+    reads them): those of the attempt that gave them (a failed attempt's are dropped)."""
+    global _log
+    calls: list[tuple[str, list[Any], Any, int]] = []
+    _log = calls
+    try:
+        return parse_text(text, file, sink), calls
+    finally:
+        _log = None
+
+
+def _forget_calls() -> None:
+    """A parse attempt starts: the calls of a failed one made nothing that is returned."""
+    if _log:
+        _log.clear()
 
 
 def _parse_slowly(text: str, file: str, sink: DiagnosticSink) -> list[ast.Statement]:
@@ -586,11 +412,13 @@ def _parse_slowly(text: str, file: str, sink: DiagnosticSink) -> list[ast.Statem
     takes), else line by line, every bad line reported."""
     parser, builder = _parser()
     builder.file, builder.line_offset = file, 0
+    _forget_calls()
     try:
         result: list[ast.Statement] = parser.parse(text, start="start")  # type: ignore[assignment]
         return _bounded(result, text, sink)
-    except (UnexpectedInput, VisitError, _SyntaxProblem):
+    except (UnexpectedInput, VisitError, SyntaxProblem):
         pass
+    _forget_calls()  # line by line now: each line's calls with its own offset
     statements: list[ast.Statement] = []
     for index, line_text in enumerate(text.split("\n")):
         line_text = line_text.rstrip("\r")
@@ -605,9 +433,9 @@ def _parse_slowly(text: str, file: str, sink: DiagnosticSink) -> list[ast.Statem
         except UnexpectedInput as err:
             _report(err, file, index + 1, line_text, sink)
             statements.extend(_placeholder(line_text, Span(file, index + 1)))
-        except (VisitError, _SyntaxProblem) as err:
+        except (VisitError, SyntaxProblem) as err:
             problem = err.orig_exc if isinstance(err, VisitError) else err
-            if not isinstance(problem, _SyntaxProblem):
+            if not isinstance(problem, SyntaxProblem):
                 raise
             _report_problem(problem, file, index, sink)
             del problem  # its traceback holds this frame: a cycle through every local
@@ -615,7 +443,7 @@ def _parse_slowly(text: str, file: str, sink: DiagnosticSink) -> list[ast.Statem
     return statements
 
 
-def _report_problem(problem: _SyntaxProblem, file: str, index: int,
+def _report_problem(problem: SyntaxProblem, file: str, index: int,
                     sink: DiagnosticSink) -> None:
     column = problem.token.column or 1
     sink.add(problem.code, Span(file, index + 1, column, column + len(str(problem.token))),

@@ -107,6 +107,25 @@ def test_lint_parses_with_lark_on_a_miss_and_without_it_on_a_hit(tmp_path: Path)
                            "pygls")) == []
 
 
+def test_build_after_a_number_edit_does_not_load_lark(tmp_path: Path) -> None:
+    """A line that differs from a cached one in its numbers only is built from the recipe
+    the front cache keeps with it (`mplang.lang.recipes`): the parser and lark stay out;
+    a line with a new shape brings them back."""
+    source = _source(tmp_path)
+    _modules_after("build", str(source), "-o", "lean.json", cwd=tmp_path)
+    first = (tmp_path / "lean.json").read_text()
+    source.write_text(source.read_text().replace("2000", "2500"))
+    loaded = _modules_after("build", str(source), "-o", "lean.json", cwd=tmp_path)
+    assert "mplang.lang.recipes" in loaded
+    assert _loaded(loaded, ("lark", "mplang.lang.parser", "mplang.lang.tokenizer")) == []
+    _modules_after("build", "--no-cache", str(source), "-o", "fresh.json", cwd=tmp_path)
+    assert (tmp_path / "lean.json").read_text() == (tmp_path / "fresh.json").read_text()
+    assert (tmp_path / "lean.json").read_text() != first
+    source.write_text(source.read_text().replace("speed = 2500", "speed = 2500 + 1"))
+    loaded = _modules_after("build", str(source), "-o", "lean.json", cwd=tmp_path)
+    assert "lark" in loaded and "mplang.lang.parser" in loaded
+
+
 NEVER_FOR_A_CLIENT = ("mplang.m8194h.modbus_server", "mplang.m8194h.ordered",
                       "mplang.m8194h.sim")
 """What a command that only talks to a device never needs: the Modbus server side and the

@@ -58,10 +58,34 @@ def test_a_second_build_parses_only_the_changed_file(tmp_path: Path, cache_dir: 
     parsed.clear()
     assert _image(main_file) == first
     assert parsed == []
-    (tmp_path / "b.mp").write_text("CONST B = 3\n")
+    (tmp_path / "b.mp").write_text("CONST B = 2 * 2\n")
     changed = _image(main_file)
     assert [Path(name).name for name in parsed] == ["b.mp"]
     assert changed != first  # the new constant reached the image
+
+
+def test_a_number_edit_is_built_without_a_parse(tmp_path: Path, cache_dir: Path,
+                                                parsed: list[str]) -> None:
+    """A line that differs from a cached one in its numbers only is built from the recipe
+    kept with it (`mplang.lang.recipes`): no parse, and the image and diagnostics of a
+    build without any cache; a number too long is parsed, and reported as then."""
+    main_file = _project(tmp_path)
+    _image(main_file)
+    # an entry keeps the recipes of the file's lines as it was last built: a hex number
+    # is another template; after the line failed there is none
+    for text, parses in (("CONST B = 7\n", []), ("CONST B = 12345\n", []),
+                         ("CONST B = 0x7F\n", ["b.mp"]), ("CONST B = 0x10\n", []),
+                         ("CONST B = " + "9" * 30 + "\n", ["b.mp"]),
+                         ("CONST B = 5\n", ["b.mp"]), ("CONST B = 6\n", [])):
+        parsed.clear()
+        (tmp_path / "b.mp").write_text(text)
+        changed = _image(main_file)
+        assert [Path(name).name for name in parsed] == parses, text
+        caches.turn_off(True)
+        try:
+            assert _image(main_file) == changed, text
+        finally:
+            caches.turn_off(False)
 
 
 def test_syntax_errors_come_back_from_the_cache(tmp_path: Path, cache_dir: Path,
