@@ -85,8 +85,7 @@ class ProgramLowerer(OperandLowerer):
         self.collect_labels(self.program.body)
         if kept is not None:
             kept.start(self)
-            self.lower_block(self.program.body,
-                             lambda node: kept.lower(node, self, self.lower_statement))
+            self.lower_kept(self.program.body, kept)
             kept.finish()
         elif self.scope.text_memo is not None:  # one build's repeated statements
             memo, context = self.scope.text_memo, (self.kind, tuple(self.labels.items()))
@@ -107,12 +106,42 @@ class ProgramLowerer(OperandLowerer):
             if isinstance(node, ast.LabelStmt):
                 dead_after, warned = None, False
             elif dead_after is not None and not warned:
-                self.sink.add("W101", node.span, f"unreachable: line {dead_after.line} always "
-                              "jumps away", hint="remove it, or put a LABEL before it")
+                self.unreachable(node, dead_after)
                 warned = True
             jumps = lower(node)
             if jumps and dead_after is None:
                 dead_after = node.span
+
+    def lower_kept(self, body: list[ast.Node], kept: Statements) -> None:
+        """`lower_block` for a program's body with its statements as last lowered: a chunk
+        of them that fits is replayed whole (`blockmemo.Chunk`: only its last statement
+        may jump, so no W101 falls inside it), the others go one by one. Its own loop: the
+        chunks' skipping would slow the loop every other body is lowered by."""
+        dead_after: Span | None = None
+        warned = False
+        index, count = 0, len(body)
+        while index < count:
+            node = body[index]
+            if dead_after is None:
+                chunk = kept.replay_chunk(body, index, self)
+                if chunk is not None:
+                    index += len(chunk.nodes)
+                    if chunk.jumps:
+                        dead_after = chunk.nodes[-1].span
+                    continue
+            index += 1
+            if isinstance(node, ast.LabelStmt):
+                dead_after, warned = None, False
+            elif dead_after is not None and not warned:
+                self.unreachable(node, dead_after)
+                warned = True
+            if kept.lower(node, self, self.lower_statement) and dead_after is None:
+                dead_after = node.span
+
+    def unreachable(self, node: ast.Node, dead_after: Span) -> None:
+        """W101 of the first statement after a jump."""
+        self.sink.add("W101", node.span, f"unreachable: line {dead_after.line} always jumps "
+                      "away", hint="remove it, or put a LABEL before it")
 
     def lower_statement(self, node: ast.Node) -> bool:
         """`lower_node`, with a pathological expression reported instead of a crash."""
