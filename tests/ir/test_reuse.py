@@ -25,6 +25,7 @@ from mplang.ir.reuse import BuildMemo
 from mplang.lang import ast
 from mplang.lang.diagnostics import Span
 from mplang.lang.linecache import StatementCache
+from mplang.lang.structure import RUN
 from mplang.m8194h.compiler import BuildResult, compile_paths
 
 
@@ -310,3 +311,33 @@ def test_a_chunk_entered_in_another_state_is_lowered_again(
         line = text.index(warns.split("\n")[0]) + 1
         assert [d.code for d in result.diagnostics if d.span.line == line] == \
             [d.code for d in fresh.diagnostics if d.span.line == line]
+
+
+def test_a_run_of_top_level_statements_is_matched_whole_and_again_where_edited(
+        tmp_path: Path) -> None:
+    """The program's top-level statements are kept in runs (`lang.structure.BlockMemo`):
+    an edit anywhere in one (a block's inner line, plain lines, a block made lines, a jump)
+    makes the build from scratch, and its nodes outside the edited lines are the same
+    objects as before."""
+    path = tmp_path / "runs.mp"
+    blocks = [f"  IF VAR{n} > 1\n    SET_V Y, {n}\n  END IF" for n in range(2, 4 * RUN)]
+    lines, memo = StatementCache(), BuildMemo()
+    before: list[object] = []
+    for at, text in [(0, blocks[0]), (1, "  VAR9 = 1\n  SET_V X, 25\n  VAR9 = 2"),
+                     (1, "  VAR9 = 1\n  SET_V X, 50\n  VAR9 = 2"),
+                     (RUN + 3, "  IF VAR9 > 1\n    SET_V Y, 7\n  END IF"),
+                     (2 * RUN, "  GOTO 3\n  SET_V X, 25\n  LABEL 3")]:
+        blocks[at] = text
+        source = "\n".join(["MP 156 main", *blocks, "END MP", ""])
+        result = _build(path, source, lines, memo)
+        assert seen(result) == seen(_build(path, source))
+        entry = memo.lowerings.entry(result.programs[0].placement.program)
+        assert entry is not None
+        after = list(entry.program.body)
+        if before:
+            kept = {id(node) for node in before}
+            first = 2 + 3 * at  # the edited lines, 1-based
+            assert {node.span.line for node in after if id(node) not in kept} <= \
+                set(range(first, first + 3))
+            assert len(kept.intersection(map(id, after))) >= len(after) - 3
+        before = after
