@@ -49,11 +49,19 @@ class _Open:
         return self.otherwise if self.otherwise is not None else self.body
 
 
+_BLOCK_COMMANDS = frozenset({"END_IF", "ELSE", "EXIT_FOR", "EXIT_MACRO", "MP_TERMINATE",
+                             "NEXT", "FOR", "IF", "MP_CALL", "GOTO", "LABEL"})
+"""The raw command names `normalise` turns into statements (besides their RSM_MACRO_ and
+ETM_MACRO_ spellings): any other command is taken as it is, after one set lookup."""
+
+
 def normalise(statement: ast.Statement) -> ast.Statement:
     """Raw spellings of block commands become the statements their keywords make."""
     if not isinstance(statement, ast.Command):
         return statement
     name = statement.name.upper()
+    if name not in _BLOCK_COMMANDS and not name.startswith(("RSM_MACRO_", "ETM_MACRO_")):
+        return statement
     for prefix in ("RSM_MACRO_", "ETM_MACRO_"):
         if name.startswith(prefix):
             name = name[len(prefix):]
