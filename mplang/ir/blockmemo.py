@@ -130,7 +130,7 @@ class Chunk:
     its statements left, as they saw it then. Only its last statement may jump (the W101
     check between statements is then left to the loop around it)."""
 
-    __slots__ = (*REPLAYED, "nodes", "statements", "warned_false", "warned_true",
+    __slots__ = (*REPLAYED, "labels", "nodes", "statements", "warned_false", "warned_true",
                  "written_false", "written_true")
 
     def __init__(self, statements: list[Statement]) -> None:
@@ -166,6 +166,8 @@ class Chunk:
         self.calls = tuple(calls)
         self.diagnostics: Run | tuple[()] = Run(diagnostics) if diagnostics else ()
         self.derived: dict[str, tuple[Hashable, object]] | None = None
+        self.labels: list[ast.LabelStmt] = []  # the LABELs in its nodes, at any depth
+        label_statements(self.nodes, self.labels)
 
     def fits(self, body: list[ast.Node], index: int, lowerer: ProgramLowerer) -> bool:
         """Whether `body` from `index` on starts with this chunk's statements, entered in a
@@ -222,6 +224,19 @@ class Statements:
         self.order = []
         self.items = []
         self.fresh = set()
+
+    def find_labels(self, body: list[ast.Node], found: list[ast.LabelStmt]) -> None:
+        """The LABEL statements of a program's `body`, in order, added to `found`: those of
+        a kept chunk whose nodes are the same taken from it, not walked again."""
+        index, count = 0, len(body)
+        while index < count:
+            chunk = self.chunks.get(body[index].span.line)
+            if chunk is not None and body[index:index + len(chunk.nodes)] == chunk.nodes:
+                found += chunk.labels
+                index += len(chunk.nodes)
+            else:
+                label_statements(body[index:index + 1], found)
+                index += 1
 
     def replay_chunk(self, body: list[ast.Node], index: int, lowerer: ProgramLowerer
                      ) -> Chunk | None:
@@ -364,3 +379,19 @@ class VariableLog:
         self.reads: set[int] = set()
         self.writes: set[int] = set()
         self.warned: set[int] = set()
+
+
+def label_statements(body: list[ast.Node], found: list[ast.LabelStmt]) -> None:
+    """The LABEL statements of `body` and the blocks in it, in order, added to `found`
+    (a plain walk: generators nested as deep as the blocks cost more than a program's
+    labels are worth)."""
+    for node in body:
+        if type(node) is ast.LabelStmt:
+            found.append(node)
+        elif type(node) is ast.IfBlock:
+            label_statements(node.then, found)
+            if node.otherwise:
+                label_statements(node.otherwise, found)
+        elif type(node) is ast.ForBlock or type(node) is ast.WhileBlock or \
+                type(node) is ast.RepeatBlock:
+            label_statements(node.body, found)

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from mplang.ir.blockmemo import Statements
+from mplang.ir.blockmemo import Statements, label_statements
 from mplang.ir.fold import apply_operator, wrap32
 from mplang.ir.interrupts import wire_lines, wires
 from mplang.ir.macro import CallSite, LoweredProgram, ProgramRef, VarRef
@@ -82,7 +82,7 @@ class ProgramLowerer(OperandLowerer):
     def lower_program(self, kept: Statements | None = None) -> LoweredProgram:
         """The program's macro lines; `kept`, its statements as last lowered, gives each
         unchanged top-level statement its lowering from then (`mplang.ir.blockmemo`)."""
-        self.collect_labels(self.program.body)
+        self.collect_labels(self.program.body, kept)
         if kept is not None:
             kept.start(self)
             self.lower_kept(self.program.body, kept)
@@ -357,12 +357,16 @@ class ProgramLowerer(OperandLowerer):
                           "before it", hint="write VARn = GET_LP(X) instead")
         self.emit_command(command, operands, node.span)
 
-    def collect_labels(self, body: list[ast.Node]) -> None:
+    def collect_labels(self, body: list[ast.Node], kept: Statements | None = None) -> None:
         """Number the program's labels: numeric ones keep their number, names take the lowest
-        free numbers in order of definition."""
+        free numbers in order of definition. `kept`, the program's statements as last
+        lowered, gives those of its chunks that are unchanged (`Statements.find_labels`)."""
         defined: dict[str, Span] = {}
         found: list[ast.LabelStmt] = []
-        _labels(body, found)
+        if kept is None:
+            label_statements(body, found)
+        else:
+            kept.find_labels(body, found)
         for node in found:
             key = node.label.upper()
             if key in defined:
@@ -455,19 +459,3 @@ class ProgramLowerer(OperandLowerer):
             return
         self.out.calls.append(CallSite(ref, node.span))
         self.emit_command(command, (ref,), node.span)
-
-
-def _labels(body: list[ast.Node], found: list[ast.LabelStmt]) -> None:
-    """The LABEL statements of `body` and the blocks in it, in order, added to `found`
-    (a plain walk: generators nested as deep as the blocks cost more than a program's
-    labels are worth)."""
-    for node in body:
-        if type(node) is ast.LabelStmt:
-            found.append(node)
-        elif type(node) is ast.IfBlock:
-            _labels(node.then, found)
-            if node.otherwise:
-                _labels(node.otherwise, found)
-        elif type(node) is ast.ForBlock or type(node) is ast.WhileBlock or \
-                type(node) is ast.RepeatBlock:
-            _labels(node.body, found)
