@@ -172,8 +172,11 @@ class Chunk:
     def fits(self, body: list[ast.Node], index: int, lowerer: ProgramLowerer) -> bool:
         """Whether `body` from `index` on starts with this chunk's statements, entered in a
         state that lowers them as they were."""
-        if body[index:index + len(self.nodes)] != self.nodes or \
-                self.free_temps != tuple(lowerer.free_temps) or \
+        return body[index:index + len(self.nodes)] == self.nodes and self.enters(lowerer)
+
+    def enters(self, lowerer: ProgramLowerer) -> bool:
+        """Whether `lowerer`'s present state lowers the chunk's statements as they were."""
+        if self.free_temps != tuple(lowerer.free_temps) or \
                 self.spare_labels != tuple(lowerer.spare_labels) or \
                 self.after_return != _after_return(lowerer):
             return False

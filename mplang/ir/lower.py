@@ -14,8 +14,9 @@ re-exported (`__all__`).
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import TYPE_CHECKING
 
-from mplang.ir.blockmemo import Statements, label_statements
+from mplang.ir.blockmemo import CHUNK, Statements, label_statements
 from mplang.ir.fold import apply_operator, wrap32
 from mplang.ir.interrupts import wire_lines, wires
 from mplang.ir.macro import CallSite, LoweredProgram, ProgramRef, VarRef
@@ -35,6 +36,9 @@ from mplang.ir.scope import (
 from mplang.lang import ast
 from mplang.lang.diagnostics import Span
 from mplang.lang.record import Record
+
+if TYPE_CHECKING:
+    from mplang.ir.textmemo import Recording, TextMemo
 
 __all__ = [
     "BVAR_RE",
@@ -88,9 +92,7 @@ class ProgramLowerer(OperandLowerer):
             self.lower_kept(self.program.body, kept)
             kept.finish()
         elif self.scope.text_memo is not None:  # one build's repeated statements
-            memo, context = self.scope.text_memo, (self.kind, tuple(self.labels.items()))
-            self.lower_block(self.program.body,
-                             lambda node: memo.lower(node, self, context, self.lower_statement))
+            self.lower_texts(self.program.body, self.scope.text_memo)
         else:
             self.lower_block(self.program.body)
         return self.out
@@ -130,13 +132,54 @@ class ProgramLowerer(OperandLowerer):
                         dead_after = chunk.nodes[-1].span
                     continue
             index += 1
-            if isinstance(node, ast.LabelStmt):
-                dead_after, warned = None, False
-            elif dead_after is not None and not warned:
-                self.unreachable(node, dead_after)
-                warned = True
+            dead_after, warned = self.reach(node, dead_after, warned)
             if kept.lower(node, self, self.lower_statement) and dead_after is None:
                 dead_after = node.span
+
+    def lower_texts(self, body: list[ast.Node], memo: TextMemo) -> None:
+        """`lower_block` for a program's body through the build's `TextMemo`: from every
+        CHUNK-th top-level statement where no jump precedes it, a chunk lowered before from
+        the same texts is replayed whole, else its statements go one by one (each replayed
+        by its own text where it can) and are kept as a chunk. Its own loop, as
+        `lower_kept`."""
+        context = (self.kind, tuple(self.labels.items()))
+        dead_after: Span | None = None
+        warned = False
+        recording: Recording | None = None
+        index, count = 0, len(body)
+        while index < count:
+            node = body[index]
+            if index % CHUNK == 0:
+                if recording is not None:
+                    memo.keep_chunk(recording, self)
+                    recording = None
+                if dead_after is None:
+                    chunk, recording = memo.chunk(body, index, self, context)
+                    if chunk is not None:
+                        index += len(chunk.statements)
+                        if chunk.jumps:
+                            dead_after = body[index - 1].span
+                        continue
+            index += 1
+            dead_after, warned = self.reach(node, dead_after, warned)
+            jumps = memo.lower(node, self, context, self.lower_statement)
+            if recording is not None and not recording.add(memo.last, jumps):
+                recording = None
+            if jumps and dead_after is None:
+                dead_after = node.span
+        if recording is not None:
+            memo.keep_chunk(recording, self)
+
+    def reach(self, node: ast.Node, dead_after: Span | None, warned: bool
+              ) -> tuple[Span | None, bool]:
+        """The W101 state (the jump code is dead after, whether W101 was given since) as
+        `node` is reached, W101 given if it is the first statement after the jump."""
+        if isinstance(node, ast.LabelStmt):
+            return None, False
+        if dead_after is not None and not warned:
+            self.unreachable(node, dead_after)
+            return dead_after, True
+        return dead_after, warned
 
     def unreachable(self, node: ast.Node, dead_after: Span) -> None:
         """W101 of the first statement after a jump."""
