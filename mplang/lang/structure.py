@@ -34,7 +34,7 @@ class _Open:
     """A block being built: the program, a FOR or an IF (with its two branches). A slots
     class, not a dataclass: creating one at import costs every command's start."""
 
-    __slots__ = ("body", "dropped", "else_span", "head", "kind", "otherwise")
+    __slots__ = ("body", "dropped", "else_span", "head", "kind", "otherwise", "target")
 
     def __init__(self, kind: str, head: ast.Statement) -> None:
         self.kind = kind  # "mp" | "isr" | "for" | "if" | "while" | "repeat"
@@ -43,10 +43,13 @@ class _Open:
         self.otherwise: list[ast.Node] | None = None
         self.else_span: Span | None = None
         self.dropped = False  # nested beyond MAX_BLOCK_DEPTH: reported, left out of the tree
+        # where its lines go: its body, or after an ELSE the other branch (`begin_else`)
+        self.target = self.body
 
-    @property
-    def target(self) -> list[ast.Node]:
-        return self.otherwise if self.otherwise is not None else self.body
+    def begin_else(self, span: Span) -> None:
+        """The ELSE of this IF: the lines after it go to the other branch."""
+        self.otherwise = self.target = []
+        self.else_span = span
 
 
 _BLOCK_COMMANDS = frozenset({"END_IF", "ELSE", "EXIT_FOR", "EXIT_MACRO", "MP_TERMINATE",
@@ -454,6 +457,9 @@ def _build_file(statements: list[ast.Statement], file: str, unit: ast.Unit,
     def close_block(kind: str, at: Span) -> None:
         """NEXT or END IF: close the innermost block of `kind`, reporting blocks left open
         inside it (they are closed too, so the rest of the file still makes sense)."""
+        if stack and stack[-1].kind == kind:  # the innermost block: most closings
+            close_inner(stack.pop(), at)
+            return
         word = BLOCK_WORD[kind]
         if not any(b.kind == kind for b in stack):
             sink.add(STRAY_CLOSE[kind], at, f"{word} without an open {kind.upper()}")
@@ -614,8 +620,7 @@ def _build_file(statements: list[ast.Statement], file: str, unit: ast.Unit,
                              f"{stack[-1].head.span.line} (first ELSE at line "
                              f"{stack[-1].else_span.line})", hint="an IF takes one ELSE")
                 else:
-                    stack[-1].otherwise = []
-                    stack[-1].else_span = statement.span
+                    stack[-1].begin_else(statement.span)
             case _:
                 if not in_program():
                     sink.add("E301", statement.span, "statement outside an MP/ISR block",
