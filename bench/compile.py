@@ -4,8 +4,9 @@ it; never asserted, and never a test.
 1. the full-device image (every MP and ISR slot filled to its budget, ~5,900 lines) compiled
    warm in this process with every cache off, with the parse's share (target <= 100 ms). A
    build parses each distinct line of a text once (`mplang.lang.linecache`) and lowers each
-   distinct top-level statement once per state it enters (`mplang.ir.textmemo`), and this
-   image repeats its lines a great deal, so the share of distinct lines is printed beside
+   distinct top-level statement, and each distinct run of up to 16 of them from a 16th of a
+   program on, once per state it enters (`mplang.ir.textmemo`), and this image repeats its
+   lines and runs a great deal, so the share of distinct lines is printed beside
    it, and the same image with every line made distinct (a comment numbering it) is built
    too;
 2. `mpc build` of that image as a process, beyond `mpc --version` (target <= 120 ms): right

@@ -14,8 +14,9 @@ re-exported (`__all__`).
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import TYPE_CHECKING
 
-from mplang.ir.blockmemo import Statements
+from mplang.ir.blockmemo import CHUNK, Statements, label_statements
 from mplang.ir.fold import apply_operator, wrap32
 from mplang.ir.interrupts import wire_lines, wires
 from mplang.ir.macro import CallSite, LoweredProgram, ProgramRef, VarRef
@@ -35,6 +36,9 @@ from mplang.ir.scope import (
 from mplang.lang import ast
 from mplang.lang.diagnostics import Span
 from mplang.lang.record import Record
+
+if TYPE_CHECKING:
+    from mplang.ir.textmemo import Recording, TextMemo
 
 __all__ = [
     "BVAR_RE",
@@ -82,16 +86,13 @@ class ProgramLowerer(OperandLowerer):
     def lower_program(self, kept: Statements | None = None) -> LoweredProgram:
         """The program's macro lines; `kept`, its statements as last lowered, gives each
         unchanged top-level statement its lowering from then (`mplang.ir.blockmemo`)."""
-        self.collect_labels(self.program.body)
+        self.collect_labels(self.program.body, kept)
         if kept is not None:
             kept.start(self)
-            self.lower_block(self.program.body,
-                             lambda node: kept.lower(node, self, self.lower_statement))
+            self.lower_kept(self.program.body, kept)
             kept.finish()
         elif self.scope.text_memo is not None:  # one build's repeated statements
-            memo, context = self.scope.text_memo, (self.kind, tuple(self.labels.items()))
-            self.lower_block(self.program.body,
-                             lambda node: memo.lower(node, self, context, self.lower_statement))
+            self.lower_texts(self.program.body, self.scope.text_memo)
         else:
             self.lower_block(self.program.body)
         return self.out
@@ -107,12 +108,83 @@ class ProgramLowerer(OperandLowerer):
             if isinstance(node, ast.LabelStmt):
                 dead_after, warned = None, False
             elif dead_after is not None and not warned:
-                self.sink.add("W101", node.span, f"unreachable: line {dead_after.line} always "
-                              "jumps away", hint="remove it, or put a LABEL before it")
+                self.unreachable(node, dead_after)
                 warned = True
             jumps = lower(node)
             if jumps and dead_after is None:
                 dead_after = node.span
+
+    def lower_kept(self, body: list[ast.Node], kept: Statements) -> None:
+        """`lower_block` for a program's body with its statements as last lowered: a chunk
+        of them that fits is replayed whole (`blockmemo.Chunk`: only its last statement
+        may jump, so no W101 falls inside it), the others go one by one. Its own loop: the
+        chunks' skipping would slow the loop every other body is lowered by."""
+        dead_after: Span | None = None
+        warned = False
+        index, count = 0, len(body)
+        while index < count:
+            node = body[index]
+            if dead_after is None:
+                chunk = kept.replay_chunk(body, index, self)
+                if chunk is not None:
+                    index += len(chunk.nodes)
+                    if chunk.jumps:
+                        dead_after = chunk.nodes[-1].span
+                    continue
+            index += 1
+            dead_after, warned = self.reach(node, dead_after, warned)
+            if kept.lower(node, self, self.lower_statement) and dead_after is None:
+                dead_after = node.span
+
+    def lower_texts(self, body: list[ast.Node], memo: TextMemo) -> None:
+        """`lower_block` for a program's body through the build's `TextMemo`: from every
+        CHUNK-th top-level statement where no jump precedes it, a chunk lowered before from
+        the same texts is replayed whole, else its statements go one by one (each replayed
+        by its own text where it can) and are kept as a chunk. Its own loop, as
+        `lower_kept`."""
+        context = (self.kind, tuple(self.labels.items()))
+        dead_after: Span | None = None
+        warned = False
+        recording: Recording | None = None
+        index, count = 0, len(body)
+        while index < count:
+            node = body[index]
+            if index % CHUNK == 0:
+                if recording is not None:
+                    memo.keep_chunk(recording, self)
+                    recording = None
+                if dead_after is None:
+                    chunk, recording = memo.chunk(body, index, self, context)
+                    if chunk is not None:
+                        index += len(chunk.statements)
+                        if chunk.jumps:
+                            dead_after = body[index - 1].span
+                        continue
+            index += 1
+            dead_after, warned = self.reach(node, dead_after, warned)
+            jumps = memo.lower(node, self, context, self.lower_statement)
+            if recording is not None and not recording.add(memo.last, jumps):
+                recording = None
+            if jumps and dead_after is None:
+                dead_after = node.span
+        if recording is not None:
+            memo.keep_chunk(recording, self)
+
+    def reach(self, node: ast.Node, dead_after: Span | None, warned: bool
+              ) -> tuple[Span | None, bool]:
+        """The W101 state (the jump code is dead after, whether W101 was given since) as
+        `node` is reached, W101 given if it is the first statement after the jump."""
+        if isinstance(node, ast.LabelStmt):
+            return None, False
+        if dead_after is not None and not warned:
+            self.unreachable(node, dead_after)
+            return dead_after, True
+        return dead_after, warned
+
+    def unreachable(self, node: ast.Node, dead_after: Span) -> None:
+        """W101 of the first statement after a jump."""
+        self.sink.add("W101", node.span, f"unreachable: line {dead_after.line} always jumps "
+                      "away", hint="remove it, or put a LABEL before it")
 
     def lower_statement(self, node: ast.Node) -> bool:
         """`lower_node`, with a pathological expression reported instead of a crash."""
@@ -328,12 +400,16 @@ class ProgramLowerer(OperandLowerer):
                           "before it", hint="write VARn = GET_LP(X) instead")
         self.emit_command(command, operands, node.span)
 
-    def collect_labels(self, body: list[ast.Node]) -> None:
+    def collect_labels(self, body: list[ast.Node], kept: Statements | None = None) -> None:
         """Number the program's labels: numeric ones keep their number, names take the lowest
-        free numbers in order of definition."""
+        free numbers in order of definition. `kept`, the program's statements as last
+        lowered, gives those of its chunks that are unchanged (`Statements.find_labels`)."""
         defined: dict[str, Span] = {}
         found: list[ast.LabelStmt] = []
-        _labels(body, found)
+        if kept is None:
+            label_statements(body, found)
+        else:
+            kept.find_labels(body, found)
         for node in found:
             key = node.label.upper()
             if key in defined:
@@ -426,19 +502,3 @@ class ProgramLowerer(OperandLowerer):
             return
         self.out.calls.append(CallSite(ref, node.span))
         self.emit_command(command, (ref,), node.span)
-
-
-def _labels(body: list[ast.Node], found: list[ast.LabelStmt]) -> None:
-    """The LABEL statements of `body` and the blocks in it, in order, added to `found`
-    (a plain walk: generators nested as deep as the blocks cost more than a program's
-    labels are worth)."""
-    for node in body:
-        if type(node) is ast.LabelStmt:
-            found.append(node)
-        elif type(node) is ast.IfBlock:
-            _labels(node.then, found)
-            if node.otherwise:
-                _labels(node.otherwise, found)
-        elif type(node) is ast.ForBlock or type(node) is ast.WhileBlock or \
-                type(node) is ast.RepeatBlock:
-            _labels(node.body, found)

@@ -30,7 +30,7 @@ from __future__ import annotations
 import re
 from collections.abc import Callable, Hashable
 
-from mplang.ir.blockmemo import Statement, Statements, derived_for
+from mplang.ir.blockmemo import Chunk, Statement, Statements, derived_for
 from mplang.ir.macro import CallSite, LoweredProgram, MacroLine
 from mplang.ir.scope import Scope
 from mplang.lang import ast
@@ -94,9 +94,10 @@ class Lowered:
         # its top-level statements as lowered (`ir.blockmemo`): None for a lowering shifted
         self.statements = statements
 
-    def segments(self) -> list[tuple[Statement, int, int]] | None:
-        """Each top-level statement of the program with its part of the macro lines
-        (first, end), for a back end that derives per statement; None if unknown."""
+    def segments(self) -> list[tuple[Statement | Chunk, int, int]] | None:
+        """Each top-level statement (or chunk of them) of the program with its part of the
+        macro lines (first, end), for a back end that derives per statement; None if
+        unknown."""
         if self.statements is None or self.result is None:
             return None
         return self.statements.segments(self.result.lines)

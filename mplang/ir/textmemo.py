@@ -19,6 +19,13 @@ names of the programs, the options and the catalogue) is one for the whole build
 table lives for one build (one `Scope`). A statement is not shared when what its lowering
 gave holds a place outside its own lines (a CONST's error, reported at the CONST), names a
 line in a text, or when its expression was too deep to lower (E107).
+
+Runs of statements repeat too (a whole device's programs start alike), so the statements
+from every `CHUNK`-th one of a program's body on are also kept as one chunk
+(`blockmemo.Chunk`), by the texts of all their lines: the texts from a top-level statement's
+first line on fix the top-level statements they make, as for one statement. A chunk is kept
+only when each of its statements was, and only its last one jumps (a W101 inside it would
+name a line); it is replayed whole where it enters the state it entered.
 """
 
 from __future__ import annotations
@@ -26,11 +33,11 @@ from __future__ import annotations
 from collections.abc import Callable, Hashable
 from typing import TYPE_CHECKING
 
-from mplang.ir.blockmemo import Statement, record, replay
+from mplang.ir.blockmemo import CHUNK, Chunk, Statement, record, replay
 from mplang.ir.macro import CallSite, MacroLine
 from mplang.ir.reuse import NAMES_A_LINE
 from mplang.lang import ast
-from mplang.lang.diagnostics import Diagnostic, Span, make_span
+from mplang.lang.diagnostics import Diagnostic, Run, Span, make_span
 
 if TYPE_CHECKING:
     from mplang.ir.lower import ProgramLowerer
@@ -41,14 +48,82 @@ states (W103 of a variable written in some programs and not in others) is lowere
 beyond these."""
 
 
-class TextMemo:
-    """A build's top-level statements as lowered, by file, program context and text."""
+class Recording:
+    """A chunk of top-level statements being lowered one by one (`TextMemo.chunk`), to be
+    kept by the texts of its lines when every one of them was kept by its own and only
+    the last one jumps (`TextMemo.keep_chunk`)."""
 
-    __slots__ = ("kept", "texts")
+    __slots__ = ("calls", "count", "first", "jumped", "key", "lines", "reported",
+                 "statements")
+
+    def __init__(self, key: Hashable, first: int, count: int, lowerer: ProgramLowerer
+                 ) -> None:
+        self.key, self.first, self.count = key, first, count
+        self.lines, self.calls = len(lowerer.out.lines), len(lowerer.out.calls)
+        self.reported = len(lowerer.sink.items)
+        self.statements: list[Statement] = []
+        self.jumped = False
+
+    def add(self, statement: Statement | None, jumps: bool) -> bool:
+        """Note the next statement as lowered (None: not kept); False when the chunk can
+        no longer be kept (a statement not kept, or one after a jump)."""
+        if statement is None or self.jumped:
+            return False
+        self.statements.append(statement)
+        self.jumped = jumps
+        return True
+
+
+class TextMemo:
+    """A build's top-level statements as lowered, by file, program context and text; and
+    chunks of them (`blockmemo.Chunk`: up to `CHUNK` consecutive ones from a multiple of
+    `CHUNK` in their program's body) by the texts of all their lines, so that a program
+    whose statements repeat another's in runs replays a run with one lookup."""
+
+    __slots__ = ("chunks", "kept", "last", "texts")
 
     def __init__(self, texts: dict[str, list[str]]) -> None:
         self.texts = texts  # each file's lines, by its display name (the spans' file)
         self.kept: dict[Hashable, list[Statement]] = {}
+        self.chunks: dict[Hashable, list[tuple[Chunk, int]]] = {}  # with their first line
+        self.last: Statement | None = None  # the kept lowering `lower` used last, if any
+
+    def chunk(self, body: list[ast.Node], index: int, lowerer: ProgramLowerer,
+              context: Hashable) -> tuple[Chunk | None, Recording | None]:
+        """The chunk of `body` from `index` on, replayed into `lowerer` when one of the same
+        texts in the same `context` entered the present state (it, None); else (None, its
+        recording), or (None, None) when it cannot be keyed by its texts."""
+        end = min(index + CHUNK, len(body))
+        if end - index < 2:
+            return None, None
+        span = body[index].span
+        first = span.line
+        last = _last_line(body[end - 1])
+        lines = self.texts.get(span.file)
+        if lines is None or not 0 < first <= last <= len(lines):
+            return None, None
+        key = (span.file, context, tuple(lines[first - 1:last]))
+        candidates = self.chunks.get(key)
+        if candidates is not None:
+            for kept, base in candidates:
+                if kept.enters(lowerer):
+                    _replay_moved(kept, first - base, lowerer)
+                    return kept, None
+            if len(candidates) >= _CANDIDATES:
+                return None, None
+        return None, Recording(key, first, end - index, lowerer)
+
+    def keep_chunk(self, recording: Recording, lowerer: ProgramLowerer) -> None:
+        """Keep a chunk whose statements were all lowered (or replayed) and kept one by
+        one: its state as they compose (`Chunk`), and what they emitted here."""
+        if len(recording.statements) != recording.count:
+            return
+        made = Chunk(recording.statements)
+        made.lines = lowerer.out.lines[recording.lines:]
+        made.calls = tuple(lowerer.out.calls[recording.calls:])
+        reported = lowerer.sink.items[recording.reported:]
+        made.diagnostics = Run(reported) if reported else ()
+        self.chunks.setdefault(recording.key, []).append((made, recording.first))
 
     def lower(self, node: ast.Node, lowerer: ProgramLowerer, context: Hashable,
               make: Callable[[ast.Node], bool]) -> bool:
@@ -57,9 +132,9 @@ class TextMemo:
         labels) that entered the present state; True if control never falls through it."""
         span = node.span
         first = span.line
-        end = getattr(node, "end_span", None)
-        last = end.line if isinstance(end, Span) else first
+        last = _last_line(node)
         lines = self.texts.get(span.file)
+        self.last = None
         if lines is None or not 0 < first <= last <= len(lines):
             return make(node)
         text = lines[first - 1] if first == last else tuple(lines[first - 1:last])
@@ -69,14 +144,22 @@ class TextMemo:
             for kept in candidates:
                 if kept.enters(lowerer):
                     _replay_moved(kept, first - kept.node.span.line, lowerer)
+                    self.last = kept
                     return kept.jumps
         made = record(node, lowerer, make)
         if _stays_inside(made, span.file, first, last):
+            self.last = made
             if candidates is None:
                 self.kept[key] = [made]
             elif len(candidates) < _CANDIDATES:
                 candidates.append(made)
         return made.jumps
+
+
+def _last_line(node: ast.Node) -> int:
+    """The last line of a top-level statement (a block's closing line)."""
+    end = getattr(node, "end_span", None)
+    return end.line if isinstance(end, Span) else node.span.line
 
 
 def _stays_inside(made: Statement, file: str, first: int, last: int) -> bool:
@@ -95,8 +178,9 @@ def _stays_inside(made: Statement, file: str, first: int, last: int) -> bool:
         all(inside(call.span) for call in made.calls)
 
 
-def _replay_moved(kept: Statement, offset: int, lowerer: ProgramLowerer) -> None:
-    """Do to `lowerer` what lowering the kept statement did, `offset` lines further down."""
+def _replay_moved(kept: Statement | Chunk, offset: int, lowerer: ProgramLowerer) -> None:
+    """Do to `lowerer` what lowering the kept statement (chunk) did, `offset` lines
+    further down."""
     if offset == 0:
         replay(kept, lowerer)
         return

@@ -34,7 +34,7 @@ class _Open:
     """A block being built: the program, a FOR or an IF (with its two branches). A slots
     class, not a dataclass: creating one at import costs every command's start."""
 
-    __slots__ = ("body", "dropped", "else_span", "head", "kind", "otherwise")
+    __slots__ = ("body", "dropped", "else_span", "head", "kind", "otherwise", "target")
 
     def __init__(self, kind: str, head: ast.Statement) -> None:
         self.kind = kind  # "mp" | "isr" | "for" | "if" | "while" | "repeat"
@@ -43,10 +43,19 @@ class _Open:
         self.otherwise: list[ast.Node] | None = None
         self.else_span: Span | None = None
         self.dropped = False  # nested beyond MAX_BLOCK_DEPTH: reported, left out of the tree
+        # where its lines go: its body, or after an ELSE the other branch (`begin_else`)
+        self.target = self.body
 
-    @property
-    def target(self) -> list[ast.Node]:
-        return self.otherwise if self.otherwise is not None else self.body
+    def begin_else(self, span: Span) -> None:
+        """The ELSE of this IF: the lines after it go to the other branch."""
+        self.otherwise = self.target = []
+        self.else_span = span
+
+
+_BLOCK_COMMANDS = frozenset({"END_IF", "ELSE", "EXIT_FOR", "EXIT_MACRO", "MP_TERMINATE",
+                             "NEXT", "FOR", "IF", "MP_CALL", "GOTO", "LABEL"})
+"""The raw command names `normalise` turns into statements (besides their RSM_MACRO_ and
+ETM_MACRO_ spellings): any other command is taken as it is, after one set lookup."""
 
 
 def normalise(statement: ast.Statement) -> ast.Statement:
@@ -54,6 +63,8 @@ def normalise(statement: ast.Statement) -> ast.Statement:
     if not isinstance(statement, ast.Command):
         return statement
     name = statement.name.upper()
+    if name not in _BLOCK_COMMANDS and not name.startswith(("RSM_MACRO_", "ETM_MACRO_")):
+        return statement
     for prefix in ("RSM_MACRO_", "ETM_MACRO_"):
         if name.startswith(prefix):
             name = name[len(prefix):]
@@ -108,6 +119,73 @@ class _Built:
         self.texts: list[str] = [] if texts is None else texts  # its lines, header to END
 
 
+RUN = 16
+"""Top-level statements (a line, or a whole block) per kept run at most: an edit inside a
+long program matches again the run it falls in, statement by statement, and takes every
+other run whole."""
+
+
+class _Run:
+    """Consecutive top-level statements of a program, as one build matched them with nothing
+    to report: their statements, opening to closing, the nodes they made, and the blocks
+    among them as `BlockMemo.find_block` keeps them (a slots class, as `_Open`). At the
+    top level of a program, matching a statement depends on it alone (and on what follows
+    it, for a block), so equal statements make the same nodes."""
+
+    __slots__ = ("blocks", "nodes", "statements")
+
+    def __init__(self, statements: list[ast.Statement], nodes: list[ast.Node],
+                 blocks: list[tuple[Span, tuple[list[ast.Statement], ast.Node]]]) -> None:
+        self.statements = statements
+        self.nodes = nodes
+        self.blocks = blocks
+
+
+class _Runs:
+    """The run being gathered while one file's programs are matched: the top-level
+    statements from `start` to the last boundary `end` between two of them where nothing
+    had been reported since `start`, and the nodes and kept blocks they made."""
+
+    __slots__ = ("body_end", "body_start", "end", "file", "items", "mark", "memo", "program",
+                 "recent_end", "recent_start", "start", "statements")
+
+    def __init__(self, memo: BlockMemo, file: str, statements: list[ast.Statement]) -> None:
+        self.memo, self.file, self.statements = memo, file, statements
+        self.program: _Open | None = None
+        self.start = self.end = self.mark = self.items = 0
+        self.body_start = self.body_end = self.recent_start = self.recent_end = 0
+
+    def boundary(self, program: _Open, index: int, reported: int) -> None:
+        """`statements[index]` is at the top level of `program` (a statement ends there),
+        with `reported` diagnostics in the sink so far."""
+        if program is self.program and reported == self.mark:
+            if index > self.end:
+                self.items += 1
+                self.end, self.body_end = index, len(program.body)
+                self.recent_end = len(self.memo.recent)
+                if self.items == RUN:
+                    self.begin(program, index, reported)
+            return
+        self.begin(program, index, reported)
+
+    def begin(self, program: _Open, index: int, reported: int) -> None:
+        """Keep the run gathered so far, and gather another from `index` on."""
+        self.close()
+        self.program, self.start, self.end, self.mark, self.items = \
+            program, index, index, reported, 0
+        self.body_start = self.body_end = len(program.body)
+        self.recent_start = self.recent_end = len(self.memo.recent)
+
+    def close(self) -> None:
+        """Keep the run gathered so far, if any."""
+        if self.program is not None and self.items:
+            self.memo.keep_run(self.file, _Run(
+                self.statements[self.start:self.end],
+                self.program.body[self.body_start:self.body_end],
+                self.memo.recent[self.recent_start:self.recent_end]))
+        self.program = None
+
+
 class BlockMemo:
     """The programs of the last build, so that the next one takes a program whose
     statements are unchanged (equal, and at the same place) as the same `ast.Program`
@@ -135,6 +213,29 @@ class BlockMemo:
         # statements, opening to closing, and the node they made), for `find_block`
         self._blocks_now: dict[Span, tuple[list[ast.Statement], ast.Node]] = {}
         self._blocks_before: dict[Span, tuple[list[ast.Statement], ast.Node]] = {}
+        # runs of a program's top-level statements (`find_run`), by file and first line
+        self._runs_now: dict[tuple[str, int], _Run] = {}
+        self._runs_before: dict[tuple[str, int], _Run] = {}
+        # the blocks this build found or kept, in order, for the runs that hold them
+        self.recent: list[tuple[Span, tuple[list[ast.Statement], ast.Node]]] = []
+
+    def find_run(self, file: str, statements: list[ast.Statement], index: int) -> _Run | None:
+        """The kept run of top-level statements (`_Run`) that starts at `statements[index]`,
+        if the statements that follow are still its statements; else None, and the blocks
+        it holds can be found one by one again (`find_block`)."""
+        key = (file, statements[index].span.line)
+        run = self._runs_before.pop(key, None)
+        if run is None:
+            return None
+        if statements[index:index + len(run.statements)] != run.statements:
+            self._blocks_now.update(run.blocks)
+            return None
+        self._runs_now[key] = run
+        return run
+
+    def keep_run(self, file: str, run: _Run) -> None:
+        """Keep a run of top-level statements matched with nothing to report."""
+        self._runs_now[(file, run.statements[0].span.line)] = run
 
     def find_block(self, statements: list[ast.Statement], index: int
                    ) -> tuple[list[ast.Statement], ast.Node] | None:
@@ -147,13 +248,16 @@ class BlockMemo:
         if kept is None or statements[index:index + len(kept[0])] != kept[0]:
             return None
         self._blocks_now[span] = kept
+        self.recent.append((span, kept))
         return kept
 
     def keep_block(self, statements: list[ast.Statement], node: ast.Node) -> None:
         """Keep a top-level block that matched with nothing to report: its matching then
         depends on its statements alone (a program's header or END, a declaration, a depth
         beyond the limit inside it is reported)."""
-        self._blocks_now[statements[0].span] = (statements, node)
+        kept = (statements, node)
+        self._blocks_now[statements[0].span] = kept
+        self.recent.append((statements[0].span, kept))
 
     def find(self, statements: list[ast.Statement], index: int) -> _Built | None:
         """The kept program whose header is `statements[index]`, if the statements that
@@ -202,6 +306,8 @@ class BlockMemo:
         self._before, self._now = self._now, {}
         self._texts_before, self._texts_now = self._texts_now, {}
         self._blocks_before, self._blocks_now = self._blocks_now, {}
+        self._runs_before, self._runs_now = self._runs_now, {}
+        self.recent = []
 
 
 def has_lone_cr(text: str) -> bool:
@@ -240,6 +346,7 @@ def _build_file(statements: list[ast.Statement], file: str, unit: ast.Unit,
     # the top-level block being matched, when it can be kept: where it began, the sink then
     block_start: int | None = None
     block_mark = 0
+    runs = _Runs(memo, file, statements) if memo is not None else None
 
     def close_program(end_span: Span) -> None:
         block = stack.pop()
@@ -350,6 +457,9 @@ def _build_file(statements: list[ast.Statement], file: str, unit: ast.Unit,
     def close_block(kind: str, at: Span) -> None:
         """NEXT or END IF: close the innermost block of `kind`, reporting blocks left open
         inside it (they are closed too, so the rest of the file still makes sense)."""
+        if stack and stack[-1].kind == kind:  # the innermost block: most closings
+            close_inner(stack.pop(), at)
+            return
         word = BLOCK_WORD[kind]
         if not any(b.kind == kind for b in stack):
             sink.add(STRAY_CLOSE[kind], at, f"{word} without an open {kind.upper()}")
@@ -376,8 +486,15 @@ def _build_file(statements: list[ast.Statement], file: str, unit: ast.Unit,
             started, mark = index, len(sink.items)
             origin = memo.find_moved(file, texts, raw.span.line) if texts is not None and \
                 0 < raw.span.line <= len(texts) else None
-        elif memo is not None and len(stack) == 1 and stack[0].kind in ("mp", "isr"):
-            found = memo.find_block(statements, index)
+        elif runs is not None and len(stack) == 1 and stack[0].kind in ("mp", "isr"):
+            runs.boundary(stack[0], index, len(sink.items))
+            run = runs.memo.find_run(file, statements, index)
+            if run is not None:
+                stack[0].body += run.nodes
+                index += len(run.statements)
+                runs.begin(stack[0], index, len(sink.items))
+                continue
+            found = runs.memo.find_block(statements, index)
             if found is not None:
                 stack[0].target.append(found[1])
                 index += len(found[0])
@@ -503,14 +620,15 @@ def _build_file(statements: list[ast.Statement], file: str, unit: ast.Unit,
                              f"{stack[-1].head.span.line} (first ELSE at line "
                              f"{stack[-1].else_span.line})", hint="an IF takes one ELSE")
                 else:
-                    stack[-1].otherwise = []
-                    stack[-1].else_span = statement.span
+                    stack[-1].begin_else(statement.span)
             case _:
                 if not in_program():
                     sink.add("E301", statement.span, "statement outside an MP/ISR block",
                              hint="put it between MP ... END MP")
                     continue
                 stack[-1].target.append(statement)
+    if runs is not None:
+        runs.close()
     while stack:
         last = Span(file, (statements[-1].span.line if statements else 1))
         block = stack[-1]

@@ -24,7 +24,7 @@ from mplang.lang.diagnostics import Diagnostic, DiagnosticSink, Run
 from mplang.lang.record import FrozenRecord
 
 if TYPE_CHECKING:
-    from mplang.ir.blockmemo import Statement
+    from mplang.ir.blockmemo import Chunk, Statement
     from mplang.ir.catalogue import Profile
     from mplang.ir.macro import LoweredProgram, MacroLine
     from mplang.ir.reuse import Lowered, Lowerings
@@ -295,12 +295,13 @@ def warn_changed(programs: Iterable[LoweredProgram], init: LoweredProgram | None
         sink.extend(found)
 
 
-def _warn_segments(program: LoweredProgram, segments: list[tuple[Statement, int, int]],
+def _warn_segments(program: LoweredProgram,
+                   segments: list[tuple[Statement | Chunk, int, int]],
                    start: list[float | None], rules: ChipRules, generation: int,
                    sink: DiagnosticSink, memo: dict[tuple[object, ...], _Judged]) -> None:
-    """`_warn_lines` statement by statement: a kept statement (its lines the same objects)
-    entered with the same MAX_V reading gives the warnings it gave, and leaves the reading
-    as it left it."""
+    """`_warn_lines` statement by statement (chunk by chunk): a kept statement (its lines
+    the same objects) entered with the same MAX_V reading gives the warnings it gave, and
+    leaves the reading as it left it."""
     # the reading as a tuple of its axes and its axis 1, the very key a kept statement is
     # looked up by: nothing copied or converted for the statements kept (most of them)
     axes: tuple[float | None, ...] = tuple(start)

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
 from sourceedits import (
     LARGE,
     LARGE_WARM_UP,
@@ -18,11 +19,13 @@ from sourceedits import (
 )
 
 from mplang.ir import catalogue as catalogue_module
+from mplang.ir.blockmemo import CHUNK, Chunk
 from mplang.ir.macro import LoweredProgram, MacroLine
 from mplang.ir.reuse import BuildMemo
 from mplang.lang import ast
 from mplang.lang.diagnostics import Span
 from mplang.lang.linecache import StatementCache
+from mplang.lang.structure import RUN
 from mplang.m8194h.compiler import BuildResult, compile_paths
 
 
@@ -252,3 +255,89 @@ def test_lines_used_follows_the_lines_of_a_kept_program() -> None:
     copy.lines = [MacroLine(two, (), span)] * 3  # the same length, other lines
     assert copy.lines_used(False) == 6
     assert kept.copied().lines_used(True) == 3
+
+
+def _chunked(first: str, read: str) -> list[str]:
+    """A program of more statements than a chunk holds several times over (in a slot that
+    holds it): `first` at its top, `read` (a statement that reads VAR5) deep inside it,
+    past the first chunks."""
+    filler = [f"  SET_V X, {n}" for n in range(1, 3 * CHUNK)]
+    return ["MP 156 main", *first.split("\n"), *filler, *read.split("\n"), *filler,
+            "END MP", ""]
+
+
+def test_a_chunk_of_statements_is_replayed_whole_and_again_only_where_edited(
+        tmp_path: Path) -> None:
+    """After an edit of one statement, the next edits of it lower that statement alone:
+    every other statement is replayed in chunks, the same chunk objects as before."""
+    path = tmp_path / "chunks.mp"
+    lines, memo = StatementCache(), BuildMemo()
+    before: list[object] = []
+    for value in range(1, 7):
+        text = _chunked(f"  VAR5 = {value}", "  IF VAR5 > 2\n    SET_V Y, 10\n  END IF")
+        result = _build(path, "\n".join(text), lines, memo)
+        assert seen(result) == seen(_build(path, "\n".join(text)))
+        entry = memo.lowerings.entry(result.programs[0].placement.program)
+        items = [] if entry is None or entry.statements is None else entry.statements.items
+        # the second build lowers every statement (the table starts), the third opens the
+        # chunk of the edited one, which is a chunk of its own from then on
+        if value >= 5:
+            assert len(items) == len(before)
+            differs = [i for i, (a, b) in enumerate(zip(before, items, strict=True))
+                       if a is not b]
+            assert differs == [0] and isinstance(items[1], Chunk)
+            assert len(items) <= 2 * 3 + 3  # 2 x 3 chunks of filler, the IF, the edited one
+        before = list(items)
+
+
+@pytest.mark.parametrize(("first", "read", "warns"), [
+    # the write before a chunk comes and goes: the read inside it warns or not
+    ("  VAR5 = 1", "  VAR6 = 1", "  IF VAR5 > 2\n    SET_V Y, 10\n  END IF"),
+    # a read before the chunk warns first, then is gone: the read inside warns instead
+    ("  IF VAR5 > 1\n    SET_V Y, 1\n  END IF", "  IF VAR7 > 1\n    SET_V Y, 1\n  END IF",
+     "  VAR8 = VAR5 + 1"),
+])
+def test_a_chunk_entered_in_another_state_is_lowered_again(
+        tmp_path: Path, first: str, read: str, warns: str) -> None:
+    """W103 of a read deep in a long program follows a statement far above it, which the
+    chunk holding the read does not contain: its W103 state on entry differs."""
+    path = tmp_path / "reads.mp"
+    lines, memo = StatementCache(), BuildMemo()
+    for top in (first, read, first, read, read, first):
+        text = _chunked(top, warns)
+        result = _build(path, "\n".join(text), lines, memo)
+        fresh = _build(path, "\n".join(text))
+        assert seen(result) == seen(fresh)
+        line = text.index(warns.split("\n")[0]) + 1
+        assert [d.code for d in result.diagnostics if d.span.line == line] == \
+            [d.code for d in fresh.diagnostics if d.span.line == line]
+
+
+def test_a_run_of_top_level_statements_is_matched_whole_and_again_where_edited(
+        tmp_path: Path) -> None:
+    """The program's top-level statements are kept in runs (`lang.structure.BlockMemo`):
+    an edit anywhere in one (a block's inner line, plain lines, a block made lines, a jump)
+    makes the build from scratch, and its nodes outside the edited lines are the same
+    objects as before."""
+    path = tmp_path / "runs.mp"
+    blocks = [f"  IF VAR{n} > 1\n    SET_V Y, {n}\n  END IF" for n in range(2, 4 * RUN)]
+    lines, memo = StatementCache(), BuildMemo()
+    before: list[object] = []
+    for at, text in [(0, blocks[0]), (1, "  VAR9 = 1\n  SET_V X, 25\n  VAR9 = 2"),
+                     (1, "  VAR9 = 1\n  SET_V X, 50\n  VAR9 = 2"),
+                     (RUN + 3, "  IF VAR9 > 1\n    SET_V Y, 7\n  END IF"),
+                     (2 * RUN, "  GOTO 3\n  SET_V X, 25\n  LABEL 3")]:
+        blocks[at] = text
+        source = "\n".join(["MP 156 main", *blocks, "END MP", ""])
+        result = _build(path, source, lines, memo)
+        assert seen(result) == seen(_build(path, source))
+        entry = memo.lowerings.entry(result.programs[0].placement.program)
+        assert entry is not None
+        after = list(entry.program.body)
+        if before:
+            kept = {id(node) for node in before}
+            first = 2 + 3 * at  # the edited lines, 1-based
+            assert {node.span.line for node in after if id(node) not in kept} <= \
+                set(range(first, first + 3))
+            assert len(kept.intersection(map(id, after))) >= len(after) - 3
+        before = after

@@ -10,6 +10,7 @@ from pathlib import Path
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from mplang.ir.blockmemo import CHUNK
 from mplang.lang import caches
 from mplang.lang.diagnostics import Diagnostic
 from mplang.m8194h.compiler import BuildResult, compile_paths, compile_source
@@ -129,3 +130,42 @@ def test_an_included_file_lowers_its_own_lines(tmp_path: Path) -> None:
         assert files == {"lib.mp", "main.mp"}
         results.append(seen(result))
     assert results[0] == results[1]
+
+
+FILLER = [f"  SET_V X, {25 * n}" for n in range(1, CHUNK)]
+
+
+def test_a_repeated_chunk_is_lowered_again_where_its_state_differs() -> None:
+    """Programs whose statements from the CHUNK-th on have the same texts share that chunk
+    (`TextMemo.chunk`) only where it enters the same state: VAR5 is written before it in
+    MP 1 and MP 3, not in MP 2, so the read inside it warns in MP 2 alone."""
+    tail = [*IF_BLOCK, *FILLER, "  GOTO 1", "  SET_V X, 50", "  LABEL 1", "  IF VAR6 > 1",
+            "    EXIT", "  END IF"]
+    text = "\n".join(["MP 1", "  VAR5 = 1", *FILLER, *tail, "END MP",
+                      "MP 2", "  VAR7 = 1", *FILLER, *tail, "END MP",
+                      "MP 3", "  VAR5 = 1", *FILLER, *tail, "END MP", ""])
+    result = build(text)
+    assert seen(result) == seen(build(numbered(text)))
+    lines = text.split("\n")
+    second = lines.index("MP 2") + 1
+    reads = [n for n in at(result, "W103") if lines[n - 1] == IF_BLOCK[0]]
+    assert reads == [second + 1 + CHUNK]  # MP 2's IF VAR5, its 17th statement
+    assert len([n for n in at(result, "W103") if lines[n - 1] == "  IF VAR6 > 1"]) == 3
+
+
+@settings(max_examples=15, deadline=None)
+@given(st.lists(st.lists(st.sampled_from(LINES), min_size=CHUNK - 2, max_size=3 * CHUNK),
+                min_size=1, max_size=2),
+       st.lists(st.tuples(st.sampled_from(["mp", "isr"]), st.integers(0, 1),
+                          st.sampled_from(["", *LINES])), min_size=2, max_size=4))
+def test_shared_chunks_are_those_of_distinct_lines(
+        bodies: list[list[str]], programs: list[tuple[str, int, str]]) -> None:
+    """Programs that repeat long bodies (each with a line of its own before, or not): the
+    chunks they share give what their lines made distinct give."""
+    text = []
+    for slot, (kind, which, first) in enumerate(programs, start=1):
+        body = bodies[which % len(bodies)]
+        text += [f"{kind.upper()} {slot}", *([first] if first else []), *body,
+                 f"END {kind.upper()}"]
+    joined = "\n".join(text) + "\n"
+    assert seen(build(joined)) == seen(build(numbered(joined)))
