@@ -10,14 +10,17 @@ it; never asserted, and never a test.
    it, and the same image with every line made distinct (a comment numbering it) is built
    too;
 2. `mpc build` of that image as a process, beyond `mpc --version` (target <= 120 ms): right
-   after a one-number edit of the source (the front cache holds the text before it), with
+   after a one-number edit of the source (the front cache holds the text before it; the
+   same after an edit that changes the line's shape, which lark parses, is printed too), with
    the caches warm (a re-build: the front end's and the programs' lowerings, kept on disk by
    `mplang.ir.persist`) and with --no-cache (every file parsed, every program lowered);
 3. `mpc lint` of one 512-line file as a process, against `python -c pass` measured in the
    same run (target <= 4x);
 4. `mpc --version` against `python -c pass` (target <= 2.5x);
-5. the language server's work for one didChange of a 512-line file: the analysis that
-   gives its diagnostics (target <= 20 ms).
+5. one analysis of a changed 512-line file with nothing kept in memory (no statement cache,
+   build memo or last analysis: a first check of a file). Issue 16 set 20 ms for a
+   didChange when the server kept nothing; the server's didChange now keeps them, and
+   bench/lsp.py measures it against issue 28's 10 ms (row lsp-512).
 
 Rows 1-4 are also printed as `ROW <name> <figure> <target> met|MISSED` lines, which
 `make bench` collects (row 4, issue 16's, among the rows beyond issue 28's table). The machine's
@@ -247,6 +250,16 @@ def main() -> None:
                                                          1))
 
         _, edited_s = best_of_prepared(runs, edit_one_number, build_warm)
+
+        def edit_one_shape() -> None:
+            """The same line in a shape the last build did not have, which lark parses (a
+            one-number edit is built from the recipe of the line before it,
+            `mplang.lang.recipes`, without lark): two shapes in turn."""
+            number = next(numbers)
+            new = f"VAR1 = ({number})" if number % 2 else f"VAR1 = {number} + 0 * 3"
+            (work / "full.mp").write_text(source.replace("VAR1 = 0", new, 1))
+
+        _, reshaped_s = best_of_prepared(runs, edit_one_shape, build_warm)
         _, cold_s = best_of(runs, build_cold)
         _, lint_s = best_of(runs, lint)
 
@@ -271,6 +284,9 @@ def main() -> None:
     after_edit = (edited_s - version_s) / reference
     print(f"   after a one-number edit: {after_edit:.2f}x the reference (target <= "
           f"{120 / REFERENCE_MS:.2f}x: {verdict(after_edit <= 120 / REFERENCE_MS)})")
+    print(f"   after an edit that changes the line's shape (lark imported to parse it): "
+          f"{ms(reshaped_s - version_s)} = {(reshaped_s - version_s) / reference:.2f}x the "
+          f"reference (no target of its own)")
     print(f"3. mpc lint of a 512-line file: {ms(lint_s)} = {lint_s / base_s:.1f}x python -c "
           f"pass ({ms(base_s)}) (target <= 4x: {verdict(lint_s / base_s <= 4)})")
     print(f"4. mpc --version: {ms(version_s)} = {version_s / base_s:.1f}x python -c pass "
@@ -280,8 +296,9 @@ def main() -> None:
               edited_s - version_s <= 0.12))
     print(row("lint-512", f"{lint_s / base_s:.1f}x", "<=4x", lint_s / base_s <= 4))
     print(row("mpc-version", f"{version_s / base_s:.1f}x", "<=2.5x", version_s / base_s <= 2.5))
-    print(f"5. LSP didChange -> diagnostics, 512-line file: {ms(lsp)} (target <= 20 ms: "
-          f"{verdict(lsp <= 0.02)})")
+    print(f"5. one analysis of a changed 512-line file with nothing kept in memory (a first "
+          f"check of a file): {ms(lsp)}. Issue 16's 20 ms was set for a didChange; "
+          f"bench/lsp.py measures that with what the server keeps (lsp-512)")
 
 
 if __name__ == "__main__":
