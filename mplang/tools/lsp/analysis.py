@@ -13,12 +13,10 @@ from __future__ import annotations
 import bisect
 import logging
 import re
-import sys
 from array import array
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from itertools import compress
-from operator import or_
 from pathlib import Path
 from typing import Protocol, cast
 
@@ -175,6 +173,11 @@ class Analysis:
     # placement, the one it was moved from and by how many lines (the server moves the JSON)
     moved: dict[int, tuple[EditorDiagnostic, EditorDiagnostic, int]] = field(
         default_factory=dict, repr=False, compare=False)
+    # The last analysis's lines (the very list) and how many lines at the start, and then at
+    # the end, this text shares with them (`ends.shared_lines`), once found: semantic tokens
+    # made for that analysis take them instead of comparing the texts again
+    edited: tuple[list[str], int, int] | None = field(default=None, repr=False,
+                                                      compare=False)
 
     @property
     def variables_used(self) -> set[int]:
@@ -359,10 +362,12 @@ def _placed_all(analysis: Analysis, diagnostics: list[Diagnostic], previous: Ana
             found[count - tail:] = previous.raw_placed[len(old) - tail:]
             keys[count - tail:] = previous.raw_lines[len(old) - tail:]
         # the kept ones whose line the edit may have changed, or placed from none, too
-        changed = _changed_lines(old_lines, analysis.lines)
-        rest = [*compress(range(head), _unplaced(changed, keys[:head])),
+        start, end = shared_lines(old_lines, analysis.lines)
+        analysis.edited = (old_lines, start, end)
+        unplaced = _unplaced(old_lines, analysis.lines, start, end).__getitem__
+        rest = [*compress(range(head), map(unplaced, keys[:head])),
                 *range(head, count - tail),
-                *compress(range(count - tail, count), _unplaced(changed, keys[count - tail:]))]
+                *compress(range(count - tail, count), map(unplaced, keys[count - tail:]))]
         for index in [*range(head, len(old) - tail),  # the last one's among them, by id
                       *(i - count + len(old) for i in rest if i < head or i >= count - tail)]:
             line, placed = previous.raw_lines[index], previous.raw_placed[index]
@@ -398,19 +403,18 @@ def _placed_all(analysis: Analysis, diagnostics: list[Diagnostic], previous: Ana
     return list(filter(None, found))  # in C: a placement is never false
 
 
-def _changed_lines(old: list[str], new: list[str]) -> range:
-    """The lines (0-based) on which a placement made from the old text may not hold for the
-    same diagnostic object (so at the same line number): from the first line the edit
-    changed to its last one when it kept the number of lines, else to the end
-    (`ends.shared_lines`)."""
-    start, end = shared_lines(old, new)
-    return range(start, len(new) - end if len(old) == len(new) else sys.maxsize)
-
-
-def _unplaced(changed: range, lines: array[int]) -> Iterator[bool]:
-    """For each placement's line, whether it must be looked at again: on a changed line, or
-    made from no line of its own (-1). In C."""
-    return map(or_, map(changed.__contains__, lines), map((0).__gt__, lines))
+def _unplaced(old: list[str], new: list[str], start: int, end: int) -> bytearray:
+    """For each line of the old text (0-based), and for -1 (placed from no line of its
+    own) last, whether a placement made from it must be looked at again: from the first line
+    the edit changed to its last one when it kept the number of lines, else to the end
+    (`start`, `end`: the lines both texts share at either end, `ends.shared_lines`).
+    Looked up per placement in C. A placement's line is always one of the old text's."""
+    flags = bytearray(len(old) + 1)
+    stop = len(old) - end if len(old) == len(new) else len(old)
+    if stop > start:
+        flags[start:stop] = b"\x01" * (stop - start)
+    flags[-1] = 1
+    return flags
 
 
 class _Family(Protocol):

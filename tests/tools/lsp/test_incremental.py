@@ -108,3 +108,24 @@ def test_a_files_index_is_kept_only_while_what_it_read_is_the_same() -> None:
         label = lines[3].split()[1].upper()
         assert [(p.first_line, p.last_line, sorted(p.labels)) for p in previous.programs] == \
             [(1, 5, [label]), (6, len(lines) - 1, [])]
+
+
+def test_a_diagnostic_of_an_included_file_is_placed_again_on_its_include(tmp_path: Path
+                                                                          ) -> None:
+    """A diagnostic of an INCLUDEd file is shown on the INCLUDE line, placed from no line of
+    its own: kept by identity (the file is unchanged), its placement is still made again
+    when the edit moved the INCLUDE's path along its line (the line count unchanged), as a
+    fresh analysis places it."""
+    (tmp_path / "lib.mp").write_text("MP 2 helper\n    VAR9 = VAR10\nEND MP\n")
+    path = tmp_path / "main.mp"
+    lines = ["# the main file", 'INCLUDE "lib.mp"', "MP 1 first", "    VAR1 = 1", "END MP",
+             ""]
+    memo, statements = BuildMemo(), StatementCache()
+    first = analyse(path, "\n".join(lines), lines=statements, memo=memo)
+    shown = [d for d in first.diagnostics if d.elsewhere]
+    assert shown and shown[0].range.start.character == 8
+    lines[1] = '   INCLUDE    "lib.mp"'
+    edited = analyse(path, "\n".join(lines), lines=statements, memo=memo, previous=first)
+    assert edited.raw[0] is first.raw[0]  # the very diagnostic, kept with its file's program
+    assert edited.diagnostics == analyse(path, "\n".join(lines)).diagnostics
+    assert [d.range.start.character for d in edited.diagnostics if d.elsewhere] == [14]
