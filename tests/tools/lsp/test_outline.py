@@ -174,6 +174,17 @@ SPLICED_LINES = [*EDITED_LINES, "", "    ", "END MP"]
 up."""
 
 
+def _edit(lines: list[str], kind: int, at: int, text: str) -> None:
+    """Replace (kind 0), insert (1) or drop (2) a line, at `at` or the last place there is."""
+    at = min(at, len(lines) - (kind != 1))
+    if kind == 0 and lines:
+        lines[at] = text
+    elif kind == 1:
+        lines.insert(at, text)
+    elif lines:
+        del lines[at]
+
+
 @settings(max_examples=60, deadline=None)
 @given(st.lists(st.sampled_from(SPLICED_LINES), min_size=1, max_size=14),
        st.lists(st.tuples(st.integers(0, 2), st.integers(0, 20),
@@ -192,13 +203,7 @@ def test_tokens_after_edits_equal_a_fresh_documents(first: list[str],
     outline._passes.clear()
     outline.semantic_tokens(analyse(path, "\n".join(lines) + "\n"))
     for kind, at, text in edits:
-        at = min(at, len(lines) - (kind != 1))
-        if kind == 0 and lines:
-            lines[at] = text
-        elif kind == 1:
-            lines.insert(at, text)
-        elif lines:
-            del lines[at]
+        _edit(lines, kind, at, text)
         analysis = analyse(path, "\n".join(lines) + "\n")
         kept = outline.semantic_tokens(analysis)
         outline._classified_lines.clear()
@@ -227,13 +232,7 @@ def test_tokens_after_checks_kept_between_equal_a_fresh_documents(
     analysis = analyse(path, "\n".join(lines) + "\n")
     outline.semantic_tokens(analysis)
     for kind, at, text, asked in edits:
-        at = min(at, len(lines) - (kind != 1))
-        if kind == 0 and lines:
-            lines[at] = text
-        elif kind == 1:
-            lines.insert(at, text)
-        elif lines:
-            del lines[at]
+        _edit(lines, kind, at, text)
         analysis = analyse(path, "\n".join(lines) + "\n", previous=analysis)
         if not asked:
             continue
@@ -259,13 +258,7 @@ def test_a_delta_from_the_last_tokens_is_the_least_edit(first: list[str],
     outline._passes.clear()
     last = outline.semantic_tokens(analyse(path, "\n".join(lines) + "\n"))
     for kind, at, text in edits:
-        at = min(at, len(lines) - (kind != 1))
-        if kind == 0 and lines:
-            lines[at] = text
-        elif kind == 1:
-            lines.insert(at, text)
-        elif lines:
-            del lines[at]
+        _edit(lines, kind, at, text)
         data = outline.semantic_tokens(analyse(path, "\n".join(lines) + "\n"))
         start, deleted, inserted = outline.token_delta(last, data)
         assert last[:start] + inserted + last[start + deleted:] == data
