@@ -506,9 +506,7 @@ def _index_file(analysis: Analysis, source: SourceFile, entry: SourceText,
     for table, key, definition in kept.definitions:  # the first of a name wins, over files
         if all(key not in t for t in tables):
             tables[table][key] = definition
-    analysis.programs.extend(
-        ProgramBlock(b.kind, b.number, b.name, b.path, b.name_range, b.header_range,
-                     b.first_line, b.last_line, dict(b.labels)) for b in kept.blocks)
+    analysis.programs += kept.blocks  # the same blocks: nothing changes one once indexed
     analysis.includes += [IncludeLine(where, resolve(entry.path.parent / spelled), spelled)
                           for where, spelled in kept.includes]
     return kept.spelled
@@ -616,15 +614,26 @@ def _measure_programs(analysis: Analysis, files: list[SourceFile],
     analysis.pinned = {v.name.upper() for v in scope.variables if v.pinned}
     placements: dict[int, Placement] = {id(p.program): p for p in linked}
     close_counts = catalogue.profile.close_counts_as_line
+    uses = analysis.slot_uses
     for program in lowered:
         entry = by_display.get(program.span.file)
         if entry is None:
             continue
         placement = placements.get(id(program))
-        use = SlotUse(program.kind, placement.slot, placement.lines_used, placement.budget,
-                      placement.auto) if placement is not None else \
-            SlotUse(program.kind, None, program.lines_used(close_counts), None, False)
-        analysis.slot_uses[(entry.path, program.span.line - 1)] = use
+        key = (program.kind, placement.slot, placement.lines_used, placement.budget,
+               placement.auto) if placement is not None else \
+            (program.kind, None, program.lines_used(close_counts), None, False)
+        use = _slot_uses.get(key)
+        if use is None:
+            if len(_slot_uses) >= 4096:
+                _slot_uses.clear()
+            use = _slot_uses[key] = SlotUse(*key)
+        uses[(entry.path, program.span.line - 1)] = use
+
+
+_slot_uses: dict[tuple[str, int | None, int, int | None, bool], SlotUse] = {}
+"""Slot uses by their fields (frozen: shared by every analysis that has one alike; a whole
+device's check has 177, nearly all as they were at the last check)."""
 
 
 def _include_target(including: Path, spelled: str, analysis: Analysis,
