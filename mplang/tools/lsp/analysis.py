@@ -32,11 +32,11 @@ from mplang.lang.diagnostics import (
     without_ignored,
 )
 from mplang.lang.linecache import StatementCache
-from mplang.lang.sources import SourceFile, SourceSet, load_sources, of_types
+from mplang.lang.sources import SourceFile, SourceSet, load_sources
 from mplang.lang.structure import build_unit
 from mplang.m8194h.compiler import BuildMemo, Lowering, compile_sources
 from mplang.m8194h.link import Placement, link
-from mplang.tools.lsp.ends import same_ends, shared_lines
+from mplang.tools.lsp.ends import picked, picked_again, same_ends, shared_lines
 from mplang.tools.lsp.opentexts import OpenTexts, refusals
 from mplang.tools.lsp.positions import Location, Range, line_range, span_range, split_lines
 from mplang.tools.lsp.tokens import Token, lex_line
@@ -278,6 +278,8 @@ def _analyse(path: Path, text: str, context: BuildContext, open_texts: Mapping[P
     resolved = resolve(path)
     texts[resolved] = text
     analysis = Analysis(resolved, split_lines(text), catalogue, options)
+    if previous is not None and previous.path == resolved:  # what the edit left alone
+        analysis.edited = (previous.lines, *shared_lines(previous.lines, analysis.lines))
     paths = [path if resolve(p) == resolved else p for p in context.sources]
     if resolved not in {resolve(p) for p in paths}:
         paths = [path]
@@ -362,8 +364,10 @@ def _placed_all(analysis: Analysis, diagnostics: list[Diagnostic], previous: Ana
             found[count - tail:] = previous.raw_placed[len(old) - tail:]
             keys[count - tail:] = previous.raw_lines[len(old) - tail:]
         # the kept ones whose line the edit may have changed, or placed from none, too
-        start, end = shared_lines(old_lines, analysis.lines)
-        analysis.edited = (old_lines, start, end)
+        edited = analysis.edited
+        if edited is None or edited[0] is not old_lines:
+            edited = analysis.edited = (old_lines, *shared_lines(old_lines, analysis.lines))
+        _, start, end = edited
         unplaced = _unplaced(old_lines, analysis.lines, start, end).__getitem__
         rest = [*compress(range(head), map(unplaced, keys[:head])),
                 *range(head, count - tail),
@@ -470,6 +474,9 @@ class _FileIndex:
     count, and what it found (a table's candidates in order, blocks, INCLUDEs as spelt)."""
 
     indexed: list[ast.Statement]
+    positions: array[int]  # where each of `indexed` stands in the file's statements
+    count: int  # how many statements the file had
+    lines: list[str]  # the file's lines they were found on (the very list)
     read: list[int]  # 0-based lines of the statements other than END
     texts: list[str]
     line_count: int
@@ -492,8 +499,12 @@ def _index_file(analysis: Analysis, source: SourceFile, entry: SourceText,
     every statement this reads as it was) on lines of the same text, else read again. The
     paths its INCLUDEs spell, for the include graph."""
     root = entry.path == analysis.path
-    indexed = list(of_types(source.statements, _INDEXED_TYPES))
     kept = _indexes.get((entry.path, root))
+    statements = source.statements
+    found = _indexed_after_edit(statements, kept, analysis.edited, entry.lines) \
+        if root and kept is not None else None
+    indexed, positions = found if found is not None else picked(statements,
+                                                                _INDEXED_TYPES)
     if kept is None or kept.line_count != len(entry.lines) or \
             len(kept.indexed) != len(indexed) or \
             same_ends(kept.indexed, indexed)[0] != len(indexed) or \
@@ -502,6 +513,7 @@ def _index_file(analysis: Analysis, source: SourceFile, entry: SourceText,
         if len(_indexes) >= _KEPT_INDEXES:
             _indexes.clear()
         _indexes[(entry.path, root)] = kept
+    kept.positions, kept.count, kept.lines = positions, len(statements), entry.lines
     tables = (analysis.consts, analysis.aliases, analysis.declared)
     for table, key, definition in kept.definitions:  # the first of a name wins, over files
         if all(key not in t for t in tables):
@@ -512,9 +524,32 @@ def _index_file(analysis: Analysis, source: SourceFile, entry: SourceText,
     return kept.spelled
 
 
+def _indexed_after_edit(statements: list[ast.Statement], kept: _FileIndex,
+                        edited: tuple[list[str], int, int] | None, lines: list[str]
+                        ) -> tuple[list[ast.Statement], array[int]] | None:
+    """The statements `_index_file` reads in the open document after an edit that kept its
+    number of lines, looking only at those of the edited lines (`ends.picked_again`): a
+    statement of a line the edit left alone is of the kind it was, one statement per line
+    being parsed by its text alone (`lang.linecache`). None when the kept index was not
+    found on the last text, or a statement is not where it stood."""
+    if edited is None or kept.lines is not edited[0] or len(edited[0]) != len(lines):
+        return None
+    _, head, tail = edited
+    # the statements of the edited lines (1-based head + 1 .. len - tail; in line order)
+    start = bisect.bisect_left(statements, head + 1, key=_statement_line)
+    stop = bisect.bisect_left(statements, len(lines) - tail + 1, key=_statement_line)
+    return picked_again(statements, _INDEXED_TYPES, (kept.indexed, kept.positions, kept.count),
+                        start, stop)
+
+
+def _statement_line(statement: ast.Statement) -> int:
+    return statement.span.line
+
+
 def _index_of(indexed: list[ast.Statement], entry: SourceText, root: bool) -> _FileIndex:
     """`_index_file` of statements it has not read as they are."""
-    found = _FileIndex(indexed, [], [], len(entry.lines), [], [], [], [])
+    found = _FileIndex(indexed, array("l"), 0, entry.lines, [], [], len(entry.lines), [], [],
+                       [], [])
     open_block: ProgramBlock | None = None
 
     def close(last_line: int) -> None:

@@ -5,14 +5,20 @@ the order of the check's diagnostics. After an edit, nearly every diagnostic is 
 object it was (a program the edit left alone keeps its own), so the items both lists hold
 at the same place from either end are found by comparing pointers in C, without reading
 the objects (a whole device has thousands, spread over the heap): only the few in between
-are looked at one by one.
+are looked at one by one. The same holds for the statements of a file the editor indexes
+(`picked_again`): after an edit, the ones of the lines it left alone are where they were.
 """
 
 from __future__ import annotations
 
+import bisect
+from array import array
 from collections.abc import Sequence
-from itertools import islice
+from itertools import compress, islice
 from operator import is_
+from typing import TypeVar
+
+T = TypeVar("T")
 
 
 def same_ends(old: Sequence[object], new: Sequence[object]) -> tuple[int, int]:
@@ -52,3 +58,34 @@ def shared_lines(old: Sequence[str], new: Sequence[str]) -> tuple[int, int]:
                 new[len(new) - end - step:len(new) - end]:
             end += step
     return start, end
+
+
+def picked(items: Sequence[T], kinds: frozenset[type]) -> tuple[list[T], array[int]]:
+    """The items of exactly these classes, and where each stands: every item looked at (in
+    C: a whole device's file has thousands of statements, and a pass wants a few)."""
+    positions = array("l", compress(range(len(items)),
+                                    map(kinds.__contains__, map(type, items))))
+    return list(map(items.__getitem__, positions)), positions
+
+
+def picked_again(items: Sequence[T], kinds: frozenset[type],
+                 last: tuple[list[T], array[int], int], start: int, stop: int
+                 ) -> tuple[list[T], array[int]] | None:
+    """`picked` after an edit that may have changed `items[start:stop]` only, from the last
+    `picked` (its items and positions, and how many items there were): the items between
+    are looked at; the others are taken where they stood (those after the edit moved as far
+    as the edit changed the count), checked to be the very objects there. None when one is
+    not: then every item must be looked at."""
+    kept, positions, count = last
+    shift = len(items) - count
+    before = bisect.bisect_left(positions, start)
+    after = bisect.bisect_left(positions, stop - shift)
+    moved = positions[after:] if not shift else array("l", map(shift.__add__, positions[after:]))
+    if (moved and not 0 <= moved[-1] < len(items)) or \
+            not all(map(is_, map(items.__getitem__, positions[:before]), kept[:before])) or \
+            not all(map(is_, map(items.__getitem__, moved), kept[after:])):
+        return None
+    between = array("l", compress(range(start, stop),
+                                  map(kinds.__contains__, map(type, items[start:stop]))))
+    return ([*kept[:before], *map(items.__getitem__, between), *kept[after:]],
+            positions[:before] + between + moved)
