@@ -36,7 +36,13 @@ from mplang.lang.sources import SourceFile, SourceSet, load_sources
 from mplang.lang.structure import build_unit
 from mplang.m8194h.compiler import BuildMemo, Lowering, compile_sources
 from mplang.m8194h.link import Placement, link
-from mplang.tools.lsp.ends import picked, picked_again, same_ends, shared_lines
+from mplang.tools.lsp.ends import (
+    picked,
+    picked_again,
+    same_ends,
+    shared_lines,
+    shared_text_lines,
+)
 from mplang.tools.lsp.opentexts import OpenTexts, refusals
 from mplang.tools.lsp.positions import Location, Range, line_range, span_range, split_lines
 from mplang.tools.lsp.tokens import Token, lex_line
@@ -178,6 +184,7 @@ class Analysis:
     # made for that analysis take them instead of comparing the texts again
     edited: tuple[list[str], int, int] | None = field(default=None, repr=False,
                                                       compare=False)
+    text: str | None = field(default=None, repr=False, compare=False)  # the lines', whole
 
     @property
     def variables_used(self) -> set[int]:
@@ -257,7 +264,8 @@ def analyse(path: Path, text: str, context: BuildContext | None = None,
                         previous)
     except Exception as exc:  # a compiler bug must not take the editor's features down
         logger.exception("checking %s failed", path)
-        analysis = Analysis(path.resolve(), split_lines(text), catalogue, context.options)
+        analysis = Analysis(path.resolve(), split_lines(text), catalogue, context.options,
+                            text=text)
         analysis.diagnostics = [EditorDiagnostic(
             line_range(0, 0, 0), "error", "", f"mpc could not check this text: "
             f"{type(exc).__name__}: {exc}", "this is a bug in mpc; please report it with the "
@@ -277,9 +285,12 @@ def _analyse(path: Path, text: str, context: BuildContext, open_texts: Mapping[P
     resolve = texts.resolve
     resolved = resolve(path)
     texts[resolved] = text
-    analysis = Analysis(resolved, split_lines(text), catalogue, options)
-    if previous is not None and previous.path == resolved:  # what the edit left alone
-        analysis.edited = (previous.lines, *shared_lines(previous.lines, analysis.lines))
+    analysis = Analysis(resolved, split_lines(text), catalogue, options, text=text)
+    if previous is not None and previous.path == resolved:  # what the edit left alone:
+        old = previous.text  # found on the texts when their lines are split at "\n" only
+        analysis.edited = (previous.lines, *(
+            shared_text_lines(old, text) if old is not None and "\r" not in old and
+            "\r" not in text else shared_lines(previous.lines, analysis.lines)))
     paths = [path if resolve(p) == resolved else p for p in context.sources]
     if resolved not in {resolve(p) for p in paths}:
         paths = [path]

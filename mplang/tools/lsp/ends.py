@@ -60,6 +60,53 @@ def shared_lines(old: Sequence[str], new: Sequence[str]) -> tuple[int, int]:
     return start, end
 
 
+def shared_text_lines(old: str, new: str) -> tuple[int, int]:
+    """`shared_lines` of the two texts' lines (split at "\\n" only), found on the texts
+    themselves: their common start and end are looked for by halving (slices compared in
+    C, a whole device's text copied about twice over), not line by line through two lists
+    of thousands of strings each."""
+    limit = min(len(old), len(new))
+    low, high = 0, limit  # old[:low] == new[:low]; the common start ends in [low, high]
+    while low < high:
+        middle = (low + high + 1) // 2
+        if old[low:middle] == new[low:middle]:
+            low = middle
+        else:
+            high = middle - 1
+    # whole lines: those ended by a line feed inside the common start, and the line it
+    # stops in when that ends at the same place in both (a line feed, or both ends)
+    start = old.count("\n", 0, low)
+    if _ends_alike(old, new, low, low):
+        start, lines_end = start + 1, low + 1
+    else:
+        lines_end = old.rfind("\n", 0, low) + 1
+    low, high = 0, max(limit - lines_end, 0)  # the same from the ends, not into those lines
+    while low < high:
+        middle = (low + high + 1) // 2
+        if old[len(old) - middle:len(old) - low] == new[len(new) - middle:len(new) - low]:
+            low = middle
+        else:
+            high = middle - 1
+    # whole lines: those begun by a line feed inside the common end, and the line it
+    # stops in when that begins at the same place in both
+    end = new.count("\n", len(new) - low) + \
+        _starts_alike(old, new, len(old) - low, len(new) - low)
+    return start, min(end, min(old.count("\n"), new.count("\n")) + 1 - start)
+
+
+def _ends_alike(old: str, new: str, at_old: int, at_new: int) -> bool:
+    """Whether the line that runs into `at` (in each text) ends there in both."""
+    return (at_old == len(old) or old[at_old] == "\n") and \
+        (at_new == len(new) or new[at_new] == "\n")
+
+
+def _starts_alike(old: str, new: str, at_old: int, at_new: int) -> bool:
+    """Whether the line that runs from `at` (in each text) starts there in both."""
+    return (at_old == 0 or old[at_old - 1] == "\n") and \
+        (at_new == 0 or new[at_new - 1] == "\n")
+
+
+
 def picked(items: Sequence[T], kinds: frozenset[type]) -> tuple[list[T], array[int]]:
     """The items of exactly these classes, and where each stands: every item looked at (in
     C: a whole device's file has thousands of statements, and a pass wants a few)."""

@@ -5,7 +5,13 @@ from __future__ import annotations
 from hypothesis import given
 from hypothesis import strategies as st
 
-from mplang.tools.lsp.ends import picked, picked_again, same_ends, shared_lines
+from mplang.tools.lsp.ends import (
+    picked,
+    picked_again,
+    same_ends,
+    shared_lines,
+    shared_text_lines,
+)
 
 
 def test_equal_objects_that_are_not_the_same_do_not_count() -> None:
@@ -87,3 +93,14 @@ def test_picked_again_looks_between_and_takes_the_rest_where_it_stood() -> None:
     assert picked_again(replaced, kinds, (last_items, positions, len(items)), 3, 5) is None
     before = [_Kind(), *edited[1:]]  # and one before the edited items
     assert picked_again(before, kinds, (last_items, positions, len(items)), 3, 5) is None
+
+
+@given(st.lists(st.sampled_from(["", "a", "b", "ab"]), max_size=8),
+       st.lists(st.sampled_from(["", "a", "b", "ab"]), max_size=8))
+def test_shared_text_lines_are_the_shared_lines_of_the_texts(old: list[str], new: list[str]
+                                                             ) -> None:
+    """Found on the texts, the lines both share at either end are those `shared_lines`
+    finds on their lists of lines (short lines of a few letters: ends that meet, a text
+    that is the start or the end of the other, empty lines and texts)."""
+    assert shared_text_lines("\n".join(old), "\n".join(new)) == \
+        shared_lines("\n".join(old).split("\n"), "\n".join(new).split("\n"))
