@@ -5,9 +5,12 @@ pickled syntax diagnostics, so an entry written before still loads as the same v
 from __future__ import annotations
 
 import pickle
+import random
 from collections.abc import Callable
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from mplang.lang.diagnostics import Diagnostic, DiagnosticSink, Run, Severity, Span
 
@@ -153,3 +156,36 @@ def test_sorted_with_runs_is_sorted_as_one_by_one() -> None:
     sink.items.append(moved)
     assert sink.sorted() == expected
     assert [d.span.line for d in sink.sorted()] == [1, 3, 3, 4, 5, 9]
+
+
+def _keyed_run(*places: tuple[int, str]) -> Run:
+    """A run of warnings at (line, message): equal sort keys told apart by their message."""
+    return Run(Diagnostic("W103", Severity.WARNING, message, Span("a.mp", line))
+               for line, message in places)
+
+
+def _ids(diagnostics: list[Diagnostic]) -> list[int]:
+    return [id(d) for d in diagnostics]
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.one_of(
+    st.lists(st.tuples(st.integers(1, 12), st.sampled_from("ab")), min_size=1, max_size=5),
+    st.tuples(st.integers(1, 12), st.sampled_from("abc"))), max_size=10),
+    st.randoms(use_true_random=False))
+def test_sorted_is_the_stable_sort_of_what_entered(
+        entries: list[list[tuple[int, str]] | tuple[int, str]], rng: random.Random) -> None:
+    """Whatever runs and single diagnostics entered, in any order (the same run objects
+    again in a second sink, in another order, as the next build brings them): exactly the
+    diagnostics, the same objects, in the order a stable sort by sort key gives."""
+    made: list[Run | tuple[int, str]] = [_keyed_run(*e) if isinstance(e, list) else e
+                                          for e in entries]
+    for _ in range(2):
+        sink = DiagnosticSink()
+        for entry in made:
+            if isinstance(entry, Run):
+                sink.extend(entry)
+            else:
+                sink.add("W103", Span("a.mp", entry[0]), entry[1])
+        assert _ids(sink.sorted()) == _ids(sorted(sink.items, key=Diagnostic.sort_key))
+        rng.shuffle(made)

@@ -13,12 +13,10 @@ from __future__ import annotations
 import bisect
 import logging
 import re
-import sys
 from array import array
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from itertools import compress
-from operator import or_
 from pathlib import Path
 from typing import Protocol, cast
 
@@ -34,11 +32,17 @@ from mplang.lang.diagnostics import (
     without_ignored,
 )
 from mplang.lang.linecache import StatementCache
-from mplang.lang.sources import SourceFile, SourceSet, load_sources, of_types
+from mplang.lang.sources import SourceFile, SourceSet, load_sources
 from mplang.lang.structure import build_unit
 from mplang.m8194h.compiler import BuildMemo, Lowering, compile_sources
 from mplang.m8194h.link import Placement, link
-from mplang.tools.lsp.ends import same_ends, shared_lines
+from mplang.tools.lsp.ends import (
+    picked,
+    picked_again,
+    same_ends,
+    shared_lines,
+    shared_text_lines,
+)
 from mplang.tools.lsp.opentexts import OpenTexts, refusals
 from mplang.tools.lsp.positions import Location, Range, line_range, span_range, split_lines
 from mplang.tools.lsp.tokens import Token, lex_line
@@ -175,6 +179,12 @@ class Analysis:
     # placement, the one it was moved from and by how many lines (the server moves the JSON)
     moved: dict[int, tuple[EditorDiagnostic, EditorDiagnostic, int]] = field(
         default_factory=dict, repr=False, compare=False)
+    # The last analysis's lines (the very list) and how many lines at the start, and then at
+    # the end, this text shares with them (`ends.shared_lines`), once found: semantic tokens
+    # made for that analysis take them instead of comparing the texts again
+    edited: tuple[list[str], int, int] | None = field(default=None, repr=False,
+                                                      compare=False)
+    text: str | None = field(default=None, repr=False, compare=False)  # the lines', whole
 
     @property
     def variables_used(self) -> set[int]:
@@ -254,7 +264,8 @@ def analyse(path: Path, text: str, context: BuildContext | None = None,
                         previous)
     except Exception as exc:  # a compiler bug must not take the editor's features down
         logger.exception("checking %s failed", path)
-        analysis = Analysis(path.resolve(), split_lines(text), catalogue, context.options)
+        analysis = Analysis(path.resolve(), split_lines(text), catalogue, context.options,
+                            text=text)
         analysis.diagnostics = [EditorDiagnostic(
             line_range(0, 0, 0), "error", "", f"mpc could not check this text: "
             f"{type(exc).__name__}: {exc}", "this is a bug in mpc; please report it with the "
@@ -274,7 +285,12 @@ def _analyse(path: Path, text: str, context: BuildContext, open_texts: Mapping[P
     resolve = texts.resolve
     resolved = resolve(path)
     texts[resolved] = text
-    analysis = Analysis(resolved, split_lines(text), catalogue, options)
+    analysis = Analysis(resolved, split_lines(text), catalogue, options, text=text)
+    if previous is not None and previous.path == resolved:  # what the edit left alone:
+        old = previous.text  # found on the texts when their lines are split at "\n" only
+        analysis.edited = (previous.lines, *(
+            shared_text_lines(old, text) if old is not None and "\r" not in old and
+            "\r" not in text else shared_lines(previous.lines, analysis.lines)))
     paths = [path if resolve(p) == resolved else p for p in context.sources]
     if resolved not in {resolve(p) for p in paths}:
         paths = [path]
@@ -359,10 +375,14 @@ def _placed_all(analysis: Analysis, diagnostics: list[Diagnostic], previous: Ana
             found[count - tail:] = previous.raw_placed[len(old) - tail:]
             keys[count - tail:] = previous.raw_lines[len(old) - tail:]
         # the kept ones whose line the edit may have changed, or placed from none, too
-        changed = _changed_lines(old_lines, analysis.lines)
-        rest = [*compress(range(head), _unplaced(changed, keys[:head])),
+        edited = analysis.edited
+        if edited is None or edited[0] is not old_lines:
+            edited = analysis.edited = (old_lines, *shared_lines(old_lines, analysis.lines))
+        _, start, end = edited
+        unplaced = _unplaced(old_lines, analysis.lines, start, end).__getitem__
+        rest = [*compress(range(head), map(unplaced, keys[:head])),
                 *range(head, count - tail),
-                *compress(range(count - tail, count), _unplaced(changed, keys[count - tail:]))]
+                *compress(range(count - tail, count), map(unplaced, keys[count - tail:]))]
         for index in [*range(head, len(old) - tail),  # the last one's among them, by id
                       *(i - count + len(old) for i in rest if i < head or i >= count - tail)]:
             line, placed = previous.raw_lines[index], previous.raw_placed[index]
@@ -398,19 +418,18 @@ def _placed_all(analysis: Analysis, diagnostics: list[Diagnostic], previous: Ana
     return list(filter(None, found))  # in C: a placement is never false
 
 
-def _changed_lines(old: list[str], new: list[str]) -> range:
-    """The lines (0-based) on which a placement made from the old text may not hold for the
-    same diagnostic object (so at the same line number): from the first line the edit
-    changed to its last one when it kept the number of lines, else to the end
-    (`ends.shared_lines`)."""
-    start, end = shared_lines(old, new)
-    return range(start, len(new) - end if len(old) == len(new) else sys.maxsize)
-
-
-def _unplaced(changed: range, lines: array[int]) -> Iterator[bool]:
-    """For each placement's line, whether it must be looked at again: on a changed line, or
-    made from no line of its own (-1). In C."""
-    return map(or_, map(changed.__contains__, lines), map((0).__gt__, lines))
+def _unplaced(old: list[str], new: list[str], start: int, end: int) -> bytearray:
+    """For each line of the old text (0-based), and for -1 (placed from no line of its
+    own) last, whether a placement made from it must be looked at again: from the first line
+    the edit changed to its last one when it kept the number of lines, else to the end
+    (`start`, `end`: the lines both texts share at either end, `ends.shared_lines`).
+    Looked up per placement in C. A placement's line is always one of the old text's."""
+    flags = bytearray(len(old) + 1)
+    stop = len(old) - end if len(old) == len(new) else len(old)
+    if stop > start:
+        flags[start:stop] = b"\x01" * (stop - start)
+    flags[-1] = 1
+    return flags
 
 
 class _Family(Protocol):
@@ -466,6 +485,9 @@ class _FileIndex:
     count, and what it found (a table's candidates in order, blocks, INCLUDEs as spelt)."""
 
     indexed: list[ast.Statement]
+    positions: array[int]  # where each of `indexed` stands in the file's statements
+    count: int  # how many statements the file had
+    lines: list[str]  # the file's lines they were found on (the very list)
     read: list[int]  # 0-based lines of the statements other than END
     texts: list[str]
     line_count: int
@@ -488,8 +510,12 @@ def _index_file(analysis: Analysis, source: SourceFile, entry: SourceText,
     every statement this reads as it was) on lines of the same text, else read again. The
     paths its INCLUDEs spell, for the include graph."""
     root = entry.path == analysis.path
-    indexed = list(of_types(source.statements, _INDEXED_TYPES))
     kept = _indexes.get((entry.path, root))
+    statements = source.statements
+    found = _indexed_after_edit(statements, kept, analysis.edited, entry.lines) \
+        if root and kept is not None else None
+    indexed, positions = found if found is not None else picked(statements,
+                                                                _INDEXED_TYPES)
     if kept is None or kept.line_count != len(entry.lines) or \
             len(kept.indexed) != len(indexed) or \
             same_ends(kept.indexed, indexed)[0] != len(indexed) or \
@@ -498,21 +524,43 @@ def _index_file(analysis: Analysis, source: SourceFile, entry: SourceText,
         if len(_indexes) >= _KEPT_INDEXES:
             _indexes.clear()
         _indexes[(entry.path, root)] = kept
+    kept.positions, kept.count, kept.lines = positions, len(statements), entry.lines
     tables = (analysis.consts, analysis.aliases, analysis.declared)
     for table, key, definition in kept.definitions:  # the first of a name wins, over files
         if all(key not in t for t in tables):
             tables[table][key] = definition
-    analysis.programs.extend(
-        ProgramBlock(b.kind, b.number, b.name, b.path, b.name_range, b.header_range,
-                     b.first_line, b.last_line, dict(b.labels)) for b in kept.blocks)
+    analysis.programs += kept.blocks  # the same blocks: nothing changes one once indexed
     analysis.includes += [IncludeLine(where, resolve(entry.path.parent / spelled), spelled)
                           for where, spelled in kept.includes]
     return kept.spelled
 
 
+def _indexed_after_edit(statements: list[ast.Statement], kept: _FileIndex,
+                        edited: tuple[list[str], int, int] | None, lines: list[str]
+                        ) -> tuple[list[ast.Statement], array[int]] | None:
+    """The statements `_index_file` reads in the open document after an edit that kept its
+    number of lines, looking only at those of the edited lines (`ends.picked_again`): a
+    statement of a line the edit left alone is of the kind it was, one statement per line
+    being parsed by its text alone (`lang.linecache`). None when the kept index was not
+    found on the last text, or a statement is not where it stood."""
+    if edited is None or kept.lines is not edited[0] or len(edited[0]) != len(lines):
+        return None
+    _, head, tail = edited
+    # the statements of the edited lines (1-based head + 1 .. len - tail; in line order)
+    start = bisect.bisect_left(statements, head + 1, key=_statement_line)
+    stop = bisect.bisect_left(statements, len(lines) - tail + 1, key=_statement_line)
+    return picked_again(statements, _INDEXED_TYPES, (kept.indexed, kept.positions, kept.count),
+                        start, stop)
+
+
+def _statement_line(statement: ast.Statement) -> int:
+    return statement.span.line
+
+
 def _index_of(indexed: list[ast.Statement], entry: SourceText, root: bool) -> _FileIndex:
     """`_index_file` of statements it has not read as they are."""
-    found = _FileIndex(indexed, [], [], len(entry.lines), [], [], [], [])
+    found = _FileIndex(indexed, array("l"), 0, entry.lines, [], [], len(entry.lines), [], [],
+                       [], [])
     open_block: ProgramBlock | None = None
 
     def close(last_line: int) -> None:
@@ -612,15 +660,26 @@ def _measure_programs(analysis: Analysis, files: list[SourceFile],
     analysis.pinned = {v.name.upper() for v in scope.variables if v.pinned}
     placements: dict[int, Placement] = {id(p.program): p for p in linked}
     close_counts = catalogue.profile.close_counts_as_line
+    uses = analysis.slot_uses
     for program in lowered:
         entry = by_display.get(program.span.file)
         if entry is None:
             continue
         placement = placements.get(id(program))
-        use = SlotUse(program.kind, placement.slot, placement.lines_used, placement.budget,
-                      placement.auto) if placement is not None else \
-            SlotUse(program.kind, None, program.lines_used(close_counts), None, False)
-        analysis.slot_uses[(entry.path, program.span.line - 1)] = use
+        key = (program.kind, placement.slot, placement.lines_used, placement.budget,
+               placement.auto) if placement is not None else \
+            (program.kind, None, program.lines_used(close_counts), None, False)
+        use = _slot_uses.get(key)
+        if use is None:
+            if len(_slot_uses) >= 4096:
+                _slot_uses.clear()
+            use = _slot_uses[key] = SlotUse(*key)
+        uses[(entry.path, program.span.line - 1)] = use
+
+
+_slot_uses: dict[tuple[str, int | None, int, int | None, bool], SlotUse] = {}
+"""Slot uses by their fields (frozen: shared by every analysis that has one alike; a whole
+device's check has 177, nearly all as they were at the last check)."""
 
 
 def _include_target(including: Path, spelled: str, analysis: Analysis,

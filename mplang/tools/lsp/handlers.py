@@ -165,7 +165,7 @@ def register_editing(server: MpLanguageServer, guarded: Callable[[Any], Any]) ->
             return kept[2]
         data = outline.semantic_tokens(analysis)
         if encoding != "utf-32":
-            in_client_units(data, analysis.lines, encoding)
+            data = in_client_units(data, analysis.lines, encoding)
         for other in [u for u in tokens_kept if not server.is_open(u)]:
             del tokens_kept[other]
         if server.is_open(uri):
@@ -253,12 +253,14 @@ def register_editing(server: MpLanguageServer, guarded: Callable[[Any], Any]) ->
             active_signature=0, active_parameter=found.active)
 
 
-def in_client_units(data: list[int], lines: list[str], encoding: str) -> None:
-    """Turn relative-encoded semantic tokens counted in code points into the client's code
-    units, in place. Only tokens on lines with a non-ASCII character change (on an ASCII
-    line both counts agree), so a document without any is not walked token by token."""
+def in_client_units(data: list[int], lines: list[str], encoding: str) -> list[int]:
+    """Relative-encoded semantic tokens counted in code points, in the client's code units:
+    `data` itself when no line has a non-ASCII character (on an ASCII line both counts
+    agree: the tokens are not walked one by one), else a converted copy (`data` is the
+    list `outline.semantic_tokens` keeps for its next pass, never changed)."""
     if all(map(str.isascii, lines)):  # in C: a whole device has thousands of lines
-        return
+        return data
+    data = list(data)
     line = start = 0
     previous = (0, 0)  # the last token's line and client start
     for index in range(0, len(data), 5):
@@ -270,3 +272,4 @@ def in_client_units(data: list[int], lines: list[str], encoding: str) -> None:
         data[index + 1] = first - previous[1] if line == previous[0] else first
         data[index + 2] = end - first
         previous = (line, first)
+    return data

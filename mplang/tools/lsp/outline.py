@@ -289,6 +289,10 @@ class _Pass(NamedTuple):
     blocks: list[tuple[int, int]]  # the document's program blocks: first and last line
     data: list[int]
     firsts: list[int]  # where each line's tokens begin in `data`, and len(data) last
+    # the last pass's data this one was spliced from (None: made afresh), and how many
+    # numbers at its start, and then at its end, were taken from it as they were
+    base: list[int] | None = None
+    same: tuple[int, int] = (0, 0)
 
 
 _KEPT_PASSES = 8
@@ -307,25 +311,26 @@ def semantic_tokens(analysis: Analysis) -> list[int]:
     names, declarations and blocks on the lines the edit left alone, those lines' tokens
     are taken from them as slices (`_spliced`): only the first token after the edited lines
     is encoded again (it counts its line from the token before it); the document's other
-    lines are not walked."""
+    lines are not walked. The list returned is the one kept for that: callers read it and
+    never change it (a whole device's is a few hundred thousand numbers, not copied)."""
     names, declared = _names(analysis), _declared_here(analysis)
     blocks = sorted((p.first_line, p.last_line) for p in analysis.programs
                     if p.path == analysis.path)
     kept = _lines_for(names)
     last = _passes.pop(analysis.path, None)
-    spliced = _spliced(analysis, last, names, declared, blocks, kept) \
+    made = _spliced(analysis, last, names, declared, blocks, kept) \
         if last is not None else None
-    if spliced is None:
+    if made is None:
         data: list[int] = []
         firsts: list[int] = []
         _encode_lines(analysis, kept, set(declared), range(len(analysis.lines)), (0, 0), data,
                       firsts)
         firsts.append(len(data))
-        spliced = data, firsts
+        made = _Pass(analysis.lines, names, declared, blocks, data, firsts)
     while len(_passes) >= _KEPT_PASSES:
         del _passes[next(iter(_passes))]
-    _passes[analysis.path] = _Pass(analysis.lines, names, declared, blocks, *spliced)
-    return list(spliced[0])
+    _passes[analysis.path] = made
+    return made.data  # kept for the next pass, never changed: not copied (a megabyte)
 
 
 def _declared_here(analysis: Analysis) -> list[tuple[int, int, int]]:
@@ -388,19 +393,27 @@ def _encode_lines(analysis: Analysis, kept: Kept, declared: set[tuple[int, int, 
 
 def _spliced(analysis: Analysis, last: _Pass, names: Names,
              declared: list[tuple[int, int, int]], blocks: list[tuple[int, int]], kept: Kept
-             ) -> tuple[list[int], list[int]] | None:
-    """The tokens and line starts of `analysis` made from the last pass of its document:
-    the lines before and after the edited ones taken as they were (their tokens relative to
-    each other are the same wherever they are), the edited lines encoded, and the first
-    token after them re-counted from the token before it. None when anything those lines'
-    tokens depend on differs: the names, or the declarations and blocks outside the edit."""
+             ) -> _Pass | None:
+    """The pass of `analysis` (its tokens and line starts) made from the last pass of its
+    document: the lines before and after the edited ones taken as they were (their tokens
+    relative to each other are the same wherever they are), the edited lines encoded, and
+    the first token after them re-counted from the token before it; with the last pass's
+    tokens and how many numbers at their start and end were taken as they were. None when
+    anything those lines' tokens depend on differs: the names, or the declarations and
+    blocks outside the edit."""
     old, new = last.lines, analysis.lines
     if names != last.names:
         return None
-    head, tail = shared_lines(old, new)
+    edited = analysis.edited  # found by the check, when made against the same lines
+    head, tail = edited[1:] if edited is not None and edited[0] is old else \
+        shared_lines(old, new)
     shift = len(new) - len(old)
-    if _outside(last.declared, head, len(old) - tail, 0) != \
-            _outside(declared, head, len(new) - tail, shift) or \
+    # the same declarations (blocks), none moved: the same outside any lines, told in C
+    if (shift or declared != last.declared) and \
+            _outside(last.declared, head, len(old) - tail, 0) != \
+            _outside(declared, head, len(new) - tail, shift):
+        return None
+    if (shift or blocks != last.blocks) and \
             _ends_outside(last.blocks, head, len(old) - tail, 0) != \
             _ends_outside(blocks, head, len(new) - tail, shift):
         return None
@@ -410,17 +423,19 @@ def _spliced(analysis: Analysis, last: _Pass, names: Names,
     previous = _encode_lines(analysis, kept, set(declared), range(head, len(new) - tail),
                              before, data, firsts)
     cut = last.firsts[len(old) - tail]
-    after = [first - cut + len(data) for first in last.firsts[len(old) - tail:]]
-    firsts += after
-    suffix = last.data[cut:]
-    if suffix:  # the first token after the edit: its line counted from the token before
+    offset = len(data) - cut  # the later lines' tokens begin this much further on
+    after = last.firsts[len(old) - tail:]
+    firsts += after if not offset else map(offset.__add__, after)
+    at = len(data)
+    data += last.data[cut:]
+    if len(data) > at:  # the first token after the edit: its line counted from the one before
         line = next(n for n in range(len(old) - tail, len(old))
                     if last.firsts[n + 1] > last.firsts[n]) + shift
-        suffix[0] = line - previous[0]
+        data[at] = line - previous[0]
         if line == previous[0]:  # never: the token before is on an earlier line
             return None
-    data += suffix
-    return data, firsts
+    return _Pass(new, names, declared, blocks, data, firsts, last.data,
+                 (last.firsts[head], max(len(last.data) - cut - 5, 0)))
 
 
 def _last_token(last: _Pass, before: int) -> tuple[int, int]:
@@ -465,7 +480,7 @@ def _seen_from_outside(line: int, start: int, stop: int, shift: int) -> int | No
     return line - shift if line >= stop else None
 
 
-_STRIDE = 5 * 256
+_STRIDES = (5 * 4096, 5 * 256, 5 * 16, 5)
 """Tokens compared at once while looking for the first and last difference (a slice
 comparison runs in C; one token at a time, a whole device's 20,000 tokens took as long as
 computing them)."""
@@ -473,14 +488,18 @@ computing them)."""
 
 def token_delta(old: list[int], new: list[int]) -> tuple[int, int, list[int]]:
     """One edit that turns `old` into `new`: start, number deleted, data inserted (over
-    whole tokens of five numbers, as the protocol's delta reply expects)."""
+    whole tokens of five numbers, as the protocol's delta reply expects), the least one.
+    When `new` was spliced from `old` (the server's last tokens, sent to the client), the
+    ends the splice took as they were are not compared again."""
     limit = min(len(old), len(new))
-    prefix = 0
-    for step in (_STRIDE, 5):
+    # a pass spliced from `old` says how much of either end it took as it was (whole tokens)
+    prefix, suffix = next((p.same for p in _passes.values() if p.data is new and p.base is old),
+                          (0, 0))
+    for step in _STRIDES:
         while prefix + step <= limit and old[prefix:prefix + step] == new[prefix:prefix + step]:
             prefix += step
-    suffix = 0
-    for step in (_STRIDE, 5):
+    suffix = min(suffix, limit - prefix)
+    for step in _STRIDES:
         while suffix + step <= limit - prefix and \
                 old[len(old) - suffix - step:len(old) - suffix] == \
                 new[len(new) - suffix - step:len(new) - suffix]:

@@ -116,14 +116,23 @@ _SENDING: set[asyncio.Future[Any]] = set()
 class EncodedMessage:
     """A message already written as JSON (ASCII: `json.dumps` escapes the rest), sent as it
     is by `_Protocol._send_data`: a whole device's publish is thousands of diagnostics whose
-    JSON text is kept from the publish before, not encoded again. Held as the bytes to send:
-    a megabyte of text is copied once to make them, not once per step of putting the
-    message together."""
+    JSON text is kept from the publish before, not encoded again. Held as the parts of its
+    body, joined by `separator`: the megabyte of text is copied once, with its header, into
+    the bytes written, not once per step of putting the message together (nor encoded)."""
 
-    __slots__ = ("body",)
+    __slots__ = ("parts", "separator")
 
-    def __init__(self, body: bytes) -> None:
-        self.body = body
+    def __init__(self, parts: list[bytes], separator: bytes = b"") -> None:
+        self.parts = parts
+        self.separator = separator
+
+    def framed(self, header: Callable[[int], bytes]) -> bytes:
+        """The header (`header` of the body's length) and the body, joined once."""
+        parts = self.parts
+        length = sum(map(len, parts)) + len(self.separator) * max(len(parts) - 1, 0)
+        if not parts:
+            return header(length)
+        return self.separator.join([header(length) + parts[0], *parts[1:]])
 
 
 class _Protocol(LanguageServerProtocol):
@@ -162,10 +171,9 @@ class _Protocol(LanguageServerProtocol):
             logger.error("Unable to send data, no available transport!")
             return
         try:
-            body = data.body
-            header = (f"Content-Length: {len(body)}\r\nContent-Type: {self.CONTENT_TYPE}; "
-                      f"charset={self.CHARSET}\r\n\r\n").encode(self.CHARSET)
-            written = self.writer.write(header + body)
+            written = self.writer.write(data.framed(lambda length: (
+                f"Content-Length: {length}\r\nContent-Type: {self.CONTENT_TYPE}; "
+                f"charset={self.CHARSET}\r\n\r\n").encode(self.CHARSET)))
             if inspect.isawaitable(written):  # kept until done: a task only weakly held
                 sending = asyncio.ensure_future(written)  # may be collected while it runs
                 _SENDING.add(sending)
@@ -389,22 +397,25 @@ class MpLanguageServer(LanguageServer):
         if self.versions.get(uri, version) != version:
             return
         head = {"uri": uri, "version": version} if version is not None else {"uri": uri}
-        # the diagnostics' JSON text is kept between publishes: the message is put together
-        # around it in one join, never encoded whole again
-        opening = f'{{"jsonrpc": "2.0", "params": {json.dumps(head)[:-1]}, "diagnostics": ['
-        closing = f']}}, "method": {json.dumps(lsp.TEXT_DOCUMENT_PUBLISH_DIAGNOSTICS)}}}'
+        # the diagnostics' JSON text is kept between publishes, as bytes: the message is put
+        # together around it in one join with its header (`EncodedMessage.framed`), never
+        # encoded whole again
+        opening = (f'{{"jsonrpc":"2.0","params":{_compact(head)[:-1]},"diagnostics":['
+                   ).encode()
+        closing = f']}},"method":{_compact(lsp.TEXT_DOCUMENT_PUBLISH_DIAGNOSTICS)}}}'.encode()
         parts = self.json_diagnostics(uri, analysis)
         if parts:
             parts = [opening + parts[0], *parts[1:]]
             parts[-1] += closing
-        text = ", ".join(parts) if parts else opening + closing
-        self.protocol._send_data(EncodedMessage(text.encode("utf-8")))
+        else:
+            parts = [opening + closing]
+        self.protocol._send_data(EncodedMessage(parts, b","))
 
-    def json_diagnostics(self, uri: str, analysis: Analysis) -> list[str]:
-        """The diagnostics to publish, as JSON text. One that was published last time
-        (the same diagnostic on the same line text, in the same encoding) is taken from then:
-        after an edit, only the diagnostics it changed are converted; the thousands of a
-        whole device's warnings are not.
+    def json_diagnostics(self, uri: str, analysis: Analysis) -> list[bytes]:
+        """The diagnostics to publish, as compact JSON text (bytes: ASCII). One that was
+        published last time (the same diagnostic on the same line text, in the same
+        encoding) is taken from then: after an edit, only the diagnostics it changed are
+        converted; the thousands of a whole device's warnings are not.
 
         The placements the last publish shared with this one, at its start and its end,
         are the very objects of then in the same encoding: their text is taken as a slice
@@ -421,7 +432,7 @@ class MpLanguageServer(LanguageServer):
         same_before = {id(d): (d, encoding, text) for d, text in
                        zip(last.diagnostics[head:old_end], last.texts[head:old_end],
                            strict=True)}
-        now: dict[Hashable, str] = {}
+        now: dict[Hashable, bytes] = {}
         found = last.texts[:head]
         for diagnostic in diagnostics[head:len(diagnostics) - tail]:
             kept = same_before.get(id(diagnostic))
@@ -437,8 +448,8 @@ class MpLanguageServer(LanguageServer):
             if value is None and key is not None:
                 value = last.by_key.get(key)
             if value is None:
-                value = json.dumps(self.protocol._converter.unstructure(
-                    self.diagnostic(uri, analysis, diagnostic)))
+                value = _compact(self.protocol._converter.unstructure(
+                    self.diagnostic(uri, analysis, diagnostic))).encode()
             if key is not None:
                 now[key] = value
             found.append(value)
@@ -614,18 +625,23 @@ class _Published(NamedTuple):
     by what their JSON depends on (`_published_key`)."""
 
     diagnostics: list[EditorDiagnostic]
-    texts: list[str]
+    texts: list[bytes]
     encoding: str
-    by_key: dict[Hashable, str]
+    by_key: dict[Hashable, bytes]
 
-_RANGE_JSON = re.compile(r'\{"range": \{"start": \{"line": (\d+), "character": (\d+)\}, '
-                         r'"end": \{"line": (\d+), "character": (\d+)\}\}')
+
+_compact = json.JSONEncoder(separators=(",", ":")).encode
+"""JSON without the blanks after separators: a whole device's publish is a megabyte, which
+the client reads and parses on every edit."""
+
+_RANGE_JSON = re.compile(rb'\{"range":\{"start":\{"line":(\d+),"character":(\d+)\},'
+                         rb'"end":\{"line":(\d+),"character":(\d+)\}\}')
 """How a published diagnostic's JSON text begins: its range, in the client's units."""
 
 
 def _moved_json(analysis: Analysis, diagnostic: EditorDiagnostic,
-                published: dict[int, tuple[EditorDiagnostic, str, str]], encoding: str
-                ) -> str | None:
+                published: dict[int, tuple[EditorDiagnostic, str, bytes]], encoding: str
+                ) -> bytes | None:
     """The JSON text of a diagnostic the analysis moved from the last one's (a program that
     only moved, `analysis.moved`): the one published for it then, its range's lines moved
     (the line's text is unchanged, so are its characters). None when there is none, or
@@ -642,9 +658,9 @@ def _moved_json(analysis: Analysis, diagnostic: EditorDiagnostic,
     if found is None or int(found[1]) != kept.range.start.line or \
             int(found[3]) != kept.range.end.line:
         return None
-    return (f'{{"range": {{"start": {{"line": {int(found[1]) + offset}, "character": '
-            f'{found[2]}}}, "end": {{"line": {int(found[3]) + offset}, "character": '
-            f'{found[4]}}}}}' + text[found.end():])
+    return (b'{"range":{"start":{"line":%d,"character":%s},"end":{"line":%d,"character":%s}}'
+            % (int(found[1]) + offset, found[2], int(found[3]) + offset, found[4])
+            + text[found.end():])
 
 
 @functools.lru_cache(maxsize=256)

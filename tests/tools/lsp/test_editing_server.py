@@ -377,4 +377,20 @@ async def test_semantic_tokens_count_the_negotiated_code_units(client: LanguageC
     assert tokens[(1, quote)] == (6, "string")
     assert tokens[(1, quote + 6)] == (1, "operator")
     assert tokens[(1, line.index("VAR3") + 3)] == (4, "variable")
+    # An edit below: the emoji line's tokens are taken from the last pass, which the
+    # conversion to bytes left in code points (converted again, they would move by three more)
+    client.text_document_did_change(lsp.DidChangeTextDocumentParams(
+        lsp.VersionedTextDocumentIdentifier(uri=uri, version=2),
+        [lsp.TextDocumentContentChangePartial(range=lsp.Range(
+            start=lsp.Position(line=2, character=6), end=lsp.Position(line=2, character=6)),
+            text="  # done")]))
+    await client.wait_for_notification(lsp.TEXT_DOCUMENT_PUBLISH_DIAGNOSTICS)
+    again = await client.text_document_semantic_tokens_full_async(lsp.SemanticTokensParams(
+        text_document=ident(uri)))
+    assert again is not None
+    edited = decode(again.data, ["keyword", "function", "variable", "enumMember", "namespace",
+                                 "label", "number", "string", "comment", "operator"])
+    assert {k: v for k, v in edited.items() if k[0] < 2} == \
+        {k: v for k, v in tokens.items() if k[0] < 2}
+    assert edited[(2, 8)] == (6, "comment")
     client.text_document_did_close(lsp.DidCloseTextDocumentParams(ident(uri)))

@@ -5,7 +5,13 @@ from __future__ import annotations
 from hypothesis import given
 from hypothesis import strategies as st
 
-from mplang.tools.lsp.ends import same_ends, shared_lines
+from mplang.tools.lsp.ends import (
+    picked,
+    picked_again,
+    same_ends,
+    shared_lines,
+    shared_text_lines,
+)
 
 
 def test_equal_objects_that_are_not_the_same_do_not_count() -> None:
@@ -64,3 +70,37 @@ def test_shared_lines_around_an_edit_of_a_long_text(head: int, tail: int, remove
         assert (start, end) == (head, tail)
     else:
         assert start >= head and start + end >= min(head + tail, min(len(old), len(new)))
+
+
+class _Kind:
+    """An item `picked` picks."""
+
+
+def test_picked_again_looks_between_and_takes_the_rest_where_it_stood() -> None:
+    """After an edit of items[start:stop], the picked items are those the last pick found
+    before and after it (moved as far as the edit changed the count, the very objects) and
+    those between; an item not where it stood leaves it to a full pick."""
+    kinds = frozenset({_Kind})
+    items: list[object] = [_Kind(), 1, _Kind(), 2, 3, _Kind(), 4]
+    last_items, positions = picked(items, kinds)
+    assert last_items == [items[0], items[2], items[5]] and list(positions) == [0, 2, 5]
+    edited = [*items[:3], _Kind(), "new", *items[4:]]  # item 3 replaced by two, one picked
+    found = picked_again(edited, kinds, (last_items, positions, len(items)), 3, 5)
+    assert found is not None
+    assert found[0] == picked(edited, kinds)[0] and list(found[1]) == [0, 2, 3, 6]
+    assert all(a is b for a, b in zip(found[0], picked(edited, kinds)[0], strict=True))
+    replaced = [*edited[:6], _Kind(), 4]  # a kept one replaced outside the edited items
+    assert picked_again(replaced, kinds, (last_items, positions, len(items)), 3, 5) is None
+    before = [_Kind(), *edited[1:]]  # and one before the edited items
+    assert picked_again(before, kinds, (last_items, positions, len(items)), 3, 5) is None
+
+
+@given(st.lists(st.sampled_from(["", "a", "b", "ab"]), max_size=8),
+       st.lists(st.sampled_from(["", "a", "b", "ab"]), max_size=8))
+def test_shared_text_lines_are_the_shared_lines_of_the_texts(old: list[str], new: list[str]
+                                                             ) -> None:
+    """Found on the texts, the lines both share at either end are those `shared_lines`
+    finds on their lists of lines (short lines of a few letters: ends that meet, a text
+    that is the start or the end of the other, empty lines and texts)."""
+    assert shared_text_lines("\n".join(old), "\n".join(new)) == \
+        shared_lines("\n".join(old).split("\n"), "\n".join(new).split("\n"))

@@ -108,3 +108,70 @@ def test_a_files_index_is_kept_only_while_what_it_read_is_the_same() -> None:
         label = lines[3].split()[1].upper()
         assert [(p.first_line, p.last_line, sorted(p.labels)) for p in previous.programs] == \
             [(1, 5, [label]), (6, len(lines) - 1, [])]
+
+
+def test_a_diagnostic_of_an_included_file_is_placed_again_on_its_include(tmp_path: Path
+                                                                          ) -> None:
+    """A diagnostic of an INCLUDEd file is shown on the INCLUDE line, placed from no line of
+    its own: kept by identity (the file is unchanged), its placement is still made again
+    when the edit moved the INCLUDE's path along its line (the line count unchanged), as a
+    fresh analysis places it."""
+    (tmp_path / "lib.mp").write_text("MP 2 helper\n    VAR9 = VAR10\nEND MP\n")
+    path = tmp_path / "main.mp"
+    lines = ["# the main file", 'INCLUDE "lib.mp"', "MP 1 first", "    VAR1 = 1", "END MP",
+             ""]
+    memo, statements = BuildMemo(), StatementCache()
+    first = analyse(path, "\n".join(lines), lines=statements, memo=memo)
+    shown = [d for d in first.diagnostics if d.elsewhere]
+    assert shown and shown[0].range.start.character == 8
+    lines[1] = '   INCLUDE    "lib.mp"'
+    edited = analyse(path, "\n".join(lines), lines=statements, memo=memo, previous=first)
+    assert edited.raw[0] is first.raw[0]  # the very diagnostic, kept with its file's program
+    assert edited.diagnostics == analyse(path, "\n".join(lines)).diagnostics
+    assert [d.range.start.character for d in edited.diagnostics if d.elsewhere] == [14]
+
+
+def _fresh(path: Path, text: str) -> Analysis:
+    """An analysis from scratch that leaves the kept file indexes as they were, so that the
+    next analysis of an edit finds its own last index (as the server's would)."""
+    kept = dict(analysis_module._indexes)
+    analysis_module._indexes.clear()
+    try:
+        return analyse(path, text)
+    finally:
+        analysis_module._indexes.clear()
+        analysis_module._indexes.update(kept)
+
+
+def _edits_index_as_afresh(path: Path, first: list[str], texts: list[list[str]]) -> None:
+    """Analyse `first`, then each text from the last, and compare each with a fresh one."""
+    lines, memo = StatementCache(), BuildMemo()
+    previous = analyse(path, "\n".join(first), lines=lines, memo=memo)
+    for text in texts:
+        joined = "\n".join(text)
+        previous = analyse(path, joined, lines=lines, memo=memo, previous=previous)
+        assert _seen(previous) == _seen(_fresh(path, joined))
+
+
+@edit_sequences
+def test_random_edits_index_the_edited_lines_as_a_fresh_analysis_does(
+        path: Path, steps: list[tuple[int, int, int]]) -> None:
+    """Edits analysed each from the last, nothing else analysing the file between: an edit
+    that keeps the count of lines has its file's index look only at the statements of
+    the edited lines, the others taken where the last index found them. Each analysis is
+    the one made from scratch."""
+    texts = [path.read_text(encoding="utf-8").split("\n")]
+    for step in steps:
+        texts.append(changed(texts[-1], step))
+    _edits_index_as_afresh(path, texts[0], texts[1:])
+
+
+@large_edit_sequences
+def test_random_edits_inside_one_program_index_the_edited_lines_as_afresh(
+        steps: list[tuple[int, int, int]]) -> None:
+    """The same inside one long program and across its blocks' boundaries (labels, block
+    openers and closers put in and taken out)."""
+    texts = [list(LARGE_WARM_UP[-1])]
+    for step in steps:
+        texts.append(changed_large(texts[-1], step))
+    _edits_index_as_afresh(Path("/large.mp"), texts[0], texts[1:])

@@ -174,6 +174,17 @@ SPLICED_LINES = [*EDITED_LINES, "", "    ", "END MP"]
 up."""
 
 
+def _edit(lines: list[str], kind: int, at: int, text: str) -> None:
+    """Replace (kind 0), insert (1) or drop (2) a line, at `at` or the last place there is."""
+    at = min(at, len(lines) - (kind != 1))
+    if kind == 0 and lines:
+        lines[at] = text
+    elif kind == 1:
+        lines.insert(at, text)
+    elif lines:
+        del lines[at]
+
+
 @settings(max_examples=60, deadline=None)
 @given(st.lists(st.sampled_from(SPLICED_LINES), min_size=1, max_size=14),
        st.lists(st.tuples(st.integers(0, 2), st.integers(0, 20),
@@ -192,15 +203,64 @@ def test_tokens_after_edits_equal_a_fresh_documents(first: list[str],
     outline._passes.clear()
     outline.semantic_tokens(analyse(path, "\n".join(lines) + "\n"))
     for kind, at, text in edits:
-        at = min(at, len(lines) - (kind != 1))
-        if kind == 0 and lines:
-            lines[at] = text
-        elif kind == 1:
-            lines.insert(at, text)
-        elif lines:
-            del lines[at]
+        _edit(lines, kind, at, text)
         analysis = analyse(path, "\n".join(lines) + "\n")
         kept = outline.semantic_tokens(analysis)
         outline._classified_lines.clear()
         outline._passes.clear()
         assert kept == outline.semantic_tokens(analysis)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.sampled_from(SPLICED_LINES), min_size=1, max_size=14),
+       st.lists(st.tuples(st.integers(0, 2), st.integers(0, 20),
+                          st.sampled_from(SPLICED_LINES), st.booleans()),
+                min_size=1, max_size=6))
+@example(["    NOPE X", "    GOTO top", "VAR pace", "    SET_V X, pace"],
+         [(0, 1, "", False), (0, 3, "    NOPE X", True)])  # the tokens of the first edit's
+# text were never asked for: the second edit's lines shared with it are not the last pass's
+def test_tokens_after_checks_kept_between_equal_a_fresh_documents(
+        first: list[str], edits: list[tuple[int, int, str, bool]]) -> None:
+    """Edits of one document checked as the server checks them (each analysis made with the
+    last one, which finds the lines the edit left alone), its tokens asked for after some of
+    them only: each time equal to the tokens of the same text with nothing kept. Lines
+    found shared with an analysis whose tokens were never made are not taken as shared with
+    the last tokens made."""
+    path = Path("kept.mp")
+    lines = list(first)
+    outline._passes.clear()
+    analysis = analyse(path, "\n".join(lines) + "\n")
+    outline.semantic_tokens(analysis)
+    for kind, at, text, asked in edits:
+        _edit(lines, kind, at, text)
+        analysis = analyse(path, "\n".join(lines) + "\n", previous=analysis)
+        if not asked:
+            continue
+        kept = outline.semantic_tokens(analysis)
+        outline._classified_lines.clear()
+        outline._passes.clear()
+        assert kept == outline.semantic_tokens(analysis)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.sampled_from(SPLICED_LINES), min_size=1, max_size=14),
+       st.lists(st.tuples(st.integers(0, 2), st.integers(0, 20),
+                          st.sampled_from(SPLICED_LINES)), min_size=1, max_size=6))
+@example(["    SET_V X, pace", "    NOPE X", "    SET_V X, pace"], [(0, 1, "    GOTO top")])
+def test_a_delta_from_the_last_tokens_is_the_least_edit(first: list[str],
+                                                        edits: list[tuple[int, int, str]]
+                                                        ) -> None:
+    """The delta from the tokens of the last pass to those spliced from them (the ends the
+    splice took as they were not compared) turns the old into the new and is the delta of
+    two unrelated lists of the same numbers: the least edit."""
+    path = Path("delta.mp")
+    lines = list(first)
+    outline._passes.clear()
+    last = outline.semantic_tokens(analyse(path, "\n".join(lines) + "\n"))
+    for kind, at, text in edits:
+        _edit(lines, kind, at, text)
+        data = outline.semantic_tokens(analyse(path, "\n".join(lines) + "\n"))
+        start, deleted, inserted = outline.token_delta(last, data)
+        assert last[:start] + inserted + last[start + deleted:] == data
+        assert (start, deleted, inserted) == outline.token_delta(list(last), list(data))
+        last = data
