@@ -20,6 +20,7 @@ of its lines can raise after that.
 
 from __future__ import annotations
 
+import re
 from typing import TYPE_CHECKING
 
 from mplang.ir.macro import VarRef
@@ -152,12 +153,35 @@ def source(vc: VirtualController, table: MacroTable, prepared: precompile.Prepar
             f"    if start != {for_pc} or {check}:",
             "        return None",
             f"    if n + {longest} > most or c + {span!r} >= h:",
-            "        return None",
-            "    while True:"]
+            "        return None"]
     tail = [f"        {remaining} -= 1",
             f"        if {remaining} <= 0:",
             "            loops.pop()",
             f"            return {next_pc + 1}, c, n",
             f"        if n + {longest} > most or c + {span!r} >= h:",
             f"            return {for_pc + 1}, c, n"]
-    return "\n".join(head + writer.text + tail) + "\n"
+    return "\n".join(head + _in_locals(writer.text + tail)) + "\n"
+
+
+_CELL = re.compile(r"\b([VB])\[(\d+)\]")
+_STORE = re.compile(r"\b([VB])_(\d+) [-+]?= ")
+
+
+def _in_locals(body: list[str]) -> list[str]:
+    """The loop's turns with every variable they name held in a local (`V_3` for `V[3]`):
+    read from the lists before the first turn, the ones a line stores written back before
+    each return. Nothing else reads or writes the lists while the turns run (its lines are
+    all here, and every index is a constant)."""
+    body = [_CELL.sub(r"\1_\2", text) for text in body]
+    named = sorted({match.groups() for text in body for match in
+                    re.finditer(r"\b([VB])_(\d+)\b", text)})
+    stored = sorted({match.groups() for text in body for match in _STORE.finditer(text)})
+    out = [f"    {kind}_{index} = {kind}[{index}]" for kind, index in named]
+    out.append("    while True:")
+    for text in body:
+        stripped = text.lstrip()
+        if stripped.startswith("return "):
+            indent = text[:len(text) - len(stripped)]
+            out.extend(f"{indent}{kind}[{index}] = {kind}_{index}" for kind, index in stored)
+        out.append(text)
+    return out
