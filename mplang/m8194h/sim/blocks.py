@@ -23,7 +23,7 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 from mplang.ir.macro import BVarRef, Operand, VarRef
-from mplang.m8194h.sim import precompile
+from mplang.m8194h.sim import loops, precompile
 
 if TYPE_CHECKING:
     from mplang.m8194h.sim.controller import Frame, VirtualController
@@ -33,9 +33,15 @@ Block = Callable[["Frame", float], tuple[int, float]]
 """A fused block: runs its lines on the frame from the clock given; returns the pc to go on
 at and the clock after its lines."""
 
-Fused = tuple[Block, int, float]
-"""A block, its number of lines and a bound of the time they take (more than the clock
-before its last line can be past the clock at its start)."""
+Loop = Callable[["Frame", float, int, int, float], tuple[int, float, int] | None]
+"""A compiled loop (`loops`): from the clock, the lines run, the line budget and the
+horizon, the pc to go on at, the clock and the lines run after its turns; None when it ran
+no turn."""
+
+Fused = tuple[Block, int, float, Loop | None]
+"""A block, its number of lines, a bound of the time they take (more than the clock
+before its last line can be past the clock at its start), and the loop whose body starts
+there, if it is compiled."""
 
 LONGEST = 64
 """Lines of a block at most (the generated source stays small)."""
@@ -75,16 +81,16 @@ def _straight(vc: VirtualController, name: str, ops: tuple[Operand, ...]) -> str
     return None
 
 
-def _branch(vc: VirtualController, table: MacroTable, pc: int,
-            ops: tuple[Operand, ...]) -> str | None:
-    """An IF (already a quick line) as the block's last statement, or None."""
+def _condition(vc: VirtualController, table: MacroTable, pc: int,
+               ops: tuple[Operand, ...]) -> str | None:
+    """An IF's test (the IF already a quick line) as an expression, or None."""
     if len(ops) != 3 or pc not in table.if_false:
         return None
     symbol = precompile.compare_symbol(vc, precompile.constant_code(vc, ops[1]))
     left, right = _expr(vc, ops[0]), _expr(vc, ops[2])
     if symbol is None or left is None or right is None:
         return None
-    return f"return ({pc + 1} if {left} {symbol} {right} else {table.if_false[pc] + 1}), c"
+    return f"{left} {symbol} {right}"
 
 
 def _next(pc: int) -> str:
@@ -116,20 +122,21 @@ def _entries(table: MacroTable, straight: list[str | None]) -> set[int]:
 def fuse(vc: VirtualController, table: MacroTable,
          prepared: precompile.Prepared) -> list[Fused | None]:
     """One entry per line (and None for the closing line): the block that starts there, or
-    None where no block of two lines or more does. All blocks of a table are compiled in
-    one go."""
+    None where no block of two lines or more (nor a compiled loop, `loops`) does. All
+    blocks of a table are compiled in one go."""
     quick = prepared.quick
     names = [line.command.short_name for line in table.lines]
-    straight: list[str | None] = []
-    for pc, (handler, ops, _motion) in enumerate(prepared.lines):
-        text = None
-        if handler is None:
-            text = "pass"
-        elif isinstance(handler, precompile.Quick) and names[pc] in ("SET_VAR",
-                                                                    "VAR_CALCULATE"):
-            text = _straight(vc, names[pc], ops)
-        straight.append(text)
+    straight = _statements(vc, prepared, names)
+    condition = {pc: text for pc, (handler, ops, _motion) in enumerate(prepared.lines)
+                 if names[pc] == "IF" and isinstance(handler, precompile.Quick)
+                 and (text := _condition(vc, table, pc, ops)) is not None}
     source: list[str] = []
+    looped = set()  # the first line of each compiled loop's body
+    for for_pc in table.for_end:
+        text = loops.source(vc, table, prepared, straight, condition, for_pc)
+        if text is not None:
+            source.append(text)
+            looped.add(for_pc + 1)
     made: dict[int, int] = {}  # entry pc -> lines in its block
     for start in sorted(_entries(table, straight)):
         if start >= len(straight) or quick[start] is None:
@@ -139,15 +146,16 @@ def fuse(vc: VirtualController, table: MacroTable,
             body.append(f"    {straight[pc]}\n    c += lt")
             pc += 1
         if pc < len(straight) and quick[pc] is not None and pc - start < LONGEST:
-            branch = _branch(vc, table, pc, prepared.lines[pc][1]) \
-                if names[pc] == "IF" else _next(pc) \
+            test = condition.get(pc)
+            branch = f"return ({pc + 1} if {test} else {table.if_false[pc] + 1}), c" \
+                if test is not None else _next(pc) \
                 if names[pc] == "NEXT" and isinstance(prepared.lines[pc][0],
                                                       precompile.Quick) else None
             body.append(f"    c += lt\n    {branch or f'return T[{pc}](_f), c'}")
             pc += 1
         else:
             body.append(f"    return {pc}, c")
-        if pc - start >= 2:
+        if pc - start >= 2 or start in looped:
             made[start] = pc - start
             source.append(f"def b{start}(_f, c, V=V, B=B, T=T, lt=lt):\n" +
                           "\n".join(body) + "\n")
@@ -159,5 +167,22 @@ def fuse(vc: VirtualController, table: MacroTable,
     exec(compile("\n".join(source), f"<blocks of {table.kind} {table.slot}>", "exec"),
          namespace)
     for start, count in made.items():
-        fused[start] = (namespace[f"b{start}"], count, count * vc.line_time)
+        fused[start] = (namespace[f"b{start}"], count, count * vc.line_time,
+                        namespace.get(f"l{start - 1}") if start in looped else None)
     return fused
+
+
+def _statements(vc: VirtualController, prepared: precompile.Prepared,
+                names: list[str]) -> list[str | None]:
+    """Each line as a block's straight statement ("pass" for a line that does nothing), or
+    None for a line that is not straight."""
+    straight: list[str | None] = []
+    for pc, (handler, ops, _motion) in enumerate(prepared.lines):
+        text = None
+        if handler is None:
+            text = "pass"
+        elif isinstance(handler, precompile.Quick) and names[pc] in ("SET_VAR",
+                                                                    "VAR_CALCULATE"):
+            text = _straight(vc, names[pc], ops)
+        straight.append(text)
+    return straight

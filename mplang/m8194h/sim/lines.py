@@ -6,7 +6,8 @@ pc in locals, each returning the pc to go on at; both are written back to the co
 and the frame before anything else can read them: a handler, `before_line`, an error, the
 end of the slice. Every other line goes through its handler with the state written back,
 and under a debugger (`before_line`) every line does, after the hook. A straight run of
-quick lines runs as one block (`blocks`) when all of it fits in the slice.
+quick lines runs as one block (`blocks`) when all of it fits in the slice, and an innermost
+loop of them as many turns as fit in one call (`loops`).
 """
 
 from __future__ import annotations
@@ -42,8 +43,13 @@ def run(vc: VirtualController, frame: Frame, horizon: float, steps: int,
     while clock < horizon and steps < max_steps:
         block = fused[pc]
         if block is not None:
-            run_block, count, span = block
+            run_block, count, span, loop = block
             if steps + count <= max_steps and clock + span < horizon:
+                if loop is not None:
+                    turns = loop(frame, clock, steps, max_steps, horizon)
+                    if turns is not None:
+                        pc, clock, steps = turns
+                        continue
                 steps += count
                 try:
                     pc, clock = run_block(frame, clock)

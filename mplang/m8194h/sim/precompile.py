@@ -115,7 +115,12 @@ def constant_code(vc: VirtualController, operand: Operand) -> int | None:
 
 
 _CALC_SYMBOLS = ("+", "-", "*", "&", "|")
-WRAP = "((({expr}) + 0x80000000) & 0xFFFFFFFF) - 0x80000000"  # wrap32, without a branch
+WRAP = ("(w if -0x40000000 < (w := ({expr})) < 0x40000000 "
+        "else ((w + 0x80000000) & 0xFFFFFFFF) - 0x80000000)")
+"""wrap32 of an int expression, as written into a quick line or a block. Most results are
+small: one comparison of ints under 2**30 (which CPython compares fastest) keeps them as
+they are, and any other goes through the full wrap, which is right for every int (the
+comparison is only the shortcut)."""
 
 
 def _factories(template: str, symbols: tuple[str, ...]) -> dict[tuple[str, bool], Any]:
@@ -177,7 +182,9 @@ def _set_var(vc: VirtualController, pc: int, ops: tuple[Operand, ...]) -> Fast |
         return set_const
 
     def set_var(_f: Frame) -> int:
-        values[dest] = ((src[at] + 0x80000000) & 0xFFFFFFFF) - 0x80000000
+        value = src[at]
+        values[dest] = value if -0x40000000 < value < 0x40000000 else \
+            ((value + 0x80000000) & 0xFFFFFFFF) - 0x80000000
         return after
 
     return set_var

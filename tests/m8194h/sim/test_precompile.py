@@ -96,3 +96,32 @@ def test_lines_that_do_nothing_get_no_handler() -> None:
     again = other.run()
     assert (again.steps, again.time_s, other.vars[1:3]) == (done.steps, done.time_s, [2, 3])
     assert seen
+
+
+def _past_int32(mode: str) -> list[int]:
+    """The variables after a program whose NEXT counts a variable down past -2**31 (NEXT
+    does not wrap), which the lines after it copy and compute with: run by the generic
+    handlers, prepared (in blocks and a compiled loop), or prepared under a hook (each line
+    on its own)."""
+    source = ("MP 156\n  VAR1 = 1\n  FOR VAR1\n    VAR1 = -2000000000\n"
+              "    VAR1 = VAR1 - 147483648\n  NEXT\n  VAR2 = VAR1\n  VAR3 = VAR1 + 0\n"
+              "  VAR4 = VAR1 * 1\n  IF VAR1 < -2000000000\n    VAR5 = VAR1\n  END IF\nEND MP\n")
+    with pytest.MonkeyPatch.context() as patch:
+        if mode == "generic":
+            patch.setattr(precompile, "prepare", lambda _vc, _t, _pc, _n, handler: handler)
+        vc = VirtualController()
+        preload(vc, compile_source(source))
+        if mode == "hooked":
+            vc.before_line = lambda _frame: False
+        vc.call(156)
+        assert vc.run().finished
+    return vc.vars[1:6]
+
+
+def test_values_past_int32_wrap_as_the_generic_handlers_wrap_them() -> None:
+    """A quick line's wrap keeps small results as they are and wraps the rest in full: a
+    value one below -2**31 copies and computes to 2**31 - 1, whichever way it runs."""
+    expected = [-2147483649, 2147483647, 2147483647, 2147483647, 2147483647]
+    assert _past_int32("generic") == expected
+    assert _past_int32("prepared") == expected
+    assert _past_int32("hooked") == expected

@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 
 from mplang.m8194h.compiler import compile_source
 from mplang.m8194h.image import BuildResult
-from mplang.m8194h.sim import precompile
+from mplang.m8194h.sim import loops, precompile
 from mplang.m8194h.sim.controller import Frame, VirtualController
 from mplang.m8194h.sim.preload import preload
 
@@ -401,3 +401,71 @@ def test_straight_lines_run_as_fused_blocks_that_slices_cut() -> None:
             t += lt
             expected.append(t)
         assert clocks[:-1] == expected[budget - 1::budget][:len(clocks) - 1]
+
+
+def _slices(build: BuildResult, budget: int, compiled: bool) -> list[object]:
+    """The state after every slice of a run cut every `budget` lines, then every `budget`
+    line times (horizons inside a loop's turn), with the loops compiled (`loops`) or not."""
+    seen: list[object] = []
+    with pytest.MonkeyPatch.context() as patch:
+        if not compiled:
+            patch.setattr(loops, "source", lambda *_args: None)
+        for by_time in (False, True):
+            vc, until = _controller(build), 0.0
+            while vc.stack:
+                until += budget * vc.line_time * 0.7
+                ran = vc.advance(until) if by_time else \
+                    vc.advance(3600.0, max_steps=budget, until_idle=True)
+                seen.append((ran, vc.clock, [(f.pc, list(f.loops)) for f in vc.stack],
+                             vc.vars[:24]))
+    return seen
+
+
+@settings(max_examples=40, deadline=None, derandomize=True)
+@given(program=PROGRAMS, budget=st.integers(1, 40))
+def test_compiled_loops_leave_every_slice_as_the_blocks_do(program: Program,
+                                                           budget: int) -> None:
+    """A compiled loop runs the turns that fit and stops where the lines run one block at a
+    time would: the same lines, clock, pcs, loops and variables after every slice."""
+    build = compile_source(Reference().render(program))
+    assert _slices(build, budget, True) == _slices(build, budget, False)
+
+
+def _tampered(build: BuildResult, change: str, compiled: bool) -> tuple[object, ...]:
+    """A run whose frame's loops were changed from outside at the inner loop's body: the
+    innermost one dropped ("pop") or all of them ("clear")."""
+    with pytest.MonkeyPatch.context() as patch:
+        if not compiled:
+            patch.setattr(loops, "source", lambda *_args: None)
+        vc = _controller(build)
+        vc.advance(3600.0, max_steps=3)  # FOR 2, VAR3 = 5, FOR 5
+        frame = vc.stack[-1]
+        assert frame.pc == 3
+        frame.loops.pop() if change == "pop" else frame.loops.clear()
+        result = vc.run(max_steps=500)
+    return (result.finished, result.steps, result.time_s, result.error, result.failure,
+            frame.pc, frame.loops, vc.vars[:4])
+
+
+def test_an_innermost_loop_runs_its_turns_in_one_call() -> None:
+    """The loop of arithmetic and an IF / ELSE is compiled (the outer loop, holding it, is
+    not) and gives what its lines give one block at a time; a frame whose loops were
+    changed from outside runs its lines the ordinary way (the loop declines), to the same
+    end or the same error."""
+    source = ("MP 156\n  FOR 2\n    VAR3 = 5\n    FOR 5\n      VAR1 = VAR1 + 3\n"
+              "      IF VAR1 > 10\n        VAR2 = VAR2 + VAR1\n      ELSE\n"
+              "        VAR2 = VAR2 - 1\n      END IF\n    NEXT\n  NEXT\nEND MP\n")
+    build = compile_source(source)
+    vc = _controller(build)
+    entries = [f is not None and f[3] is not None
+               for f in vc.prepared(vc.tables[("mp", 156)]).fused]
+    assert [pc for pc, looped in enumerate(entries) if looped] == [3]
+    result = vc.run()
+    assert result.finished and (vc.vars[1], vc.vars[2]) == (30, 144)
+    assert _slices(build, 7, True) == _slices(build, 7, False)
+    cleared = _tampered(build, "clear", True)
+    assert cleared == _tampered(build, "clear", False)
+    assert cleared[0] is False and cleared[4] is not None  # the NEXT fails
+    popped = _tampered(build, "pop", True)
+    assert popped == _tampered(build, "pop", False)
+    assert popped[0] is True
