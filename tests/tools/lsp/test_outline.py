@@ -153,6 +153,15 @@ EDITED_LINES = ["CONST SPEED = 5", "ALIAS speed = VAR7", "VAR pace", "MP 3 speed
                 "    NOPE X", "# speed 😀", "    SET_V Y, 'é' + pace"]
 
 
+def _tokens_as_fresh(analysis: Analysis) -> None:
+    """The tokens of `analysis` made from what the last passes kept equal those made with
+    nothing kept."""
+    kept = outline.semantic_tokens(analysis)
+    outline._classified_lines.clear()
+    outline._passes.clear()
+    assert kept == outline.semantic_tokens(analysis)
+
+
 @settings(max_examples=40, deadline=None)
 @given(st.lists(st.lists(st.sampled_from(EDITED_LINES), max_size=10), min_size=2, max_size=4))
 @example([["    MP 5 ("], ["MP 4", "    MP 5 ("]])  # a bad header, alone, then after one
@@ -163,10 +172,7 @@ def test_tokens_kept_by_line_equal_tokens_classified_afresh(texts: list[list[str
     path = Path("edited.mp")
     for lines in texts:
         analysis = analyse(path, "\n".join(lines) + "\n")
-        kept = outline.semantic_tokens(analysis)
-        outline._classified_lines.clear()
-        outline._passes.clear()
-        assert kept == outline.semantic_tokens(analysis)
+        _tokens_as_fresh(analysis)
 
 
 SPLICED_LINES = [*EDITED_LINES, "", "    ", "END MP"]
@@ -205,10 +211,7 @@ def test_tokens_after_edits_equal_a_fresh_documents(first: list[str],
     for kind, at, text in edits:
         _edit(lines, kind, at, text)
         analysis = analyse(path, "\n".join(lines) + "\n")
-        kept = outline.semantic_tokens(analysis)
-        outline._classified_lines.clear()
-        outline._passes.clear()
-        assert kept == outline.semantic_tokens(analysis)
+        _tokens_as_fresh(analysis)
 
 
 @settings(max_examples=60, deadline=None)
@@ -234,12 +237,8 @@ def test_tokens_after_checks_kept_between_equal_a_fresh_documents(
     for kind, at, text, asked in edits:
         _edit(lines, kind, at, text)
         analysis = analyse(path, "\n".join(lines) + "\n", previous=analysis)
-        if not asked:
-            continue
-        kept = outline.semantic_tokens(analysis)
-        outline._classified_lines.clear()
-        outline._passes.clear()
-        assert kept == outline.semantic_tokens(analysis)
+        if asked:
+            _tokens_as_fresh(analysis)
 
 
 @settings(max_examples=60, deadline=None)
