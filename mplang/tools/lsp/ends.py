@@ -106,7 +106,6 @@ def _starts_alike(old: str, new: str, at_old: int, at_new: int) -> bool:
         (at_new == 0 or new[at_new - 1] == "\n")
 
 
-
 def picked(items: Sequence[T], kinds: frozenset[type]) -> tuple[list[T], array[int]]:
     """The items of exactly these classes, and where each stands: every item looked at (in
     C: a whole device's file has thousands of statements, and a pass wants a few)."""
