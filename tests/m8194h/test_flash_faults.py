@@ -798,7 +798,6 @@ def test_flash_cancelled_mid_program_is_repaired_by_the_next_run() -> None:
     assert_runs(face)
 
 
-
 # ---------------------------------------------------------------------------- the CLI
 async def mpc_flash(source: Path, endpoint: Endpoint, state: Path) -> tuple[int, str]:
     """`mpc flash SOURCE --tcp ...` as a user runs it, while this process serves the device

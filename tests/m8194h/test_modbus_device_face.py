@@ -403,7 +403,6 @@ def test_et_12_1_9_input_86_counts_the_connected_tcp_clients() -> None:
     over_tcp(test)
 
 
-
 # ------------------------------------------------- requests that arrive in one read
 PAIR_ANSWERS = [fc16(300, [0, 77]), bytes([3, 4, 0, 0, 0, 77])]
 """A VAR0 write and its read-back sent in one write: the answers the device owes, in order

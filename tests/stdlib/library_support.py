@@ -83,7 +83,6 @@ def machine(vc: VirtualController, axis: int) -> int:
     return vc.motion.io.machine_position(AXIS_BITS.index(axis), vc.clock)
 
 
-
 def move_to(vc: VirtualController, positions: dict[int, int]) -> None:
     """Drive axes to absolute positions before the test's program runs, as a host's
     real-time moves would (with the controller's power-on profile)."""

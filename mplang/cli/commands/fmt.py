@@ -46,7 +46,6 @@ if TYPE_CHECKING:
     from mplang.tools.project import Project
 
 
-
 @dataclass
 class _Tally:
     """What happened to the files of one run, for the summary line and the exit code."""

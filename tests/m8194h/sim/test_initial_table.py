@@ -317,7 +317,6 @@ def test_memory_keeps_the_table_and_power_on_loads_it(tmp_path: Path) -> None:
     assert live_columns(again)[3].vring_enabled == 1 and again.chip_state == 5
 
 
-
 def test_old_memory_files_load_and_bad_tables_are_refused(tmp_path: Path) -> None:
     build = compile_source("MP 21\n VAR1 = 42\nEND MP\n")
     frames = build.programs[0].frames[1:-1]  # the stored lines, without create and close

@@ -37,7 +37,6 @@ def test_random_edits_analyse_as_a_fresh_analysis_does(path: Path,
         assert _seen(previous) == _seen(analyse(path, joined))
 
 
-
 @large_edit_sequences
 def test_random_edits_inside_one_program_analyse_as_a_fresh_analysis_does(
         steps: list[tuple[int, int, int]]) -> None:
