@@ -47,9 +47,24 @@ Numbered = tuple[int, Line]
 """A line with its (1-based) number in its file."""
 
 _LONE_CR = re.compile(r"\r(?!\n)")
+_last_split: tuple[str, list[str]] = ("", [""])
 _new = object.__new__
 _SLACK = 4096
 """Line texts kept beyond those of the files held, before the table is swept."""
+
+
+def text_lines(text: str) -> list[str]:
+    """`text.split("\n")`, the very list of the last call when `text` is the very string
+    of that call: one check splits one text in four places (this cache, the blocks, the
+    sources kept for `mpc: ignore`, the editor's lines), a whole device's split costing
+    half a millisecond each. The list is shared: never change it."""
+    global _last_split
+    last = _last_split  # one read: a tuple, consistent even if another thread splits
+    if last[0] is text:
+        return last[1]
+    lines = text.split("\n")
+    _last_split = (text, lines)
+    return lines
 
 
 def _parse_text(text: str, file: str, sink: DiagnosticSink) -> list[ast.Statement]:
@@ -310,7 +325,7 @@ class StatementCache:
             self._files.pop(file, None)  # parsed whole, kept nowhere
             self._last.pop(file, None)
             return self._parse_with(text, file, sink)
-        segments = text.split("\n")
+        segments = text_lines(text)
         last = self._last.get(file)
         known = self._files.get(file, [])
         if last is not None and last.lines is known:

@@ -13,6 +13,7 @@ import re
 from mplang.lang import ast
 from mplang.lang.diagnostics import Diagnostic, DiagnosticSink, Span
 from mplang.lang.limits import MAX_BLOCK_DEPTH
+from mplang.lang.linecache import text_lines
 from mplang.lang.sources import SourceSet
 
 BLOCK_WORD = {"mp": "END MP", "isr": "END ISR", "for": "NEXT", "if": "END IF",
@@ -325,7 +326,7 @@ def build_unit(sources: SourceSet, sink: DiagnosticSink, memo: BlockMemo | None 
         memo.start()
     for source in sources.files:
         # the lines' texts, as the parse numbers them (a lone carriage return: no texts)
-        texts = source.text.split("\n") if memo is not None and \
+        texts = text_lines(source.text) if memo is not None and \
             not has_lone_cr(source.text) else None
         _build_file(source.statements, source.display, unit, sink, memo, texts)
     if memo is not None:

@@ -23,7 +23,7 @@ from mplang.lang import ast, caches
 from mplang.lang.diagnostics import DiagnosticSink, suppressed
 from mplang.lang.followon import settle_includes
 from mplang.lang.heap import collection_paused, in_mpc
-from mplang.lang.linecache import StatementCache
+from mplang.lang.linecache import StatementCache, text_lines
 from mplang.lang.sources import SourceSet, load_sources
 from mplang.lang.structure import build_unit, has_lone_cr
 from mplang.m8194h.chipvalues import warn_changed
@@ -118,7 +118,7 @@ def compile_sources(paths: list[Path], sources: SourceSet, sink: DiagnosticSink,
     `sink`); `lowering`, when given, receives the scope, lowered programs and placements.
     `encode=False` checks only (an editor's diagnostics): the result holds no image."""
     catalogue = catalogue_module.load()
-    texts = {f.display: f.text.split("\n") for f in sources.files}
+    texts = {f.display: text_lines(f.text) for f in sources.files}
     kept = memo.lowerings if memo is not None else _stored(texts)
     with collection_paused():
         unit = build_unit(sources, sink, memo.blocks if memo is not None else None)

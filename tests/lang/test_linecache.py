@@ -327,3 +327,41 @@ def test_edits_at_the_ends_keep_diagnostics_in_order(name: str,
         text = "\n".join(lines)
         assert _incremental(cache, text) == _full(text)
         assert _incremental(cache, text) == _full(text)  # the same text again
+
+
+def test_text_lines_are_split_once_per_text_object() -> None:
+    """One check splits its text once: the same string object gives the very list of the
+    last split; any other string (even an equal one, or one split in between) is split
+    afresh, so no text is ever given another text's lines."""
+    text = "MP 1\n  X = 1\nEND MP\n"
+    lines = linecache.text_lines(text)
+    assert lines == text.split("\n")
+    assert linecache.text_lines(text) is lines
+    other = "MP 2\n  X = 2\nEND MP\n"
+    assert linecache.text_lines(other) == other.split("\n")
+    assert linecache.text_lines(text) == text.split("\n")
+    equal = "".join(["MP 1\n", "  X = 1\nEND MP\n"])  # equal, another object
+    assert linecache.text_lines(equal) == text.split("\n")
+
+
+class _CountedSplits(str):
+    """A text that counts how often it is split into lines."""
+
+    splits = 0
+
+    def split(self, sep: str | None = None, maxsplit: int = -1) -> list[str]:
+        if sep == "\n" and maxsplit == -1:
+            type(self).splits += 1
+        return super().split(sep, maxsplit)
+
+
+def test_one_check_splits_its_text_once(tmp_path: Path) -> None:
+    """The editor's lines, the kept parse, the blocks and the build's texts of one check
+    are one split of the text."""
+    from mplang.tools.lsp.analysis import analyse
+
+    _CountedSplits.splits = 0
+    text = _CountedSplits("MP 1\n  VAR1 = 1\nEND MP\n")
+    analysis = analyse(tmp_path / "a.mp", text, lines=StatementCache())
+    assert not analysis.diagnostics
+    assert _CountedSplits.splits == 1

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from mplang.lang.diagnostics import Span
+from mplang.lang.linecache import text_lines
 
 ENCODINGS = ("utf-8", "utf-16", "utf-32")
 _WORD = re.compile(r"[A-Za-z0-9_]+")
@@ -45,8 +46,8 @@ class Location:
 
 def split_lines(text: str) -> list[str]:
     """Lines as the compiler numbers them: split at '\\n', a trailing '\\r' dropped."""
-    if "\r" not in text:  # nearly every text: split in C only
-        return text.split("\n")
+    if "\r" not in text:  # nearly every text: split in C only, once per check
+        return text_lines(text)
     return [line.removesuffix("\r") for line in text.split("\n")]
 
 
