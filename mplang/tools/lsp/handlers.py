@@ -165,7 +165,7 @@ def register_editing(server: MpLanguageServer, guarded: Callable[[Any], Any]) ->
             return kept[2]
         data = outline.semantic_tokens(analysis)
         if encoding != "utf-32":
-            data = in_client_units(data, analysis.lines, encoding)
+            data = in_client_units(data, analysis.lines, encoding, analysis.text)
         for other in [u for u in tokens_kept if not server.is_open(u)]:
             del tokens_kept[other]
         if server.is_open(uri):
@@ -253,12 +253,15 @@ def register_editing(server: MpLanguageServer, guarded: Callable[[Any], Any]) ->
             active_signature=0, active_parameter=found.active)
 
 
-def in_client_units(data: list[int], lines: list[str], encoding: str) -> list[int]:
+def in_client_units(data: list[int], lines: list[str], encoding: str,
+                    text: str | None = None) -> list[int]:
     """Relative-encoded semantic tokens counted in code points, in the client's code units:
     `data` itself when no line has a non-ASCII character (on an ASCII line both counts
     agree: the tokens are not walked one by one), else a converted copy (`data` is the
-    list `outline.semantic_tokens` keeps for its next pass, never changed)."""
-    if all(map(str.isascii, lines)):  # in C: a whole device has thousands of lines
+    list `outline.semantic_tokens` keeps for its next pass, never changed). `text`, the
+    lines' whole text when known, answers at once: a string knows whether it is ASCII,
+    where the lines of a whole device are thousands of calls."""
+    if text.isascii() if text is not None else all(map(str.isascii, lines)):
         return data
     data = list(data)
     line = start = 0

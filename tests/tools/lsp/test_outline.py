@@ -263,3 +263,20 @@ def test_a_delta_from_the_last_tokens_is_the_least_edit(first: list[str],
         assert last[:start] + inserted + last[start + deleted:] == data
         assert (start, deleted, inserted) == outline.token_delta(list(last), list(data))
         last = data
+
+
+def test_tokens_of_an_ascii_text_are_not_converted(tmp_path: Path) -> None:
+    """An ASCII document's tokens are the very list the pass keeps, whatever the client's
+    encoding (the text tells it at once); a non-ASCII one's are a converted copy."""
+    from mplang.tools.lsp.handlers import in_client_units
+
+    for text, ascii_only in (("MP 1\n    VAR1 = 1\nEND MP\n", True),
+                             ("MP 1\n    VAR_CALCULATE VAR2, '\u00e9', VAR3, VAR4\nEND MP\n",
+                              False)):
+        analysis = analyse(tmp_path / "a.mp", text)
+        data = outline.semantic_tokens(analysis)
+        for encoding in ("utf-8", "utf-16"):
+            converted = in_client_units(data, analysis.lines, encoding, analysis.text)
+            assert converted == in_client_units(data, analysis.lines, encoding)
+            assert (converted is data) is ascii_only
+            assert (converted == data) is (ascii_only or encoding == "utf-16")
