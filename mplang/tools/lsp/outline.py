@@ -495,9 +495,14 @@ def token_delta(old: list[int], new: list[int]) -> tuple[int, int, list[int]]:
     # a pass spliced from `old` says how much of either end it took as it was (whole tokens)
     prefix, suffix = next((p.same for p in _passes.values() if p.data is new and p.base is old),
                           (0, 0))
+    # of two lists of one length, the end the splice took is not scanned for the prefix:
+    # reaching it, the prefix has found the lists equal
+    stop = limit - suffix if len(old) == len(new) else limit
     for step in _STRIDES:
-        while prefix + step <= limit and old[prefix:prefix + step] == new[prefix:prefix + step]:
+        while prefix + step <= stop and old[prefix:prefix + step] == new[prefix:prefix + step]:
             prefix += step
+    if prefix == stop and stop < limit:
+        return limit, 0, []
     suffix = min(suffix, limit - prefix)
     for step in _STRIDES:
         while suffix + step <= limit - prefix and \

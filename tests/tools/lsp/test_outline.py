@@ -265,6 +265,22 @@ def test_a_delta_from_the_last_tokens_is_the_least_edit(first: list[str],
         last = data
 
 
+def test_a_delta_scans_past_the_kept_end_when_tokens_were_added() -> None:
+    """The kept end of a spliced pass bounds the scan for the common start only when old and
+    new are as long: a token added before that end, equal to the one after it, is still an
+    edit (the lists are not equal for having equal starts up to the kept end)."""
+    token, other = [1, 0, 3, 8, 0], [0, 4, 2, 2, 0]
+    old = [*other, *token, *token]
+    for new, same in (([*other, *token, *token, *token], (5, 5)),
+                      ([*other, *token, *other], (5, 0)), ([*other, *token, *token], (5, 5))):
+        outline._passes.clear()
+        outline._passes[Path("kept.mp")] = outline._Pass([], (), [], [], new, [], old, same)
+        start, deleted, inserted = outline.token_delta(old, new)
+        assert old[:start] + inserted + old[start + deleted:] == new
+        outline._passes.clear()
+        assert (start, deleted, inserted) == outline.token_delta(list(old), list(new))
+
+
 def test_tokens_of_an_ascii_text_are_not_converted(tmp_path: Path) -> None:
     """An ASCII document's tokens are the very list the pass keeps, whatever the client's
     encoding (the text tells it at once); a non-ASCII one's are a converted copy."""
