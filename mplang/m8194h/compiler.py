@@ -8,6 +8,7 @@ from __future__ import annotations
 import gc
 from collections.abc import Callable
 from functools import cache
+from itertools import accumulate
 from pathlib import Path
 
 from mplang.ir import catalogue as catalogue_module
@@ -256,12 +257,14 @@ def _finish(unit: object, catalogue: Catalogue, sink: DiagnosticSink,
     encoded: dict[tuple[int, int], tuple[MacroLine, list[int]]] = {}
     for placement in sorted(placements, key=lambda p: (p.program.kind != "mp", p.slot)):
         program = placement.program
-        line_no = 0
-        lines: list[LineFrames] = []
         frames = _frames(program, encoder, slot_of, kept, encoded)
-        for line, frame in zip(program.lines, frames, strict=True):
-            lines.append(LineFrames(line, line_no, frame))
-            line_no += line.command.line_cost
+        # each line's first slot line: the line costs before it, summed (one comprehension
+        # per program, not a loop with an append per line: a whole device has thousands)
+        # (`starts` has one more: the slot line after the last)
+        assert len(frames) == len(program.lines)
+        starts = accumulate([line.command.line_cost for line in program.lines], initial=0)
+        lines = [LineFrames(line, start, frame)
+                 for line, frame, start in zip(program.lines, frames, starts, strict=False)]
         result.programs.append(ProgramImage(
             placement, encoder.create_frame(program.kind, placement.slot), lines,
             encoder.close_frame(program.kind), program.end_span))
