@@ -100,8 +100,9 @@ class LoweredProgram(Record):
         same; later passes only add lines (interrupt wiring), which changes the length."""
         lines, cost = self.lines, self._cost
         if cost is None or cost[0] is not lines or cost[1] != len(lines):
+            # summed over a list, not a generator: no resumption per line
             cost = self._cost = (lines, len(lines),
-                                 sum(line.command.line_cost for line in lines))
+                                 sum([line.command.line_cost for line in lines]))
         return cost[2] + (1 if close_counts else 0)
 
     def copied(self) -> LoweredProgram:

@@ -188,8 +188,12 @@ def _replay_moved(kept: Statement | Chunk, offset: int, lowerer: ProgramLowerer)
     def move(span: Span) -> Span:
         return make_span(span.file, span.line + offset, span.col, span.end_col)
 
-    lowerer.out.lines.extend([MacroLine(line.command, line.operands, move(line.span))
-                              for line in kept.lines])
+    # the lines' spans moved inline (no call of `move`): a whole device replays most of its
+    # lines, and a call per line was a fifth of this function
+    lowerer.out.lines.extend([
+        MacroLine(line.command, line.operands, make_span(
+            span.file, span.line + offset, span.col, span.end_col))
+        for line in kept.lines for span in [line.span]])
     if kept.calls:
         lowerer.out.calls.extend([CallSite(call.target, move(call.span))
                                   for call in kept.calls])

@@ -59,12 +59,21 @@ _BLOCK_COMMANDS = frozenset({"END_IF", "ELSE", "EXIT_FOR", "EXIT_MACRO", "MP_TER
 ETM_MACRO_ spellings): any other command is taken as it is, after one set lookup."""
 
 
+_PLAIN_LIMIT = 4096
+_plain_names: set[str] = set()
+"""Command names, as written, that `normalise` leaves as they are (a function of the name
+alone), learnt as they are met, at most `_PLAIN_LIMIT` of them: block matching tests one
+set membership for most of its commands instead of calling `normalise`."""
+
+
 def normalise(statement: ast.Statement) -> ast.Statement:
     """Raw spellings of block commands become the statements their keywords make."""
     if not isinstance(statement, ast.Command):
         return statement
     name = statement.name.upper()
     if name not in _BLOCK_COMMANDS and not name.startswith(("RSM_MACRO_", "ETM_MACRO_")):
+        if len(_plain_names) < _PLAIN_LIMIT:
+            _plain_names.add(statement.name)
         return statement
     for prefix in ("RSM_MACRO_", "ETM_MACRO_"):
         if name.startswith(prefix):
@@ -501,7 +510,8 @@ def _build_file(statements: list[ast.Statement], file: str, unit: ast.Unit,
                 index += len(found[0])
                 continue
         index += 1
-        statement = normalise(raw) if type(raw) is ast.Command else raw
+        statement = raw if type(raw) is not ast.Command or raw.name in _plain_names else \
+            normalise(raw)
         klass = type(statement)
         if stack:  # the commonest cases below, taken first: most of a build's lines
             if stack[0].kind in CONFIG_KINDS:

@@ -203,7 +203,7 @@ class _MaxV:
         self.axis1 = 0  # the first assigned axis (AXIS_ASSIGN; X and Y at power on)
 
     def see(self, command: str, params: dict[str, object]) -> None:
-        """Follow a command that sets MAX_V or axis 1 (`_sets_max_v` names them)."""
+        """Follow a command that sets MAX_V or axis 1 (`_MAX_V_SETTERS` and every `*_INITIAL`)."""
         mask = params.get("axis")
         if command == "SET_MAX_V" and isinstance(mask, int):
             value = params.get("data")
@@ -224,9 +224,8 @@ class _MaxV:
         return [self.axes[self.axis1]]
 
 
-def _sets_max_v(command: str) -> bool:
-    """Whether a command can change what `_MaxV` reads (its `see`)."""
-    return command in ("SET_MAX_V", "AXIS_ASSIGN") or command.endswith("_INITIAL")
+_MAX_V_SETTERS = frozenset(("SET_MAX_V", "AXIS_ASSIGN"))
+"""Commands that change what `_MaxV` reads (its `see`), besides every `*_INITIAL`."""
 
 
 def _axes_of(mask: int) -> list[int]:
@@ -341,19 +340,26 @@ def _warn_reading(lines: list[MacroLine], reading: _MaxV, rules: ChipRules,
     """W111 of `lines`, `reading` following the MAX_V values along them. `memo`, kept over
     one build, judges a command with the same operands from the same reading once: a
     device's programs repeat their settings many times."""
+    # the reading as a tuple, the very part of the key a line is looked up by: nothing copied
+    # for the lines judged before (most of them); `reading` is brought up to date on a miss
+    axes, axis1 = tuple(reading.axes), reading.axis1
+    parameters = rules.parameters
     for line in lines:
         command = line.command.short_name
-        if command not in rules.parameters and not _sets_max_v(command):
+        if command not in parameters and command not in _MAX_V_SETTERS and \
+                not command.endswith("_INITIAL"):
             continue  # no speed, acceleration or jerk argument, no MAX_V or axis 1 change
-        key = (id(line.command), line.operands, tuple(reading.axes), reading.axis1)
+        key = (id(line.command), line.operands, axes, axis1)
         judged = memo.get(key) if memo is not None else None
         if judged is None:
+            reading.axes, reading.axis1 = list(axes), axis1
             judged = _judge(line, command, reading, rules)
             if memo is not None:
                 memo[key] = judged
-        for message in judged[0]:
+        messages, axes, axis1 = judged
+        for message in messages:
             sink.add("W111", line.span, message)
-        reading.axes, reading.axis1 = list(judged[1]), judged[2]
+    reading.axes, reading.axis1 = list(axes), axis1
 
 
 def _judge(line: MacroLine, command: str, reading: _MaxV, rules: ChipRules) -> _Judged:

@@ -8,6 +8,7 @@ from __future__ import annotations
 import gc
 from collections.abc import Callable
 from functools import cache
+from itertools import accumulate
 from pathlib import Path
 
 from mplang.ir import catalogue as catalogue_module
@@ -256,12 +257,14 @@ def _finish(unit: object, catalogue: Catalogue, sink: DiagnosticSink,
     encoded: dict[tuple[int, int], tuple[MacroLine, list[int]]] = {}
     for placement in sorted(placements, key=lambda p: (p.program.kind != "mp", p.slot)):
         program = placement.program
-        line_no = 0
-        lines: list[LineFrames] = []
         frames = _frames(program, encoder, slot_of, kept, encoded)
-        for line, frame in zip(program.lines, frames, strict=True):
-            lines.append(LineFrames(line, line_no, frame))
-            line_no += line.command.line_cost
+        # each line's first slot line: the line costs before it, summed (one comprehension
+        # per program, not a loop with an append per line: a whole device has thousands)
+        # (`starts` has one more: the slot line after the last)
+        assert len(frames) == len(program.lines)
+        starts = accumulate([line.command.line_cost for line in program.lines], initial=0)
+        lines = [LineFrames(line, start, frame)
+                 for line, frame, start in zip(program.lines, frames, starts, strict=False)]
         result.programs.append(ProgramImage(
             placement, encoder.create_frame(program.kind, placement.slot), lines,
             encoder.close_frame(program.kind), program.end_span))
@@ -278,7 +281,7 @@ def _frames(program: LoweredProgram, encoder: Encoder,
     lowered once for several places, `mplang.ir.textmemo`) are encoded once."""
     entry = kept.entry(program) if kept is not None else None
     if entry is None or entry.result is None or len(entry.result.lines) != len(program.lines):
-        return [_frame(line, encoder, slot_of, encoded) for line in program.lines]
+        return _fresh_frames(program.lines, encoder, slot_of, encoded)
     refs = entry.derived_for("refs", None, lambda: tuple(dict.fromkeys(
         o for line in program.lines for o in line.operands if isinstance(o, ProgramRef))))
     assert isinstance(refs, tuple)
@@ -289,16 +292,25 @@ def _frames(program: LoweredProgram, encoder: Encoder,
     return [list(frame) for frame in found]
 
 
-def _frame(line: MacroLine, encoder: Encoder, slot_of: Callable[[ProgramRef], int | None],
-           encoded: dict[tuple[int, int], tuple[MacroLine, list[int]]]) -> list[int]:
-    """`encoder.frame(line, slot_of)`, once per command and operands objects in a build (its
-    slots and word order are one): told by identity, the line kept beside its frame so that
-    neither object is freed and its id taken by another while the build runs."""
-    key = (id(line.command), id(line.operands))
-    found = encoded.get(key)
-    if found is not None and found[0].command is line.command and \
-            found[0].operands is line.operands:
-        return list(found[1])
-    frame = encoder.frame(line, slot_of)
-    encoded[key] = (line, frame)
-    return list(frame)
+def _fresh_frames(lines: list[MacroLine], encoder: Encoder,
+                  slot_of: Callable[[ProgramRef], int | None],
+                  encoded: dict[tuple[int, int], tuple[MacroLine, list[int]]]
+                  ) -> list[list[int]]:
+    """`encoder.frame(line, slot_of)` of each line, once per command and operands objects in
+    a build (its slots and word order are one): told by identity, the line kept beside its
+    frame so that neither object is freed and its id taken by another while the build runs.
+    One loop, no call per line: a whole device's lines are mostly found here."""
+    frames: list[list[int]] = []
+    append, found_of = frames.append, encoded.get
+    for line in lines:
+        command, operands = line.command, line.operands
+        key = (id(command), id(operands))
+        found = found_of(key)
+        if found is not None and found[0].command is command and \
+                found[0].operands is operands:
+            append(list(found[1]))
+            continue
+        frame = encoder.frame(line, slot_of)
+        encoded[key] = (line, frame)
+        append(list(frame))
+    return frames

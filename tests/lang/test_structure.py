@@ -4,12 +4,15 @@ keyword makes; any other command is left as it is."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
 from mplang.lang import ast
 from mplang.lang.diagnostics import DiagnosticSink
 from mplang.lang.parser import parse_text
-from mplang.lang.structure import normalise
+from mplang.lang.sources import SourceFile, SourceSet
+from mplang.lang.structure import build_unit, normalise
 
 RAW = [("END_IF", ast.End), ("ELSE", ast.Else), ("EXIT_FOR", ast.ExitFor),
        ("EXIT_MACRO", ast.Exit), ("MP_TERMINATE", ast.Terminate), ("NEXT", ast.Next),
@@ -43,3 +46,19 @@ def test_any_other_command_is_left_as_it_is(text: str) -> None:
     statement = _command(text)
     assert isinstance(statement, ast.Command)
     assert normalise(statement) is statement
+
+
+def test_block_spellings_are_never_taken_for_plain_names_learnt_before() -> None:
+    """Block matching skips `normalise` for the command names it learnt are plain: a block
+    spelling met after plain commands (the same prefix, another case) still closes its
+    block, and a plain name stays a command."""
+    sink = DiagnosticSink()
+    text = ("MP 1\n  RSM_MACRO_SET_V X, 25\n  rsm_macro_set_v X, 25\n  IF VAR1 > 2\n"
+            "    RSM_MACRO_SET_V X, 30\n  rsm_macro_end_if\n  RSM_MACRO_SET_V X, 25\nEND MP\n")
+    for _ in range(2):  # the second time with every plain name learnt
+        statements = parse_text(text, "a.mp", sink)
+        unit = build_unit(SourceSet([SourceFile(Path("a.mp"), "a.mp", text, statements)]), sink)
+        assert not sink.items, sink.items
+        body = unit.programs[0].body
+        assert [type(node) for node in body] == [ast.Command, ast.Command, ast.IfBlock,
+                                                  ast.Command]
