@@ -209,6 +209,17 @@ def half_open(port: int, count: int) -> list[socket.socket]:
     return held
 
 
+def get_amid_flood(url: str) -> int:
+    """The status of a GET sent while the flood's connections may still be entering the
+    dashboard's accept queue: a request accepted in one burst with them, closed with them
+    before its request was read, is sent again once (docs/monitor.md, "Security": the
+    dashboard cannot tell it from them until its request is whole). A second reset fails."""
+    try:
+        return get(url)[0]
+    except ConnectionResetError:
+        return get(url)[0]
+
+
 def closed_by_server(sock: socket.socket) -> bool:
     """Whether the server closed `sock` (reads its end, waiting up to the socket's
     timeout)."""
@@ -240,7 +251,7 @@ def test_half_open_flood_keeps_the_page_answering(tmp_path: Path) -> None:
         limit_open_files(48, monitor.pid)  # fewer files than the dashboard's cap of 64
         held += half_open(port, 100)
         for _ in range(3):
-            assert get(url + "api/state")[0] == 200
+            assert get_amid_flood(url + "api/state") == 200
         token = session_token(url)
         slow_headers = half_open(port, 1)[0]
         slow_body = socket.create_connection(("127.0.0.1", port), timeout=30)
