@@ -12,6 +12,7 @@ import zipfile
 from pathlib import Path
 
 import pytest
+from sourcebuild import checkout_build
 
 ROOT = Path(__file__).resolve().parent.parent
 CARRIED = ("tests", "samples", "docs", "grammar", "stdlib", "mplang", "bench")
@@ -23,8 +24,10 @@ def dist(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The sdist and the wheel built from it, in one folder. No isolation: the build uses
     this environment's setuptools (the dev group has it) instead of fetching one."""
     out = tmp_path_factory.mktemp("dist")
-    done = subprocess.run([sys.executable, "-m", "build", "--no-isolation", "-o", str(out),
-                           str(ROOT)], capture_output=True, text=True, timeout=600)
+    with checkout_build(tmp_path_factory.getbasetemp()):
+        done = subprocess.run([sys.executable, "-m", "build", "--no-isolation", "-o",
+                               str(out), str(ROOT)], capture_output=True, text=True,
+                              timeout=600)
     assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
     assert "Successfully built mplang-" in done.stdout
     return out

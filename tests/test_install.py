@@ -12,6 +12,7 @@ import zipfile
 from pathlib import Path
 
 import pytest
+from sourcebuild import checkout_build
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -19,8 +20,10 @@ ROOT = Path(__file__).resolve().parent.parent
 @pytest.fixture(scope="module")
 def wheel(tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("wheel")
-    subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation",
-                    "-q", "-w", str(out), str(ROOT)], check=True, capture_output=True)
+    with checkout_build(tmp_path_factory.getbasetemp()):
+        subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps",
+                        "--no-build-isolation", "-q", "-w", str(out), str(ROOT)], check=True,
+                       capture_output=True)
     (found,) = out.glob("mplang-*.whl")
     return found
 

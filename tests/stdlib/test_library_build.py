@@ -13,6 +13,7 @@ from pathlib import Path
 
 import pytest
 from library_support import TEMPORARY_POOL, build, consts, load, run
+from sourcebuild import checkout_build
 
 from mplang.lang import sources
 from mplang.m8194h.compiler import BuildResult, compile_paths, compile_source
@@ -194,12 +195,15 @@ def _write(path: Path, text: str) -> Path:
     return path
 
 
-def test_std_includes_work_from_an_installed_wheel(tmp_path: Path) -> None:
+def test_std_includes_work_from_an_installed_wheel(
+        tmp_path: Path, tmp_path_factory: pytest.TempPathFactory) -> None:
     """The wheel is imported as a zip file, with the working directory elsewhere: the
     library files come out of the zip, not from the source tree."""
     wheels = tmp_path / "wheel"
-    subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation",
-                    "-q", "-w", str(wheels), str(ROOT)], check=True, capture_output=True)
+    with checkout_build(tmp_path_factory.getbasetemp()):
+        subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps",
+                        "--no-build-isolation", "-q", "-w", str(wheels), str(ROOT)],
+                       check=True, capture_output=True)
     (wheel,) = wheels.glob("mplang-*.whl")
     source = consts(**EXAMPLE_CONSTS["jog_return.mp"]) + include("jog_return.mp")
     script = (
